@@ -1,0 +1,1 @@
+//! wgpu device, GPU layouts, shader composition and dispatch.

@@ -1,0 +1,1 @@
+//! Linear radiance images and their 8-bit sRGB encoding.

@@ -1,0 +1,2 @@
+//! Scene files → [`crate::scene::Scene`]. Errors name the file, line and column.
+pub mod toml;

@@ -1,0 +1,1 @@
+//! Independent CPU tracer in f64 (the test oracle).

@@ -1,0 +1,335 @@
+//! What the user describes: camera, lights, ambient, materials and primitives.
+//!
+//! Everything here is f64 and format-agnostic. Loaders (`crate::io`) produce a [`Scene`],
+//! [`Scene::validate`] rejects what no renderer could draw, and both the GPU path and the CPU
+//! reference read it. Units are arbitrary; colours are linear RGB.
+
+mod builtin;
+
+pub use builtin::default_scene;
+use glam::DVec3;
+
+/// Largest image side we accept; larger is refused before anything is allocated.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest pixel count (64 Mpixel, 1 GiB of f32 RGBA).
+pub const MAX_PIXELS: u64 = 1 << 26;
+/// Lights are summed per shading point; the GPU keeps them in a fixed uniform array.
+pub const MAX_LIGHTS: usize = 16;
+/// Recursion depth limit (eye ray = depth 1, as in SPD's rules); also the GPU ray stack size.
+pub const MAX_TRACE_DEPTH: u32 = 8;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub camera: Camera,
+    pub lights: Vec<Light>,
+    pub ambient: Ambient,
+    /// Radiance of rays that leave the scene.
+    pub background: DVec3,
+    pub materials: Vec<Material>,
+    pub spheres: Vec<Sphere>,
+    pub meshes: Vec<Mesh>,
+    pub trace: TraceSettings,
+}
+
+/// Pinhole camera. Rays go through pixel centres; `vfov_deg` is the full vertical angle
+/// between the top and bottom image edges.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub eye: DVec3,
+    pub look_at: DVec3,
+    pub up: DVec3,
+    pub vfov_deg: f64,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Orthonormal camera frame scaled to the image plane at distance 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraBasis {
+    /// Right, scaled by the half-width of the image plane.
+    pub u: DVec3,
+    /// Up, scaled by the half-height of the image plane.
+    pub v: DVec3,
+    /// Forward, unit length.
+    pub w: DVec3,
+}
+
+impl Camera {
+    pub fn basis(&self) -> CameraBasis {
+        let w = (self.look_at - self.eye).normalize();
+        let u = w.cross(self.up).normalize();
+        let v = u.cross(w);
+        let half_h = (self.vfov_deg.to_radians() * 0.5).tan();
+        let half_w = half_h * self.width as f64 / self.height as f64;
+        CameraBasis { u: u * half_w, v: v * half_h, w }
+    }
+
+    /// Unnormalised direction of the ray through image position (`px`, `py`) in pixels,
+    /// (0, 0) the top-left corner of the image, (width, height) the bottom-right.
+    pub fn direction(&self, b: &CameraBasis, px: f64, py: f64) -> DVec3 {
+        let sx = 2.0 * px / self.width as f64 - 1.0;
+        let sy = 1.0 - 2.0 * py / self.height as f64;
+        b.w + sx * b.u + sy * b.v
+    }
+}
+
+/// A spherical light; `radius == 0` is a point light. `color` is the intensity l_e per channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    pub position: DVec3,
+    pub color: DVec3,
+    pub radius: f64,
+}
+
+/// The paper's two-colour ambient: `sky` (A) faces `up`, `ground` (B) faces away from it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ambient {
+    pub sky: DVec3,
+    pub ground: DVec3,
+    pub up: DVec3,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub kind: MaterialKind,
+}
+
+/// The paper's four materials (PAPER.md §4). Highlights use Blinn–Phong (n̂·ĥ)^N with the
+/// Schlick reflectance k_s as k_h (see docs/shading.md).
+#[derive(Clone, Debug, PartialEq)]
+pub enum MaterialKind {
+    /// k_d = `color`; no highlight, reflection or transmission.
+    Diffuse { color: DVec3 },
+    /// k_s = k_h = Schlick with R0 = `color` per channel.
+    Metal { color: DVec3, exponent: f64 },
+    /// Glass/water with index of refraction `eta`; k_s Schlick, k_t = 1 - k_s.
+    Dielectric { eta: f64, exponent: f64 },
+    /// Diffuse `color` under a clear coat of index `eta`.
+    Polished { color: DVec3, eta: f64, exponent: f64 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: DVec3,
+    pub radius: f64,
+    pub material: u32,
+}
+
+/// Indexed triangle mesh; `normals`, when present, has one unit normal per position and is
+/// interpolated across each triangle for shading.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<DVec3>,
+    pub normals: Option<Vec<DVec3>>,
+    pub indices: Vec<[u32; 3]>,
+    pub material: u32,
+}
+
+/// One triangle of a mesh, resolved to positions (the form the accelerator and tracers use).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub p: [DVec3; 3],
+    pub n: Option<[DVec3; 3]>,
+    pub material: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceSettings {
+    /// Maximum ray depth, eye ray = 1 (SPD's rule uses 5).
+    pub max_depth: u32,
+    /// A reflected/refracted ray is traced only if its weight (max channel) exceeds this.
+    pub weight_cutoff: f64,
+}
+
+impl Default for TraceSettings {
+    fn default() -> Self {
+        TraceSettings { max_depth: 5, weight_cutoff: 1.0 / 512.0 }
+    }
+}
+
+/// A scene that cannot be rendered, with what is wrong in words a user can act on.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("{0}")]
+pub struct InvalidScene(pub String);
+
+impl Scene {
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(|m| m.indices.len()).sum()
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.spheres.len() + self.triangle_count()
+    }
+
+    /// All mesh triangles in mesh order; triangle `i` here is triangle `i` everywhere.
+    pub fn triangles(&self) -> impl Iterator<Item = Triangle> + '_ {
+        self.meshes.iter().flat_map(|m| {
+            m.indices.iter().map(move |t| Triangle {
+                p: t.map(|i| m.positions[i as usize]),
+                n: m.normals.as_ref().map(|n| t.map(|i| n[i as usize])),
+                material: m.material,
+            })
+        })
+    }
+
+    /// Checks everything a loader might let through: finite numbers, positive sizes, indices in
+    /// range, image size within limits. Loaders call it; so does anyone building a Scene by hand.
+    pub fn validate(&self) -> Result<(), InvalidScene> {
+        let bad = |msg: String| Err(InvalidScene(msg));
+        let c = &self.camera;
+        if c.width == 0 || c.height == 0 {
+            return bad(format!("camera resolution {}x{} must be at least 1x1", c.width, c.height));
+        }
+        if c.width > MAX_IMAGE_SIDE || c.height > MAX_IMAGE_SIDE {
+            return bad(format!(
+                "camera resolution {}x{} exceeds the limit of {MAX_IMAGE_SIDE} per side",
+                c.width, c.height
+            ));
+        }
+        if c.width as u64 * c.height as u64 > MAX_PIXELS {
+            return bad(format!("camera resolution {}x{} exceeds {MAX_PIXELS} pixels", c.width, c.height));
+        }
+        finite3("camera.eye", c.eye)?;
+        finite3("camera.look_at", c.look_at)?;
+        finite3("camera.up", c.up)?;
+        if !(c.vfov_deg.is_finite() && c.vfov_deg > 0.0 && c.vfov_deg < 180.0) {
+            return bad(format!("camera.fov {} must be between 0 and 180 degrees", c.vfov_deg));
+        }
+        let w = c.look_at - c.eye;
+        if w.length_squared() == 0.0 {
+            return bad("camera.look_at equals camera.eye: the view direction is undefined".into());
+        }
+        if w.cross(c.up).length_squared() <= 1e-24 * w.length_squared() * c.up.length_squared() {
+            return bad("camera.up is zero or parallel to the view direction".into());
+        }
+        if self.lights.len() > MAX_LIGHTS {
+            return bad(format!("{} lights given; at most {MAX_LIGHTS} are supported", self.lights.len()));
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            finite3(&format!("light {i} position"), l.position)?;
+            nonneg3(&format!("light {i} color"), l.color)?;
+            if !(l.radius.is_finite() && l.radius >= 0.0) {
+                return bad(format!("light {i} radius {} must be finite and >= 0", l.radius));
+            }
+        }
+        nonneg3("ambient.sky", self.ambient.sky)?;
+        nonneg3("ambient.ground", self.ambient.ground)?;
+        finite3("ambient.up", self.ambient.up)?;
+        if self.ambient.up.length_squared() == 0.0 {
+            return bad("ambient.up must not be the zero vector".into());
+        }
+        nonneg3("background", self.background)?;
+        for m in &self.materials {
+            m.validate()?;
+        }
+        let nmat = self.materials.len() as u32;
+        for (i, s) in self.spheres.iter().enumerate() {
+            finite3(&format!("sphere {i} center"), s.center)?;
+            if !(s.radius.is_finite() && s.radius > 0.0) {
+                return bad(format!("sphere {i} radius {} must be finite and > 0", s.radius));
+            }
+            if s.material >= nmat {
+                return bad(format!("sphere {i} uses material index {} but only {nmat} exist", s.material));
+            }
+        }
+        for (i, m) in self.meshes.iter().enumerate() {
+            if m.material >= nmat {
+                return bad(format!("mesh {i} uses material index {} but only {nmat} exist", m.material));
+            }
+            for (j, p) in m.positions.iter().enumerate() {
+                finite3(&format!("mesh {i} vertex {j}"), *p)?;
+            }
+            if let Some(n) = &m.normals {
+                if n.len() != m.positions.len() {
+                    return bad(format!(
+                        "mesh {i} has {} normals for {} vertices",
+                        n.len(),
+                        m.positions.len()
+                    ));
+                }
+                for (j, v) in n.iter().enumerate() {
+                    finite3(&format!("mesh {i} normal {j}"), *v)?;
+                }
+            }
+            let nv = m.positions.len() as u32;
+            for (j, t) in m.indices.iter().enumerate() {
+                if let Some(k) = t.iter().find(|&&k| k >= nv) {
+                    return bad(format!("mesh {i} triangle {j} refers to vertex {k} but only {nv} exist"));
+                }
+            }
+        }
+        let t = &self.trace;
+        if t.max_depth == 0 || t.max_depth > MAX_TRACE_DEPTH {
+            return bad(format!("trace.max_depth {} must be between 1 and {MAX_TRACE_DEPTH}", t.max_depth));
+        }
+        if !(t.weight_cutoff.is_finite() && (0.0..1.0).contains(&t.weight_cutoff)) {
+            return bad(format!("trace.weight_cutoff {} must be in [0, 1)", t.weight_cutoff));
+        }
+        Ok(())
+    }
+}
+
+impl Material {
+    pub fn validate(&self) -> Result<(), InvalidScene> {
+        let who = format!("material '{}'", self.name);
+        let exponent_ok = |n: f64| {
+            if n.is_finite() && n >= 0.0 {
+                Ok(())
+            } else {
+                Err(InvalidScene(format!("{who}: exponent {n} must be finite and >= 0")))
+            }
+        };
+        let eta_ok = |eta: f64| {
+            if eta.is_finite() && eta > 0.0 {
+                Ok(())
+            } else {
+                Err(InvalidScene(format!("{who}: eta {eta} must be finite and > 0")))
+            }
+        };
+        match &self.kind {
+            MaterialKind::Diffuse { color } => unit3(&who, *color),
+            MaterialKind::Metal { color, exponent } => {
+                unit3(&who, *color)?;
+                exponent_ok(*exponent)
+            }
+            MaterialKind::Dielectric { eta, exponent } => {
+                eta_ok(*eta)?;
+                exponent_ok(*exponent)
+            }
+            MaterialKind::Polished { color, eta, exponent } => {
+                unit3(&who, *color)?;
+                eta_ok(*eta)?;
+                exponent_ok(*exponent)
+            }
+        }
+    }
+}
+
+fn finite3(what: &str, v: DVec3) -> Result<(), InvalidScene> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(InvalidScene(format!("{what} ({}, {}, {}) is not finite", v.x, v.y, v.z)))
+    }
+}
+
+fn nonneg3(what: &str, v: DVec3) -> Result<(), InvalidScene> {
+    finite3(what, v)?;
+    if v.min_element() < 0.0 {
+        return Err(InvalidScene(format!("{what} ({}, {}, {}) must not be negative", v.x, v.y, v.z)));
+    }
+    Ok(())
+}
+
+/// Reflectances are fractions: each channel in [0, 1].
+fn unit3(who: &str, v: DVec3) -> Result<(), InvalidScene> {
+    nonneg3(&format!("{who}: color"), v)?;
+    if v.max_element() > 1.0 {
+        return Err(InvalidScene(format!(
+            "{who}: color ({}, {}, {}) must be in [0, 1] per channel",
+            v.x, v.y, v.z
+        )));
+    }
+    Ok(())
+}
