@@ -1,0 +1,251 @@
+//! Ray–primitive intersection in f64, written independently of the WGSL twins of the same name.
+
+use glam::DVec3;
+
+/// Nearest root `t` of `|o + t d - center| = radius` with `t_min < t < t_max`.
+///
+/// `d` need not be unit; `t` is in units of `d`. The discriminant is formed as
+/// `r² - |oc - (oc·d̂)d̂|²` (the squared distance of closest approach, no cancellation between
+/// two large squares) and the two roots without subtracting nearly equal numbers.
+/// Decision: a tangent ray (discriminant exactly 0) hits, at its single (double) root.
+pub fn intersect_sphere(
+    o: DVec3,
+    d: DVec3,
+    center: DVec3,
+    radius: f64,
+    t_min: f64,
+    t_max: f64,
+) -> Option<f64> {
+    let len = d.length();
+    if len <= 0.0 || !len.is_finite() {
+        return None;
+    }
+    let dh = d / len;
+    let oc = o - center;
+    let b = oc.dot(dh);
+    let perp = oc - b * dh;
+    let disc = radius * radius - perp.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    // Roots along d̂: s² + 2 b s + c = 0, s = -b ± sqrt(disc).
+    let sq = disc.sqrt();
+    let q = -(b + sq.copysign(b));
+    let (s0, s1) = if q == 0.0 {
+        (0.0, 0.0)
+    } else {
+        let c = oc.length_squared() - radius * radius;
+        let other = c / q;
+        (q.min(other), q.max(other))
+    };
+    [s0 / len, s1 / len]
+        .into_iter()
+        .find(|&t| t > t_min && t < t_max)
+}
+
+/// Two-sided ray–triangle test (Möller–Trumbore). Returns `(t, b1, b2)`: the ray parameter (in
+/// units of `d`) and the barycentric weights of `p1` and `p2`; the hit point is
+/// `(1 - b1 - b2) p0 + b1 p1 + b2 p2`.
+///
+/// Decisions: points on edges and vertices hit (the barycentric tests are inclusive); a
+/// triangle is degenerate, and never hit, when `|e1 × e2|² <= 1e-24 |e1|² |e2|²` (its angle's
+/// sine is below 1e-12, the same relative threshold `Scene::validate` uses for the camera); a
+/// ray parallel to the plane (determinant exactly 0) misses.
+pub fn intersect_triangle(
+    o: DVec3,
+    d: DVec3,
+    p0: DVec3,
+    p1: DVec3,
+    p2: DVec3,
+    t_min: f64,
+    t_max: f64,
+) -> Option<(f64, f64, f64)> {
+    let e1 = p1 - p0;
+    let e2 = p2 - p0;
+    let area2 = e1.cross(e2).length_squared();
+    if area2 <= 1e-24 * e1.length_squared() * e2.length_squared() || area2 == 0.0 {
+        return None;
+    }
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let tvec = o - p0;
+    let b1 = tvec.dot(pvec) * inv;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let qvec = tvec.cross(e1);
+    let b2 = d.dot(qvec) * inv;
+    if b2 < 0.0 || b1 + b2 > 1.0 {
+        return None;
+    }
+    let t = e2.dot(qvec) * inv;
+    (t > t_min && t < t_max).then_some((t, b1, b2))
+}
+
+/// Unit geometric normal `normalize((p1 - p0) × (p2 - p0))` (counter-clockwise winding faces it).
+pub fn triangle_normal(p0: DVec3, p1: DVec3, p2: DVec3) -> DVec3 {
+    (p1 - p0).cross(p2 - p0).normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const INF: f64 = f64::INFINITY;
+
+    fn v(x: f64, y: f64, z: f64) -> DVec3 {
+        DVec3::new(x, y, z)
+    }
+
+    #[test]
+    fn sphere_from_outside_hits_near_side() {
+        let t = intersect_sphere(v(0., 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF);
+        assert_eq!(t, Some(4.0));
+        // Non-unit direction: t is in units of d.
+        let t = intersect_sphere(v(0., 0., -5.), v(0., 0., 2.), DVec3::ZERO, 1.0, 0.0, INF);
+        assert_eq!(t, Some(2.0));
+        // Off-axis: closest approach 0.6 => half chord 0.8.
+        let t =
+            intersect_sphere(v(0.6, 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF).unwrap();
+        assert!((t - 4.2).abs() < 1e-14, "{t}");
+        // t_max before the sphere, or sphere behind the origin: miss.
+        assert_eq!(
+            intersect_sphere(v(0., 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, 3.9),
+            None
+        );
+        assert_eq!(
+            intersect_sphere(v(0., 0., 5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF),
+            None
+        );
+        // t_min past the near root gives the far root.
+        let t = intersect_sphere(v(0., 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 4.5, INF);
+        assert_eq!(t, Some(6.0));
+    }
+
+    #[test]
+    fn sphere_from_inside_hits_far_side() {
+        let c = v(1., 2., 3.);
+        let t = intersect_sphere(c, v(0., 1., 0.), c, 2.0, 0.0, INF);
+        assert_eq!(t, Some(2.0));
+        let t = intersect_sphere(c + v(0., 0.5, 0.), v(0., -1., 0.), c, 2.0, 0.0, INF);
+        assert_eq!(t, Some(2.5));
+    }
+
+    #[test]
+    fn sphere_miss_and_tangent() {
+        assert_eq!(
+            intersect_sphere(v(0., 2., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF),
+            None
+        );
+        // Exactly tangent: closest approach equals the radius; grazes at x = 0.
+        let t = intersect_sphere(v(-5., 1., 0.), v(1., 0., 0.), DVec3::ZERO, 1.0, 0.0, INF);
+        assert_eq!(t, Some(5.0));
+        // A hair outside: miss.
+        let t = intersect_sphere(
+            v(-5., 1. + 1e-9, 0.),
+            v(1., 0., 0.),
+            DVec3::ZERO,
+            1.0,
+            0.0,
+            INF,
+        );
+        assert_eq!(t, None);
+    }
+
+    #[test]
+    fn sphere_far_from_origin_is_accurate() {
+        // A small sphere far away: the naive b² - c discriminant loses everything here.
+        let c = v(1e6, 1e6, 1e6);
+        let o = c - v(0., 0., 10.);
+        let t = intersect_sphere(o, v(0., 0., 1.), c, 1e-3, 0.0, INF).unwrap();
+        assert!((t - (10.0 - 1e-3)).abs() < 1e-9, "{t}");
+        // An offset ray leaving the surface does not re-hit it.
+        let p = c + v(0., 0., -1e-3);
+        let eps = 1e-9 * 1e6;
+        let t = intersect_sphere(p + v(0., 0., -eps), v(0., 0., -1.), c, 1e-3, 0.0, INF);
+        assert_eq!(t, None);
+    }
+
+    const P0: DVec3 = DVec3::new(0., 0., 0.);
+    const P1: DVec3 = DVec3::new(1., 0., 0.);
+    const P2: DVec3 = DVec3::new(0., 1., 0.);
+
+    #[test]
+    fn triangle_hit_both_sides() {
+        let down = v(0., 0., -1.);
+        let h = intersect_triangle(v(0.25, 0.5, 2.), down, P0, P1, P2, 0.0, INF);
+        assert_eq!(h, Some((2.0, 0.25, 0.5)));
+        // Back side (two-sided) and non-unit direction.
+        let h = intersect_triangle(v(0.25, 0.5, -2.), v(0., 0., 4.), P0, P1, P2, 0.0, INF);
+        assert_eq!(h, Some((0.5, 0.25, 0.5)));
+        // Out of [t_min, t_max]: miss.
+        assert_eq!(
+            intersect_triangle(v(0.25, 0.5, 2.), down, P0, P1, P2, 0.0, 2.0),
+            None
+        );
+        assert_eq!(
+            intersect_triangle(v(0.25, 0.5, 2.), down, P0, P1, P2, 2.0, INF),
+            None
+        );
+        // Oblique ray: hit point matches the barycentrics.
+        let o = v(-1., -2., 3.);
+        let target = v(0.2, 0.3, 0.);
+        let (t, b1, b2) = intersect_triangle(o, target - o, P0, P1, P2, 0.0, INF).unwrap();
+        assert!((t - 1.0).abs() < 1e-15 && (b1 - 0.2).abs() < 1e-15 && (b2 - 0.3).abs() < 1e-15);
+    }
+
+    #[test]
+    fn triangle_miss_edge_and_vertex() {
+        let down = v(0., 0., -1.);
+        assert_eq!(
+            intersect_triangle(v(0.6, 0.6, 1.), down, P0, P1, P2, 0.0, INF),
+            None
+        );
+        assert_eq!(
+            intersect_triangle(v(-0.1, 0.5, 1.), down, P0, P1, P2, 0.0, INF),
+            None
+        );
+        // On an edge and at a vertex: inclusive.
+        assert_eq!(
+            intersect_triangle(v(0.5, 0., 1.), down, P0, P1, P2, 0.0, INF),
+            Some((1.0, 0.5, 0.0))
+        );
+        assert_eq!(
+            intersect_triangle(v(0.5, 0.5, 1.), down, P0, P1, P2, 0.0, INF),
+            Some((1.0, 0.5, 0.5))
+        );
+        assert_eq!(
+            intersect_triangle(v(0., 1., 1.), down, P0, P1, P2, 0.0, INF),
+            Some((1.0, 0.0, 1.0))
+        );
+        // Parallel to the plane: miss.
+        assert_eq!(
+            intersect_triangle(v(0.2, 0.2, 0.), v(1., 0., 0.), P0, P1, P2, 0.0, INF),
+            None
+        );
+    }
+
+    #[test]
+    fn degenerate_triangles_never_hit() {
+        let down = v(0., 0., -1.);
+        let collinear = v(2., 0., 0.);
+        assert_eq!(
+            intersect_triangle(v(0.5, 0., 1.), down, P0, P1, collinear, 0.0, INF),
+            None
+        );
+        assert_eq!(
+            intersect_triangle(v(0., 0., 1.), down, P0, P0, P0, 0.0, INF),
+            None
+        );
+        // A ray along the degenerate triangle's line misses too.
+        assert_eq!(
+            intersect_triangle(v(-1., 0., 0.), v(1., 0., 0.), P0, P1, collinear, 0.0, INF),
+            None
+        );
+        assert_eq!(triangle_normal(P0, P1, P2), v(0., 0., 1.));
+    }
+}

@@ -1,0 +1,301 @@
+//! The recursive f64 tracer: brute force over every primitive, hard shadows, recursion per
+//! docs/shading.md. Slow by design; it is the oracle, not the renderer.
+
+use super::geometry::{intersect_sphere, intersect_triangle, triangle_normal};
+use super::shading::{
+    ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light,
+};
+use crate::scene::{CameraBasis, MaterialKind, Scene, Triangle};
+use glam::DVec3;
+use std::ops::AddAssign;
+
+/// Ray offset relative to the hit point's magnitude (the GPU uses 1e-4 in f32).
+pub const RAY_OFFSET_REL: f64 = 1e-9;
+
+/// Rays traced, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    pub eye: u64,
+    pub reflection: u64,
+    pub refraction: u64,
+    pub shadow: u64,
+}
+
+impl AddAssign for Stats {
+    fn add_assign(&mut self, o: Stats) {
+        self.eye += o.eye;
+        self.reflection += o.reflection;
+        self.refraction += o.refraction;
+        self.shadow += o.shadow;
+    }
+}
+
+/// Linear radiance, row-major, `y = 0` the top row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RadianceImage {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<DVec3>,
+}
+
+impl RadianceImage {
+    pub fn get(&self, x: u32, y: u32) -> DVec3 {
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+}
+
+/// What a ray hit, resolved for shading.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub t: f64,
+    pub p: DVec3,
+    /// Geometric normal, flipped to face the ray (`n_g · d <= 0`).
+    pub n_g: DVec3,
+    /// Shading normal, flipped with `n_g` and never on the other side of it.
+    pub n: DVec3,
+    /// The ray hit the back side (the normals were flipped).
+    pub inside: bool,
+    pub material: u32,
+}
+
+#[derive(Clone, Copy)]
+enum Prim {
+    Sphere(usize),
+    Triangle { index: usize, b1: f64, b2: f64 },
+}
+
+/// A scene prepared for tracing: camera basis, resolved triangles and unit ambient `up`.
+pub struct Reference<'a> {
+    pub scene: &'a Scene,
+    basis: CameraBasis,
+    triangles: Vec<Triangle>,
+    up: DVec3,
+}
+
+impl<'a> Reference<'a> {
+    pub fn new(scene: &'a Scene) -> Self {
+        Reference {
+            scene,
+            basis: scene.camera.basis(),
+            triangles: scene.triangles().collect(),
+            // docs/shading.md wants a unit `up`; the scene only guarantees non-zero.
+            up: scene.ambient.up.normalize(),
+        }
+    }
+
+    /// Radiance through image position (`px`, `py`) in pixels; `(x + 0.5, y + 0.5)` is the
+    /// centre of pixel (x, y).
+    pub fn trace_pixel(&self, px: f64, py: f64, stats: &mut Stats) -> DVec3 {
+        let cam = &self.scene.camera;
+        let d = cam.direction(&self.basis, px, py).normalize();
+        stats.eye += 1;
+        self.trace(cam.eye, d, 1, DVec3::ONE, stats)
+    }
+
+    /// Nearest hit with `0 < t < t_max`; `d` unit. Spheres first, then triangles; on an exact tie
+    /// in `t` the earlier primitive wins.
+    pub fn intersect(&self, o: DVec3, d: DVec3, t_max: f64) -> Option<SurfaceHit> {
+        let mut best = t_max;
+        let mut prim = None;
+        for (i, s) in self.scene.spheres.iter().enumerate() {
+            if let Some(t) = intersect_sphere(o, d, s.center, s.radius, 0.0, best) {
+                best = t;
+                prim = Some(Prim::Sphere(i));
+            }
+        }
+        for (i, tri) in self.triangles.iter().enumerate() {
+            let [p0, p1, p2] = tri.p;
+            if let Some((t, b1, b2)) = intersect_triangle(o, d, p0, p1, p2, 0.0, best) {
+                best = t;
+                prim = Some(Prim::Triangle { index: i, b1, b2 });
+            }
+        }
+        prim.map(|prim| self.resolve(o, d, best, prim))
+    }
+
+    /// Whether anything blocks the segment `o + t d`, `0 < t < t_max` (`d` unit).
+    pub fn occluded(&self, o: DVec3, d: DVec3, t_max: f64) -> bool {
+        self.scene
+            .spheres
+            .iter()
+            .any(|s| intersect_sphere(o, d, s.center, s.radius, 0.0, t_max).is_some())
+            || self.triangles.iter().any(|tri| {
+                let [p0, p1, p2] = tri.p;
+                intersect_triangle(o, d, p0, p1, p2, 0.0, t_max).is_some()
+            })
+    }
+
+    fn resolve(&self, o: DVec3, d: DVec3, t: f64, prim: Prim) -> SurfaceHit {
+        let p = o + t * d;
+        let (n_g, n, material) = match prim {
+            Prim::Sphere(i) => {
+                let s = &self.scene.spheres[i];
+                // (p - c)/r, normalised so rounding in p cannot leave it off unit length.
+                let n = (p - s.center).normalize();
+                (n, n, s.material)
+            }
+            Prim::Triangle { index, b1, b2 } => {
+                let tri = &self.triangles[index];
+                let n_g = triangle_normal(tri.p[0], tri.p[1], tri.p[2]);
+                let n = match tri.n {
+                    Some([n0, n1, n2]) => {
+                        let n = ((1.0 - b1 - b2) * n0 + b1 * n1 + b2 * n2).normalize_or_zero();
+                        if n == DVec3::ZERO {
+                            n_g
+                        } else {
+                            n
+                        }
+                    }
+                    None => n_g,
+                };
+                (n_g, n, tri.material)
+            }
+        };
+        // Decision: flip when n_g·d > 0; at exactly 0 (grazing) the normal is kept.
+        let inside = n_g.dot(d) > 0.0;
+        let (n_g, mut n) = if inside { (-n_g, -n) } else { (n_g, n) };
+        // Decision: "n on the other side of n_g" means n·n_g < 0 (n points into the surface the
+        // viewer sees); such an n is replaced by n_g.
+        if n.dot(n_g) < 0.0 {
+            n = n_g;
+        }
+        SurfaceHit {
+            t,
+            p,
+            n_g,
+            n,
+            inside,
+            material,
+        }
+    }
+
+    /// Radiance arriving at `o` from direction `d` (unit) for a ray of the given depth and
+    /// weight (eye ray: depth 1, weight 1).
+    pub fn trace(&self, o: DVec3, d: DVec3, depth: u32, weight: DVec3, stats: &mut Stats) -> DVec3 {
+        let Some(hit) = self.intersect(o, d, f64::INFINITY) else {
+            return self.scene.background;
+        };
+        let m = &self.scene.materials[hit.material as usize].kind;
+        let (p, n, n_g, inside) = (hit.p, hit.n, hit.n_g, hit.inside);
+        let e = -d;
+        let eps = RAY_OFFSET_REL * p.abs().max_element().max(1.0);
+        // Move p along n_g to the side a new ray in direction `dir` leaves on.
+        // Decision: a direction exactly in the tangent plane leaves on the n_g (viewer) side.
+        let origin = |dir: DVec3| {
+            if n_g.dot(dir) >= 0.0 {
+                p + eps * n_g
+            } else {
+                p - eps * n_g
+            }
+        };
+
+        let amb = &self.scene.ambient;
+        let ia = ambient_intensity(n, self.up, amb.sky, amb.ground);
+        let mut radiance = shade_ambient(m, n, e, ia, inside);
+
+        for light in &self.scene.lights {
+            let to_light = light.position - p;
+            let dist = to_light.length();
+            // Decision: a light exactly at p has no direction; it contributes nothing.
+            if dist == 0.0 {
+                continue;
+            }
+            let l = to_light / dist;
+            if n.dot(l) <= 0.0 {
+                continue; // faces away: no light, no shadow ray
+            }
+            let so = origin(l);
+            let sv = light.position - so;
+            let sdist = sv.length();
+            stats.shadow += 1;
+            // Decision: a light within eps of the offset origin is unblocked.
+            let visible = sdist <= eps || !self.occluded(so, sv / sdist, sdist - eps);
+            if visible {
+                radiance += shade_light(m, n, e, l, light.color, inside);
+            }
+        }
+
+        if depth < self.scene.trace.max_depth {
+            let cutoff = self.scene.trace.weight_cutoff;
+            let (ks, kt) = reflectance(m, n, e, inside);
+            let wr = weight * ks;
+            if wr.max_element() > cutoff {
+                let r = reflect(d, n).normalize();
+                stats.reflection += 1;
+                radiance += ks * self.trace(origin(r), r, depth + 1, wr, stats);
+            }
+            let wt = weight * kt;
+            if wt.max_element() > cutoff {
+                if let MaterialKind::Dielectric { eta, .. } = *m {
+                    let eta_ratio = if inside { eta } else { 1.0 / eta };
+                    // Decision: refract() failing where dielectric_reflectance did not report
+                    // TIR (possible only for eta < 1 entering) drops the k_t share, as the doc's
+                    // "none on total internal reflection" says.
+                    if let Some(t) = refract(d, n, eta_ratio) {
+                        stats.refraction += 1;
+                        radiance += kt * self.trace(origin(t), t, depth + 1, wt, stats);
+                    }
+                }
+            }
+        }
+        radiance
+    }
+
+    /// Every pixel at its centre, rows shared round-robin over the available cores.
+    pub fn render(&self) -> (RadianceImage, Stats) {
+        let (w, h) = (self.scene.camera.width, self.scene.camera.height);
+        let mut pixels = vec![DVec3::ZERO; w as usize * h as usize];
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(h as usize)
+            .max(1);
+        let mut buckets: Vec<Vec<(usize, &mut [DVec3])>> =
+            (0..threads).map(|_| Vec::new()).collect();
+        for (y, row) in pixels.chunks_mut(w as usize).enumerate() {
+            buckets[y % threads].push((y, row));
+        }
+        let mut stats = Stats::default();
+        std::thread::scope(|s| {
+            let handles: Vec<_> = buckets
+                .into_iter()
+                .map(|rows| {
+                    s.spawn(move || {
+                        let mut st = Stats::default();
+                        for (y, row) in rows {
+                            for (x, px) in row.iter_mut().enumerate() {
+                                *px = self.trace_pixel(x as f64 + 0.5, y as f64 + 0.5, &mut st);
+                            }
+                        }
+                        st
+                    })
+                })
+                .collect();
+            for h in handles {
+                stats += h.join().expect("reference render thread panicked");
+            }
+        });
+        (
+            RadianceImage {
+                width: w,
+                height: h,
+                pixels,
+            },
+            stats,
+        )
+    }
+}
+
+/// Radiance through image position (`px`, `py`) in pixels (pixel centre: `x + 0.5, y + 0.5`).
+pub fn trace_pixel(scene: &Scene, px: f64, py: f64) -> DVec3 {
+    Reference::new(scene).trace_pixel(px, py, &mut Stats::default())
+}
+
+/// The whole image at pixel centres.
+pub fn render(scene: &Scene) -> RadianceImage {
+    Reference::new(scene).render().0
+}
+
+/// The whole image at pixel centres and the rays it took.
+pub fn render_with_stats(scene: &Scene) -> (RadianceImage, Stats) {
+    Reference::new(scene).render()
+}
