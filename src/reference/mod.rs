@@ -4,6 +4,7 @@
 //! primitive, recursion instead of a ray stack. The public functions carry the same names as
 //! their WGSL twins so readback tests can compare them one pair at a time.
 
+mod bvh;
 mod geometry;
 mod shading;
 mod trace;

@@ -331,3 +331,152 @@ fn render_matches_trace_pixel_and_counts_rays() {
     assert!(st.reflection > 0 && st.shadow > 0);
     assert_eq!(render(&s), img);
 }
+
+/// xorshift64*: deterministic test inputs without a dependency.
+struct Rng(u64);
+
+impl Rng {
+    fn f(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.f()
+    }
+    fn vec(&mut self, a: f64, b: f64) -> DVec3 {
+        v(self.range(a, b), self.range(a, b), self.range(a, b))
+    }
+}
+
+/// Random spheres and triangles plus an axis-aligned floor grid (flat boxes, shared edges).
+fn random_scene(rng: &mut Rng) -> Scene {
+    let mats = vec![
+        MaterialKind::Diffuse {
+            color: v(0.8, 0.5, 0.3),
+        },
+        MaterialKind::Metal {
+            color: v(0.9, 0.9, 0.6),
+            exponent: 50.0,
+        },
+        MaterialKind::Dielectric {
+            eta: 1.5,
+            exponent: 100.0,
+        },
+        MaterialKind::Polished {
+            color: v(0.2, 0.6, 0.9),
+            eta: 1.4,
+            exponent: 20.0,
+        },
+    ];
+    let mut s = scene(v(0., 4., 12.), v(0., 0., 0.), mats);
+    s.camera.width = 24;
+    s.camera.height = 18;
+    s.lights.push(Light {
+        position: v(5., 10., 5.),
+        color: v(0.8, 0.8, 0.8),
+        radius: 0.0,
+    });
+    s.lights.push(Light {
+        position: v(-6., 4., 8.),
+        color: v(0.3, 0.4, 0.5),
+        radius: 0.0,
+    });
+    for i in 0..40 {
+        let c = rng.vec(-4.0, 4.0).max(v(-4., 0.2, -4.));
+        s.spheres.push(Sphere {
+            center: c,
+            radius: rng.range(0.1, 0.8),
+            material: i % 4,
+        });
+    }
+    let mut soup = Mesh {
+        positions: vec![],
+        normals: Some(vec![]),
+        indices: vec![],
+        material: 0,
+    };
+    for i in 0..60u32 {
+        let c = rng.vec(-4.0, 4.0);
+        for _ in 0..3 {
+            soup.positions.push(c + rng.vec(-1.0, 1.0));
+            soup.normals
+                .as_mut()
+                .unwrap()
+                .push(rng.vec(-1.0, 1.0).normalize());
+        }
+        soup.indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    soup.material = 3;
+    s.meshes.push(soup);
+    let mut floor = Mesh {
+        positions: vec![],
+        normals: None,
+        indices: vec![],
+        material: 0,
+    };
+    let n = 8u32;
+    for j in 0..=n {
+        for i in 0..=n {
+            floor.positions.push(v(i as f64 - 4.0, 0.0, j as f64 - 4.0));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let k = j * (n + 1) + i;
+            floor.indices.push([k, k + n + 1, k + 1]);
+            floor.indices.push([k + 1, k + n + 1, k + n + 2]);
+        }
+    }
+    s.meshes.push(floor);
+    s.validate().unwrap();
+    s
+}
+
+#[test]
+fn bvh_gives_exactly_the_brute_force_answers() {
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    for _ in 0..3 {
+        let s = random_scene(&mut rng);
+        let fast = Reference::new(&s);
+        let slow = Reference::brute_force(&s);
+        for k in 0..4000 {
+            let o = rng.vec(-6.0, 6.0);
+            // Some rays through floor-grid vertices and edges, the rest random.
+            let target = if k % 3 == 0 {
+                v(
+                    (rng.range(-4., 4.) * 2.0).round() / 2.0,
+                    0.0,
+                    (rng.range(-4., 4.)).round(),
+                )
+            } else {
+                rng.vec(-5.0, 5.0)
+            };
+            let d = (target - o).normalize();
+            let a = fast.intersect(o, d, f64::INFINITY);
+            let b = slow.intersect(o, d, f64::INFINITY);
+            match (a, b) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    assert_eq!((a.t, a.material, a.n, a.n_g), (b.t, b.material, b.n, b.n_g))
+                }
+                _ => panic!("ray {o} {d}: bvh {a:?} vs brute {b:?}"),
+            }
+            let t_max = rng.range(0.0, 12.0);
+            assert_eq!(fast.occluded(o, d, t_max), slow.occluded(o, d, t_max));
+        }
+        let (img_fast, st_fast) = fast.render();
+        let (img_slow, st_slow) = slow.render();
+        assert_eq!(img_fast, img_slow);
+        assert_eq!(st_fast, st_slow);
+        assert!(st_fast.refraction > 0 && st_fast.reflection > 0 && st_fast.shadow > 0);
+    }
+}
+
+#[test]
+fn empty_scene_is_background() {
+    let s = scene(v(0., 0., 5.), DVec3::ZERO, vec![]);
+    let img = render(&s);
+    assert!(img.pixels.iter().all(|&p| p == s.background));
+}

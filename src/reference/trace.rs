@@ -1,12 +1,14 @@
 //! The recursive f64 tracer: brute force over every primitive, hard shadows, recursion per
 //! docs/shading.md. Slow by design; it is the oracle, not the renderer.
 
+use super::bvh::{Bvh, PrimId};
 use super::geometry::{intersect_sphere, intersect_triangle, triangle_normal};
 use super::shading::{
     ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light,
 };
 use crate::scene::{CameraBasis, MaterialKind, Scene, Triangle};
 use glam::DVec3;
+use std::cell::Cell;
 use std::ops::AddAssign;
 
 /// Ray offset relative to the hit point's magnitude (the GPU uses 1e-4 in f32).
@@ -70,16 +72,37 @@ pub struct Reference<'a> {
     basis: CameraBasis,
     triangles: Vec<Triangle>,
     up: DVec3,
+    /// `None`: scan every primitive (the plain oracle the BVH is tested against).
+    bvh: Option<Bvh>,
 }
 
 impl<'a> Reference<'a> {
+    /// Prepares `scene` with a BVH over its primitives.
     pub fn new(scene: &'a Scene) -> Self {
+        let mut r = Self::brute_force(scene);
+        let spheres = scene.spheres.iter().map(|s| {
+            let r = DVec3::splat(s.radius);
+            (s.center - r, s.center + r)
+        });
+        let tris = r.triangles.iter().map(|t| {
+            (
+                t.p[0].min(t.p[1]).min(t.p[2]),
+                t.p[0].max(t.p[1]).max(t.p[2]),
+            )
+        });
+        r.bvh = Some(Bvh::build(&spheres.chain(tris).collect::<Vec<_>>()));
+        r
+    }
+
+    /// Prepares `scene` to be traced by testing every primitive for every ray.
+    pub fn brute_force(scene: &'a Scene) -> Self {
         Reference {
             scene,
             basis: scene.camera.basis(),
             triangles: scene.triangles().collect(),
             // docs/shading.md wants a unit `up`; the scene only guarantees non-zero.
             up: scene.ambient.up.normalize(),
+            bvh: None,
         }
     }
 
@@ -92,37 +115,74 @@ impl<'a> Reference<'a> {
         self.trace(cam.eye, d, 1, DVec3::ONE, stats)
     }
 
-    /// Nearest hit with `0 < t < t_max`; `d` unit. Spheres first, then triangles; on an exact tie
-    /// in `t` the earlier primitive wins.
+    /// Nearest hit with `0 < t < t_max`; `d` unit. The winner is the smallest `t`, and on an
+    /// exact tie the lowest primitive index (spheres before triangles, each in scene order).
     pub fn intersect(&self, o: DVec3, d: DVec3, t_max: f64) -> Option<SurfaceHit> {
-        let mut best = t_max;
-        let mut prim = None;
-        for (i, s) in self.scene.spheres.iter().enumerate() {
-            if let Some(t) = intersect_sphere(o, d, s.center, s.radius, 0.0, best) {
-                best = t;
-                prim = Some(Prim::Sphere(i));
+        let best: Cell<Option<(f64, PrimId, Prim)>> = Cell::new(None);
+        let consider = |id: PrimId| {
+            if let Some((t, prim)) = self.hit_prim(id, o, d) {
+                let better = match best.get() {
+                    None => t < t_max,
+                    Some((bt, bid, _)) => t < bt || (t == bt && id < bid),
+                };
+                if better {
+                    best.set(Some((t, id, prim)));
+                }
             }
-        }
-        for (i, tri) in self.triangles.iter().enumerate() {
-            let [p0, p1, p2] = tri.p;
-            if let Some((t, b1, b2)) = intersect_triangle(o, d, p0, p1, p2, 0.0, best) {
-                best = t;
-                prim = Some(Prim::Triangle { index: i, b1, b2 });
+        };
+        match &self.bvh {
+            Some(bvh) => {
+                let bound = || best.get().map_or(t_max, |b| b.0);
+                bvh.traverse(o, d, bound, |id| {
+                    consider(id);
+                    false
+                });
             }
+            None => (0..self.prim_count()).for_each(consider),
         }
-        prim.map(|prim| self.resolve(o, d, best, prim))
+        best.get().map(|(t, _, prim)| self.resolve(o, d, t, prim))
     }
 
     /// Whether anything blocks the segment `o + t d`, `0 < t < t_max` (`d` unit).
     pub fn occluded(&self, o: DVec3, d: DVec3, t_max: f64) -> bool {
-        self.scene
-            .spheres
-            .iter()
-            .any(|s| intersect_sphere(o, d, s.center, s.radius, 0.0, t_max).is_some())
-            || self.triangles.iter().any(|tri| {
-                let [p0, p1, p2] = tri.p;
-                intersect_triangle(o, d, p0, p1, p2, 0.0, t_max).is_some()
-            })
+        let blocks = |id: PrimId| self.hit_prim(id, o, d).is_some_and(|(t, _)| t < t_max);
+        match &self.bvh {
+            Some(bvh) => {
+                let mut hit = false;
+                bvh.traverse(
+                    o,
+                    d,
+                    || t_max,
+                    |id| {
+                        hit = blocks(id);
+                        hit
+                    },
+                );
+                hit
+            }
+            None => (0..self.prim_count()).any(blocks),
+        }
+    }
+
+    fn prim_count(&self) -> PrimId {
+        (self.scene.spheres.len() + self.triangles.len()) as PrimId
+    }
+
+    /// Nearest hit of primitive `id` with `t > 0` (no upper bound: the nearest root does not
+    /// depend on it, so callers compare `t` themselves).
+    fn hit_prim(&self, id: PrimId, o: DVec3, d: DVec3) -> Option<(f64, Prim)> {
+        let ns = self.scene.spheres.len();
+        let id = id as usize;
+        if id < ns {
+            let s = &self.scene.spheres[id];
+            intersect_sphere(o, d, s.center, s.radius, 0.0, f64::INFINITY)
+                .map(|t| (t, Prim::Sphere(id)))
+        } else {
+            let index = id - ns;
+            let [p0, p1, p2] = self.triangles[index].p;
+            intersect_triangle(o, d, p0, p1, p2, 0.0, f64::INFINITY)
+                .map(|(t, b1, b2)| (t, Prim::Triangle { index, b1, b2 }))
+        }
     }
 
     fn resolve(&self, o: DVec3, d: DVec3, t: f64, prim: Prim) -> SurfaceHit {
