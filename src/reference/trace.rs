@@ -305,6 +305,14 @@ impl<'a> Reference<'a> {
     pub fn render(&self) -> (RadianceImage, Stats) {
         let (w, h) = (self.scene.camera.width, self.scene.camera.height);
         let mut pixels = vec![DVec3::ZERO; w as usize * h as usize];
+        if pixels.is_empty() {
+            let image = RadianceImage {
+                width: w,
+                height: h,
+                pixels,
+            };
+            return (image, Stats::default());
+        }
         let threads = std::thread::available_parallelism()
             .map_or(1, |n| n.get())
             .min(h as usize)
@@ -346,6 +354,7 @@ impl<'a> Reference<'a> {
 }
 
 /// Radiance through image position (`px`, `py`) in pixels (pixel centre: `x + 0.5, y + 0.5`).
+/// Builds a [`Reference`] per call; keep one for many pixels.
 pub fn trace_pixel(scene: &Scene, px: f64, py: f64) -> DVec3 {
     Reference::new(scene).trace_pixel(px, py, &mut Stats::default())
 }
