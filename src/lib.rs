@@ -8,5 +8,6 @@ pub mod accel;
 pub mod gpu;
 pub mod image;
 pub mod io;
+pub mod metrics;
 pub mod reference;
 pub mod scene;

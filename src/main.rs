@@ -1,1 +1,286 @@
-fn main() {}
+//! `irt`: the command-line front end. Library errors become messages and exit codes here.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use irt::gpu::{AdapterChoice, GpuContext, RenderOptions, Renderer};
+use irt::scene::Scene;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+#[derive(Parser)]
+#[command(
+    name = "irt",
+    version,
+    about = "Interactive ray tracer on Vulkan compute (Parker et al., I3D 1999)",
+    long_about = "irt traces scenes with WGSL compute shaders on any Vulkan device — by default \
+Mesa's lavapipe, which runs Vulkan on the CPU. Without a SCENE it draws the built-in default \
+scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt bench\n  irt info"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to a PNG (headless).
+    Render(RenderArgs),
+    /// Show the Vulkan adapters and the one irt would use.
+    Info(DeviceArgs),
+    /// Measure grid build, time to first frame and Mrays/s.
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct DeviceArgs {
+    /// Vulkan adapter: "lavapipe" (default), "gpu" (best hardware GPU), or part of a device name.
+    /// Also read from $IRT_ADAPTER.
+    #[arg(long, value_name = "NAME")]
+    adapter: Option<String>,
+}
+
+#[derive(Args)]
+struct SceneArgs {
+    /// Scene file (.toml); the built-in default scene when omitted.
+    scene: Option<PathBuf>,
+    /// Image width in pixels (overrides the scene's camera).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene's camera).
+    #[arg(long)]
+    height: Option<u32>,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Output PNG (8-bit sRGB), written atomically.
+    #[arg(long, short, default_value = "irt.png")]
+    out: PathBuf,
+    /// Print rays traced by kind (eye, reflection, refraction, shadow).
+    #[arg(long)]
+    stats: bool,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Timed frames after the first (median reported).
+    #[arg(long, default_value_t = 5)]
+    frames: u32,
+    /// Disable Mesa's on-disk shader cache, to measure a cold time to first frame.
+    #[arg(long)]
+    cold: bool,
+    /// Print one Markdown table row (for the README's performance table).
+    #[arg(long)]
+    markdown: bool,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+fn main() {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(a) => render(a),
+        Command::Info(a) => info(a),
+        Command::Bench(a) => bench(a),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn load_scene(args: &SceneArgs) -> Result<Scene> {
+    let mut scene = match &args.scene {
+        Some(path) => irt::io::load(path)?,
+        None => irt::scene::default_scene(),
+    };
+    if let Some(w) = args.width {
+        scene.camera.width = w;
+    }
+    if let Some(h) = args.height {
+        scene.camera.height = h;
+    }
+    let origin = args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+    scene.validate().with_context(|| format!("{origin} cannot be rendered"))?;
+    if scene.primitive_count() == 0 {
+        bail!("{origin} has no primitives: nothing to render");
+    }
+    Ok(scene)
+}
+
+fn open_device(args: &DeviceArgs) -> Result<GpuContext> {
+    Ok(GpuContext::new(&AdapterChoice::from_arg_or_env(args.adapter.as_deref()))?)
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    check_output_path(&args.out)?;
+    let ctx = open_device(&args.device)?;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let renderer =
+        Renderer::new(&ctx, &scene, RenderOptions { count_rays: args.stats, ..Default::default() })
+            .map_err(anyhow::Error::msg)?;
+    let bar = indicatif::ProgressBar::new(h as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} tracing {pos}/{len} rows [{bar:30}] {elapsed_precise}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let t = Instant::now();
+    let frame = renderer.render(&ctx, &mut |done, _| bar.set_position(done as u64));
+    let elapsed = t.elapsed();
+    bar.finish_and_clear();
+    frame.image.save_png(&args.out).with_context(|| format!("writing {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} ({w}x{h}, {} primitives, {:.2} s on {})",
+        args.out.display(),
+        scene.primitive_count(),
+        elapsed.as_secs_f64(),
+        ctx.info.name
+    );
+    if args.stats {
+        let r = frame.rays;
+        println!(
+            "rays: eye {}  reflection {}  refraction {}  shadow {}  total {}",
+            r.eye,
+            r.reflection,
+            r.refraction,
+            r.shadow,
+            r.total()
+        );
+    }
+    Ok(())
+}
+
+/// Fails early (before minutes of tracing) when the PNG could not be written.
+fn check_output_path(out: &Path) -> Result<()> {
+    let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !dir.is_dir() {
+        bail!("output directory '{}' does not exist", dir.display());
+    }
+    if out.is_dir() {
+        bail!("output '{}' is a directory; give a .png file name", out.display());
+    }
+    Ok(())
+}
+
+fn info(args: DeviceArgs) -> Result<()> {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = wgpu::Backends::VULKAN;
+    let instance = wgpu::Instance::new(desc);
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+    println!("Vulkan adapters:");
+    for a in &adapters {
+        let i = a.get_info();
+        println!("  {} ({:?}, driver {} {})", i.name, i.device_type, i.driver, i.driver_info);
+    }
+    let ctx = open_device(&args)?;
+    let i = &ctx.info;
+    println!("irt uses: {} — driver {} {}", i.name, i.driver, i.driver_info);
+    let f = ctx.adapter.features();
+    println!(
+        "  features: SHADER_F64 {}  TIMESTAMP_QUERY {}  PIPELINE_CACHE {}",
+        f.contains(wgpu::Features::SHADER_F64),
+        f.contains(wgpu::Features::TIMESTAMP_QUERY),
+        f.contains(wgpu::Features::PIPELINE_CACHE)
+    );
+    let l = ctx.device.limits();
+    println!(
+        "  limits: 2D texture {}  storage binding {} MiB  workgroups/dim {}",
+        l.max_texture_dimension_2d,
+        l.max_storage_buffer_binding_size >> 20,
+        l.max_compute_workgroups_per_dimension
+    );
+    Ok(())
+}
+
+fn median(mut v: Vec<Duration>) -> Duration {
+    v.sort();
+    v[v.len() / 2]
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    if args.cold {
+        // Read by Mesa when the device is created, which happens below.
+        std::env::set_var("MESA_SHADER_CACHE_DISABLE", "true");
+    }
+    let mut scene_args = args.scene;
+    scene_args.width = scene_args.width.or(Some(512));
+    scene_args.height = scene_args.height.or(Some(512));
+    let scene = load_scene(&scene_args)?;
+    let ctx = open_device(&args.device)?;
+    let builds: Vec<Duration> = (0..5)
+        .map(|_| {
+            let t = Instant::now();
+            std::hint::black_box(irt::accel::Grid::build(&scene));
+            t.elapsed()
+        })
+        .collect();
+    let grid_build = median(builds);
+
+    // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
+    let t = Instant::now();
+    let renderer = Renderer::new(&ctx, &scene, RenderOptions::default()).map_err(anyhow::Error::msg)?;
+    let first = renderer.render(&ctx, &mut |_, _| {});
+    let first_frame = t.elapsed();
+    if first.image.non_finite() > 0 {
+        bail!("the benchmark frame contains NaN/Inf values");
+    }
+    let frames: Vec<Duration> = (0..args.frames.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            renderer.render(&ctx, &mut |_, _| {});
+            t.elapsed()
+        })
+        .collect();
+    let frame = median(frames);
+    // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
+    let counting = Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, ..Default::default() })
+        .map_err(anyhow::Error::msg)?;
+    let rays = counting.render(&ctx, &mut |_, _| {}).rays;
+    let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
+    let stats = renderer.grid.stats();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let name = scene_args.scene.as_deref().map_or("default".into(), |p| p.display().to_string());
+    if args.markdown {
+        println!(
+            "| {name} | {w}x{h} | {} | {:.1} | {:.0} | {:.0} | {:.2} | {} |",
+            scene.primitive_count(),
+            grid_build.as_secs_f64() * 1e3,
+            first_frame.as_secs_f64() * 1e3,
+            frame.as_secs_f64() * 1e3,
+            mrays,
+            ctx.info.name
+        );
+    } else {
+        println!("scene            {name} ({w}x{h}, {} primitives)", scene.primitive_count());
+        println!("device           {} ({})", ctx.info.name, ctx.info.driver_info);
+        println!("grid             {stats}");
+        println!("grid build       {:.2} ms (median of 5)", grid_build.as_secs_f64() * 1e3);
+        println!(
+            "first frame      {:.0} ms (pipeline creation + first dispatch; Mesa shader cache {})",
+            first_frame.as_secs_f64() * 1e3,
+            if args.cold { "disabled" } else { "as found" }
+        );
+        println!("frame            {:.1} ms (median of {})", frame.as_secs_f64() * 1e3, args.frames.max(1));
+        println!(
+            "rays/frame       {} (eye {}, reflection {}, refraction {}, shadow {})",
+            rays.total(),
+            rays.eye,
+            rays.reflection,
+            rays.refraction,
+            rays.shadow
+        );
+        println!("throughput       {mrays:.2} Mrays/s");
+    }
+    Ok(())
+}

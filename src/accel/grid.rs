@@ -55,7 +55,39 @@ pub struct Grid {
 }
 
 impl Grid {
-    pub fn build(_scene: &Scene) -> Grid {
-        unimplemented!("grid build")
+    pub fn build(scene: &Scene) -> Grid {
+        // TEMPORARY STUB (uncommitted): one cell with everything.
+        let mut lo = DVec3::splat(f64::MAX);
+        let mut hi = DVec3::splat(-f64::MAX);
+        let mut refs = vec![];
+        for (i, s) in scene.spheres.iter().enumerate() {
+            lo = lo.min(s.center - s.radius);
+            hi = hi.max(s.center + s.radius);
+            refs.push(PrimRef::new(PrimKind::Sphere, i as u32));
+        }
+        for (i, t) in scene.triangles().enumerate() {
+            for p in t.p {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+            refs.push(PrimRef::new(PrimKind::Triangle, i as u32));
+        }
+        let pad = (hi - lo).max_element() * 1e-3 + 1e-3;
+        lo -= pad;
+        hi += pad;
+        Grid {
+            min: lo,
+            max: hi,
+            res: [1, 1, 1],
+            cell_size: hi - lo,
+            cell_start: vec![0, refs.len() as u32],
+            prim_refs: refs,
+            macro_factor: 4,
+            macro_res: [1, 1, 1],
+            macro_bits: vec![1],
+        }
+    }
+    pub fn stats(&self) -> String {
+        "stub".into()
     }
 }

@@ -1,1 +1,12 @@
 //! wgpu device, GPU layouts, shader composition and dispatch.
+pub mod context;
+pub mod layout;
+pub mod shaders;
+
+pub use context::{AdapterChoice, GpuContext};
+pub mod dispatch;
+pub mod readback;
+pub mod renderer;
+
+pub use dispatch::{Dispatcher, GpuScene, RayCounts};
+pub use renderer::{Frame, RenderOptions, Renderer};

@@ -208,6 +208,9 @@ impl<'a> Reference<'a> {
                     }
                     None => n_g,
                 };
+                // Vertex normals say which side is outside, whatever the winding
+                // (docs/shading.md, Notation): turn n_g to their side before the flip below.
+                let n_g = if n.dot(n_g) < 0.0 { -n_g } else { n_g };
                 (n_g, n, tri.material)
             }
         };

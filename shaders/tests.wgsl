@@ -1,0 +1,120 @@
+// Readback kernels: each calls one shader function on inputs from `test_in` and writes the
+// result to `out_buf`; tests/gpu_functions.rs compares them with the f64 twins in
+// src/reference. Item i reads STRIDE vec4s from test_in[STRIDE * i].
+
+fn item(gid: vec3u) -> u32 {
+    if gid.y != 0u || gid.x >= tile.rect.z {
+        return NO_HIT;
+    }
+    return gid.x;
+}
+
+// in: (o, t_min), (d, t_max), (c, r) -> (t, 0, 0, 0)
+@compute @workgroup_size(8, 8, 1)
+fn k_sphere(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[3u * i];
+    let b = test_in[3u * i + 1u];
+    let c = test_in[3u * i + 2u];
+    out_buf[i] = vec4f(intersect_sphere(a.xyz, b.xyz, c.xyz, c.w, a.w, b.w), 0.0, 0.0, 0.0);
+}
+
+// in: (o, t_min), (d, t_max), p0, p1, p2 -> (t, b1, b2, 0)
+@compute @workgroup_size(8, 8, 1)
+fn k_triangle(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[5u * i];
+    let b = test_in[5u * i + 1u];
+    let r = intersect_triangle(a.xyz, b.xyz, test_in[5u * i + 2u].xyz, test_in[5u * i + 3u].xyz,
+        test_in[5u * i + 4u].xyz, a.w, b.w);
+    out_buf[i] = vec4f(r, 0.0);
+}
+
+// in: (cos, r0, eta, inside) -> (schlick, dielectric_reflectance, 0, 0)
+@compute @workgroup_size(8, 8, 1)
+fn k_fresnel(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[i];
+    out_buf[i] = vec4f(schlick(a.x, a.y), dielectric_reflectance(a.x, a.z, a.w != 0.0), 0.0, 0.0);
+}
+
+// in: (d, _), (n, eta_ratio) -> (refracted, ok); out[n + i]: reflected
+@compute @workgroup_size(8, 8, 1)
+fn k_refract(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let d = test_in[2u * i].xyz;
+    let n = test_in[2u * i + 1u];
+    out_buf[2u * i] = refract_dir(d, n.xyz, n.w);
+    out_buf[2u * i + 1u] = vec4f(reflect_dir(d, n.xyz), 0.0);
+}
+
+// in: n, up, sky, ground -> I_a
+@compute @workgroup_size(8, 8, 1)
+fn k_ambient(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let b = 4u * i;
+    out_buf[i] = vec4f(ambient_intensity(test_in[b].xyz, test_in[b + 1u].xyz, test_in[b + 2u].xyz, test_in[b + 3u].xyz), 0.0);
+}
+
+// in: (colour, kind), (eta, exponent, inside, _), n, e, l, l_e, ia
+// -> shade_ambient, shade_light, (k_s, k_t)
+@compute @workgroup_size(8, 8, 1)
+fn k_shade(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let b = 7u * i;
+    let a = test_in[b];
+    let p = test_in[b + 1u];
+    let m = Material(a.xyz, u32(a.w), p.x, p.y);
+    let inside = p.z != 0.0;
+    let n = test_in[b + 2u].xyz;
+    let e = test_in[b + 3u].xyz;
+    let l = test_in[b + 4u].xyz;
+    let k = reflectance(m, n, e, inside);
+    out_buf[3u * i] = vec4f(shade_ambient(m, n, e, test_in[b + 6u].xyz, inside), 0.0);
+    out_buf[3u * i + 1u] = vec4f(shade_light(m, n, e, l, test_in[b + 5u].xyz, inside), 0.0);
+    out_buf[3u * i + 2u] = vec4f(k.ks, k.kt);
+}
+
+const DDA_MAX_CELLS: u32 = 64u;
+
+// in: (o, t_min), (d, t_max) -> up to DDA_MAX_CELLS (x, y, z, t_exit) of the cells visited in
+// order, then (-1, -1, -1, -1).
+@compute @workgroup_size(8, 8, 1)
+fn k_dda(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[2u * i];
+    let b = test_in[2u * i + 1u];
+    var s: Dda;
+    var k = 0u;
+    if dda_init(a.xyz, b.xyz, a.w, b.w, &s) {
+        loop {
+            out_buf[DDA_MAX_CELLS * i + k] = vec4f(vec3f(s.cell), dda_cell_exit(&s));
+            k += 1u;
+            if k == DDA_MAX_CELLS || !dda_step(&s) {
+                break;
+            }
+        }
+    }
+    if k < DDA_MAX_CELLS {
+        out_buf[DDA_MAX_CELLS * i + k] = vec4f(-1.0);
+    }
+}
+
+// in: (o, t_min), (d, t_max) -> (t, prim ref bits, b1, b2) of the nearest hit through the grid;
+// prim = NO_HIT on a miss.
+@compute @workgroup_size(8, 8, 1)
+fn k_trace(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[2u * i];
+    let b = test_in[2u * i + 1u];
+    let h = trace_closest(a.xyz, b.xyz, a.w, b.w);
+    out_buf[i] = vec4f(h.t, bitcast<f32>(h.prim), h.b1, h.b2);
+}

@@ -1,0 +1,43 @@
+// GPU structs and bindings. Rust mirrors: src/gpu/layout.rs (tied by tests/layout.rs).
+
+struct Light {
+    position_radius: vec4f,
+    color: vec4f,
+}
+
+struct Params {
+    eye: vec4f,
+    cam_u: vec4f,
+    cam_v: vec4f,
+    cam_w: vec4f,
+    ambient_sky: vec4f,
+    ambient_ground: vec4f,
+    ambient_up: vec4f,
+    background: vec4f,
+    grid_min: vec4f,
+    grid_max: vec4f,
+    grid_cell: vec4f,
+    grid_inv_cell: vec4f,
+    grid_res: vec4u,
+    macro_res: vec4u,
+    prim_base: vec4u,
+    grid_base: vec4u,
+    image: vec4u,
+    trace: vec4f,
+    lights: array<Light, MAX_LIGHTS>,
+}
+
+struct Tile {
+    rect: vec4u,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var scene_tex: texture_2d<u32>;
+@group(0) @binding(2) var<storage, read_write> out_buf: array<vec4f>;
+@group(0) @binding(3) var<storage, read_write> stats: array<atomic<u32>, 4>;
+@group(0) @binding(4) var<uniform> tile: Tile;
+@group(0) @binding(5) var<storage, read> test_in: array<vec4f>;
+
+const NO_HIT: u32 = 0xffffffffu;
+const MISS: f32 = -1.0;
+const BIG: f32 = 3.0e38;

@@ -1,0 +1,120 @@
+//! The wgpu device: Vulkan only, lavapipe unless the user names another adapter.
+
+use std::fmt;
+
+/// Environment variable that picks an adapter when `--adapter` is not given.
+pub const ADAPTER_ENV: &str = "IRT_ADAPTER";
+
+/// Which Vulkan adapter to use.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum AdapterChoice {
+    /// Mesa's lavapipe (software Vulkan on the CPU): the same everywhere, CI included.
+    #[default]
+    Lavapipe,
+    /// The first adapter whose name contains this text (case-insensitive).
+    Named(String),
+    /// The first discrete/integrated GPU, else lavapipe.
+    BestGpu,
+}
+
+impl AdapterChoice {
+    /// `--adapter` value, else `$IRT_ADAPTER`, else lavapipe. "gpu" means the best hardware GPU.
+    pub fn from_arg_or_env(arg: Option<&str>) -> Self {
+        let text = arg.map(str::to_owned).or_else(|| std::env::var(ADAPTER_ENV).ok());
+        match text.as_deref().map(str::trim) {
+            None | Some("") | Some("lavapipe") | Some("llvmpipe") => AdapterChoice::Lavapipe,
+            Some("gpu") => AdapterChoice::BestGpu,
+            Some(name) => AdapterChoice::Named(name.to_owned()),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ContextError {
+    #[error(
+        "no Vulkan device found. irt runs on any Vulkan driver; the portable one is Mesa's \
+         lavapipe (Vulkan on the CPU). On Debian/Ubuntu install it with:\n    \
+         sudo apt-get install mesa-vulkan-drivers libvulkan1\n(or run scripts/setup.sh)"
+    )]
+    NoVulkan,
+    #[error("no Vulkan adapter matches '{wanted}'; available: {available}")]
+    NoMatch { wanted: String, available: String },
+    #[error("lavapipe (llvmpipe) is not installed; available adapters: {available}. Install it with `sudo apt-get install mesa-vulkan-drivers`, or pick one with --adapter NAME / {ADAPTER_ENV}=NAME")]
+    NoLavapipe { available: String },
+    #[error("could not open the device on adapter '{adapter}': {source}")]
+    Device {
+        adapter: String,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+}
+
+/// An open device and queue, and what they are.
+pub struct GpuContext {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+}
+
+impl fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "GpuContext({} / {})", self.info.name, self.info.driver)
+    }
+}
+
+impl GpuContext {
+    pub fn new(choice: &AdapterChoice) -> Result<Self, ContextError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        if adapters.is_empty() {
+            return Err(ContextError::NoVulkan);
+        }
+        let names = || adapters.iter().map(|a| a.get_info().name).collect::<Vec<_>>().join(", ");
+        let is_lavapipe = |a: &wgpu::Adapter| {
+            let i = a.get_info();
+            i.name.contains("llvmpipe") || i.driver.contains("llvmpipe")
+        };
+        let chosen = match choice {
+            AdapterChoice::Lavapipe => adapters.iter().find(|a| is_lavapipe(a)),
+            AdapterChoice::Named(name) => {
+                let want = name.to_lowercase();
+                adapters.iter().find(|a| a.get_info().name.to_lowercase().contains(&want))
+            }
+            AdapterChoice::BestGpu => adapters
+                .iter()
+                .find(|a| a.get_info().device_type == wgpu::DeviceType::DiscreteGpu)
+                .or_else(|| {
+                    adapters.iter().find(|a| a.get_info().device_type == wgpu::DeviceType::IntegratedGpu)
+                })
+                .or_else(|| adapters.iter().find(|a| is_lavapipe(a))),
+        };
+        let adapter = match (chosen, choice) {
+            (Some(a), _) => a.clone(),
+            (None, AdapterChoice::Named(n)) => {
+                return Err(ContextError::NoMatch { wanted: n.clone(), available: names() })
+            }
+            (None, _) => return Err(ContextError::NoLavapipe { available: names() }),
+        };
+        let info = adapter.get_info();
+        // Ask for what this adapter offers: scenes are sized by its texture and buffer limits.
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("irt"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits,
+            memory_hints: wgpu::MemoryHints::Performance,
+            ..Default::default()
+        }))
+        .map_err(|source| ContextError::Device { adapter: info.name.clone(), source })?;
+        Ok(GpuContext { adapter, device, queue, info })
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self) {
+        // An error here means the device was lost; the next call reports it with context.
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+}

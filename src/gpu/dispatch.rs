@@ -1,0 +1,258 @@
+//! Uploading a scene and dispatching kernels over it: the render pipeline and the readback
+//! kernels of the tests share this one binding layout (shaders/types.wgsl).
+
+use super::layout::{self, PackedScene, Params, Tile, SCENE_TEX_WIDTH};
+use super::shaders::{self, Kernel, Variant};
+use super::GpuContext;
+use crate::accel::Grid;
+use crate::scene::Scene;
+
+/// A scene resident on the device: the scene texture and the frame constants.
+pub struct GpuScene {
+    pub params: Params,
+    params_buf: wgpu::Buffer,
+    texture_view: wgpu::TextureView,
+    /// Bytes uploaded (texture + uniforms), for logs and benches.
+    pub bytes: u64,
+}
+
+impl GpuScene {
+    pub fn upload(ctx: &GpuContext, scene: &Scene, grid: &Grid) -> Result<Self, String> {
+        let packed = layout::pack_scene(scene, grid);
+        let params = layout::params(scene, grid, &packed);
+        Self::upload_packed(ctx, &packed, params)
+    }
+
+    pub fn upload_packed(ctx: &GpuContext, packed: &PackedScene, params: Params) -> Result<Self, String> {
+        let rows = packed.rows();
+        let max_side = ctx.device.limits().max_texture_dimension_2d;
+        if rows > max_side {
+            return Err(format!(
+                "the scene needs {} texels ({rows} rows of {SCENE_TEX_WIDTH}); this device allows {max_side} rows",
+                packed.texels.len()
+            ));
+        }
+        let mut data = packed.texels.clone();
+        data.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
+        let size = wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: rows, depth_or_array_layers: 1 };
+        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("scene"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba32Uint,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        ctx.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            bytemuck::cast_slice(&data),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(SCENE_TEX_WIDTH * 16),
+                rows_per_image: Some(rows),
+            },
+            size,
+        );
+        let params_buf = uniform(ctx, "params", bytemuck::bytes_of(&params));
+        let bytes = (data.len() * 16 + std::mem::size_of::<Params>()) as u64;
+        Ok(GpuScene { params, params_buf, texture_view: texture.create_view(&Default::default()), bytes })
+    }
+}
+
+fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytes,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: wgpu::BufferUsages::STORAGE | extra,
+        mapped_at_creation: false,
+    })
+}
+
+/// The one bind group layout every kernel uses (bindings 0–5 of shaders/types.wgsl).
+fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    use wgpu::{BindingType as B, BufferBindingType as Bb, ShaderStages};
+    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: ShaderStages::COMPUTE,
+        ty,
+        count: None,
+    };
+    let buffer = |ty| B::Buffer { ty, has_dynamic_offset: false, min_binding_size: None };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("irt"),
+        entries: &[
+            entry(0, buffer(Bb::Uniform)),
+            entry(
+                1,
+                B::Texture {
+                    sample_type: wgpu::TextureSampleType::Uint,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+            ),
+            entry(2, buffer(Bb::Storage { read_only: false })),
+            entry(3, buffer(Bb::Storage { read_only: false })),
+            entry(4, buffer(Bb::Uniform)),
+            entry(5, buffer(Bb::Storage { read_only: true })),
+        ],
+    })
+}
+
+/// A compiled kernel bound to a scene and its output buffers.
+pub struct Dispatcher {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    out_buf: wgpu::Buffer,
+    stats_buf: wgpu::Buffer,
+    tile_buf: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    out_len: u64,
+}
+
+/// Rays traced in a frame, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounts {
+    pub eye: u64,
+    pub reflection: u64,
+    pub refraction: u64,
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    pub fn total(&self) -> u64 {
+        self.eye + self.reflection + self.refraction + self.shadow
+    }
+}
+
+impl Dispatcher {
+    /// Compiles `entry` of `kernel` for `variant` and binds it to `scene`, an output buffer of
+    /// `out_len` vec4s and the read-only input `inputs` (test kernels; may be empty).
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        kernel: Kernel,
+        variant: Variant,
+        entry: &str,
+        out_len: u64,
+        inputs: &[[f32; 4]],
+    ) -> Self {
+        let device = &ctx.device;
+        let src = shaders::compose(kernel, variant);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(entry),
+            source: wgpu::ShaderSource::Wgsl(src.into()),
+        });
+        let bgl = bind_group_layout(device);
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("irt"),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let out_bytes = out_len * 16;
+        let out_buf = storage(ctx, "out", out_bytes, wgpu::BufferUsages::COPY_SRC);
+        let stats_buf =
+            storage(ctx, "stats", 16, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
+        let tile_buf = uniform(ctx, "tile", bytemuck::bytes_of(&Tile::default()));
+        let input_bytes: &[u8] = if inputs.is_empty() { &[0; 16] } else { bytemuck::cast_slice(inputs) };
+        let in_buf = {
+            use wgpu::util::DeviceExt;
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("test inputs"),
+                contents: input_bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: out_bytes.max(16) + 16,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind = |binding, resource| wgpu::BindGroupEntry { binding, resource };
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(entry),
+            layout: &bgl,
+            entries: &[
+                bind(0, scene.params_buf.as_entire_binding()),
+                bind(1, wgpu::BindingResource::TextureView(&scene.texture_view)),
+                bind(2, out_buf.as_entire_binding()),
+                bind(3, stats_buf.as_entire_binding()),
+                bind(4, tile_buf.as_entire_binding()),
+                bind(5, in_buf.as_entire_binding()),
+            ],
+        });
+        Dispatcher { pipeline, bind_group, out_buf, stats_buf, tile_buf, readback, out_len }
+    }
+
+    /// Clears the ray counters.
+    pub fn reset_counts(&self, ctx: &GpuContext) {
+        ctx.queue.write_buffer(&self.stats_buf, 0, &[0u8; 16]);
+    }
+
+    /// Runs the kernel over `rect` = (x0, y0, width, height) invocations in 8x8 workgroups and
+    /// waits for it.
+    pub fn dispatch(&self, ctx: &GpuContext, rect: [u32; 4]) {
+        ctx.queue.write_buffer(&self.tile_buf, 0, bytemuck::bytes_of(&Tile { rect }));
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(rect[2].div_ceil(8), rect[3].div_ceil(8), 1);
+        }
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait();
+    }
+
+    /// Reads back the output buffer and the ray counters.
+    pub fn read(&self, ctx: &GpuContext) -> (Vec<[f32; 4]>, RayCounts) {
+        let out_bytes = self.out_len * 16;
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        if out_bytes > 0 {
+            enc.copy_buffer_to_buffer(&self.out_buf, 0, &self.readback, 0, out_bytes);
+        }
+        enc.copy_buffer_to_buffer(&self.stats_buf, 0, &self.readback, out_bytes, 16);
+        ctx.queue.submit([enc.finish()]);
+        let slice = self.readback.slice(..out_bytes + 16);
+        slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the readback buffer"));
+        ctx.wait();
+        let (out, counts) = {
+            let data = slice.get_mapped_range().expect("readback buffer is mapped");
+            let out: Vec<[f32; 4]> = bytemuck::cast_slice(&data[..out_bytes as usize]).to_vec();
+            let c: &[u32] = bytemuck::cast_slice(&data[out_bytes as usize..]);
+            let counts = RayCounts {
+                eye: c[0] as u64,
+                reflection: c[1] as u64,
+                refraction: c[2] as u64,
+                shadow: c[3] as u64,
+            };
+            (out, counts)
+        };
+        self.readback.unmap();
+        (out, counts)
+    }
+}

@@ -1,0 +1,248 @@
+//! Byte-exact GPU data: the uniform structs (mirrored in `shaders/types.wgsl`, tied by a test
+//! against naga's layouter) and the packing of scene and grid into one `rgba32uint` texture.
+//!
+//! Why a texture: on lavapipe a storage-buffer load in a hot loop costs ~2x a texture load and
+//! uniform buffers are too small for scenes (LAVAPIPE.md). Every record is whole texels
+//! (vec4<u32>), so each traversal step costs as few load instructions as possible; floats are
+//! stored as their bits and `bitcast` back in the shader.
+
+use crate::accel::{Grid, PrimKind, PrimRef};
+use crate::scene::{MaterialKind, Scene, MAX_LIGHTS};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+
+/// The scene texture is `1 << SCENE_TEX_SHIFT` texels wide; texel `i` is at
+/// `(i & (width - 1), i >> SCENE_TEX_SHIFT)`.
+pub const SCENE_TEX_SHIFT: u32 = 12;
+pub const SCENE_TEX_WIDTH: u32 = 1 << SCENE_TEX_SHIFT;
+
+/// Texels per record; the shader's decoders read these constants from the generated prelude.
+pub const SPHERE_TEXELS: u32 = 2;
+pub const TRIANGLE_TEXELS: u32 = 3;
+pub const NORMAL_TEXELS: u32 = 3;
+pub const MATERIAL_TEXELS: u32 = 2;
+/// Cells per texel: (start, count) pairs.
+pub const CELLS_PER_TEXEL: u32 = 2;
+pub const REFS_PER_TEXEL: u32 = 4;
+pub const MACRO_BITS_PER_TEXEL: u32 = 128;
+/// Marks a triangle without vertex normals.
+pub const NO_NORMALS: u32 = u32::MAX;
+
+/// Material kind codes as stored in the material record.
+pub fn material_code(kind: &MaterialKind) -> u32 {
+    match kind {
+        MaterialKind::Diffuse { .. } => 0,
+        MaterialKind::Metal { .. } => 1,
+        MaterialKind::Dielectric { .. } => 2,
+        MaterialKind::Polished { .. } => 3,
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    /// xyz position, w radius.
+    pub position_radius: [f32; 4],
+    /// rgb intensity l_e, w unused.
+    pub color: [f32; 4],
+}
+
+/// Everything constant over a frame. Mirrors `struct Params` in `shaders/types.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Params {
+    pub eye: [f32; 4],
+    /// Camera right/up scaled to the image plane's half-extents, and forward (see `CameraBasis`).
+    pub cam_u: [f32; 4],
+    pub cam_v: [f32; 4],
+    pub cam_w: [f32; 4],
+    pub ambient_sky: [f32; 4],
+    pub ambient_ground: [f32; 4],
+    pub ambient_up: [f32; 4],
+    pub background: [f32; 4],
+    pub grid_min: [f32; 4],
+    pub grid_max: [f32; 4],
+    pub grid_cell: [f32; 4],
+    pub grid_inv_cell: [f32; 4],
+    /// xyz cells per axis, w fine cells per macro-cell side.
+    pub grid_res: [u32; 4],
+    /// xyz macro-cells per axis.
+    pub macro_res: [u32; 4],
+    /// First texel of the sphere, triangle, vertex-normal and material records.
+    pub prim_base: [u32; 4],
+    /// First texel of the cell ranges, primitive references and macro-cell bits.
+    pub grid_base: [u32; 4],
+    /// width, height, max_depth, light count.
+    pub image: [u32; 4],
+    /// weight_cutoff, ray offset (relative), unused, unused.
+    pub trace: [f32; 4],
+    pub lights: [GpuLight; MAX_LIGHTS],
+}
+
+/// The part of the image one dispatch covers. Mirrors `struct Tile` in `shaders/types.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Tile {
+    /// x0, y0, width, height in pixels.
+    pub rect: [u32; 4],
+}
+
+/// Relative offset of spawned rays along the geometric normal (docs/shading.md, "Ray origins").
+pub const RAY_OFFSET_REL: f32 = 1e-4;
+
+fn v4(v: DVec3, w: f32) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w]
+}
+
+fn f4(v: DVec3, w: u32) -> [u32; 4] {
+    [(v.x as f32).to_bits(), (v.y as f32).to_bits(), (v.z as f32).to_bits(), w]
+}
+
+/// The scene and grid as texels, with where each section starts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PackedScene {
+    pub texels: Vec<[u32; 4]>,
+    pub prim_base: [u32; 4],
+    pub grid_base: [u32; 4],
+}
+
+impl PackedScene {
+    /// Texture height for `texels.len()` at [`SCENE_TEX_WIDTH`] texels per row (at least 1).
+    pub fn rows(&self) -> u32 {
+        (self.texels.len() as u32).div_ceil(SCENE_TEX_WIDTH).max(1)
+    }
+}
+
+/// Lays out, in order: spheres, triangles, vertex normals, materials, cell ranges, references,
+/// macro-cell bits. Record formats (the shader's `scene.wgsl` decodes the same):
+/// - sphere: `[c.xyz, r]`, `[material, 0, 0, 0]`
+/// - triangle: `[p0.xyz, material]`, `[p1.xyz, normal_record or NO_NORMALS]`, `[p2.xyz, 0]`
+/// - vertex normals: `[n0.xyz, 0]`, `[n1.xyz, 0]`, `[n2.xyz, 0]`
+/// - material: `[colour.rgb, kind]`, `[eta, exponent, 0, 0]`
+/// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
+pub fn pack_scene(scene: &Scene, grid: &Grid) -> PackedScene {
+    let mut t: Vec<[u32; 4]> = Vec::new();
+    let sphere_base = 0u32;
+    for s in &scene.spheres {
+        t.push(f4(s.center, (s.radius as f32).to_bits()));
+        t.push([s.material, 0, 0, 0]);
+    }
+    let triangle_base = t.len() as u32;
+    let mut normals: Vec<[u32; 4]> = Vec::new();
+    for tri in scene.triangles() {
+        let normal_record = match tri.n {
+            Some(n) => {
+                let rec = (normals.len() as u32) / NORMAL_TEXELS;
+                normals.extend(n.iter().map(|v| f4(*v, 0)));
+                rec
+            }
+            None => NO_NORMALS,
+        };
+        t.push(f4(tri.p[0], tri.material));
+        t.push(f4(tri.p[1], normal_record));
+        t.push(f4(tri.p[2], 0));
+    }
+    let normal_base = t.len() as u32;
+    t.extend(normals);
+    let material_base = t.len() as u32;
+    for m in &scene.materials {
+        let code = material_code(&m.kind);
+        let (colour, eta, exponent) = match m.kind {
+            MaterialKind::Diffuse { color } => (color, 1.0, 0.0),
+            MaterialKind::Metal { color, exponent } => (color, 1.0, exponent),
+            MaterialKind::Dielectric { eta, exponent } => (DVec3::ONE, eta, exponent),
+            MaterialKind::Polished { color, eta, exponent } => (color, eta, exponent),
+        };
+        t.push(f4(colour, code));
+        t.push([(eta as f32).to_bits(), (exponent as f32).to_bits(), 0, 0]);
+    }
+    let cell_base = t.len() as u32;
+    let cells = grid.cell_start.len() - 1;
+    for pair in (0..cells).collect::<Vec<_>>().chunks(CELLS_PER_TEXEL as usize) {
+        let mut texel = [0u32; 4];
+        for (k, &c) in pair.iter().enumerate() {
+            texel[2 * k] = grid.cell_start[c];
+            texel[2 * k + 1] = grid.cell_start[c + 1] - grid.cell_start[c];
+        }
+        t.push(texel);
+    }
+    let ref_base = t.len() as u32;
+    for chunk in grid.prim_refs.chunks(REFS_PER_TEXEL as usize) {
+        let mut texel = [0u32; 4];
+        for (k, r) in chunk.iter().enumerate() {
+            texel[k] = r.0;
+        }
+        t.push(texel);
+    }
+    let macro_base = t.len() as u32;
+    for chunk in grid.macro_bits.chunks(4) {
+        let mut texel = [0u32; 4];
+        texel[..chunk.len()].copy_from_slice(chunk);
+        t.push(texel);
+    }
+    PackedScene {
+        texels: t,
+        prim_base: [sphere_base, triangle_base, normal_base, material_base],
+        grid_base: [cell_base, ref_base, macro_base, 0],
+    }
+}
+
+/// The frame constants for `scene` drawn with `grid` laid out as in `packed`.
+pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene) -> Params {
+    let cam = &scene.camera;
+    let b = cam.basis();
+    let mut lights = [GpuLight::default(); MAX_LIGHTS];
+    for (g, l) in lights.iter_mut().zip(&scene.lights) {
+        g.position_radius = v4(l.position, l.radius as f32);
+        g.color = v4(l.color, 0.0);
+    }
+    let res = grid.res;
+    Params {
+        eye: v4(cam.eye, 0.0),
+        cam_u: v4(b.u, 0.0),
+        cam_v: v4(b.v, 0.0),
+        cam_w: v4(b.w, 0.0),
+        ambient_sky: v4(scene.ambient.sky, 0.0),
+        ambient_ground: v4(scene.ambient.ground, 0.0),
+        ambient_up: v4(scene.ambient.up.normalize(), 0.0),
+        background: v4(scene.background, 0.0),
+        grid_min: v4(grid.min, 0.0),
+        grid_max: v4(grid.max, 0.0),
+        grid_cell: v4(grid.cell_size, 0.0),
+        grid_inv_cell: v4(grid.cell_size.recip(), 0.0),
+        grid_res: [res[0], res[1], res[2], grid.macro_factor],
+        macro_res: [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], 0],
+        prim_base: packed.prim_base,
+        grid_base: packed.grid_base,
+        image: [cam.width, cam.height, scene.trace.max_depth, scene.lights.len() as u32],
+        trace: [scene.trace.weight_cutoff as f32, RAY_OFFSET_REL, 0.0, 0.0],
+        lights,
+    }
+}
+
+/// WGSL `const` declarations for every number the shaders share with this file, so each lives
+/// in one place (here, or in `scene`/`accel`).
+pub fn wgsl_constants() -> String {
+    let c = |name: &str, v: u32| format!("const {name}: u32 = {v}u;\n");
+    let mut s = String::new();
+    s += &c("SCENE_TEX_SHIFT", SCENE_TEX_SHIFT);
+    s += &c("SPHERE_TEXELS", SPHERE_TEXELS);
+    s += &c("TRIANGLE_TEXELS", TRIANGLE_TEXELS);
+    s += &c("NORMAL_TEXELS", NORMAL_TEXELS);
+    s += &c("MATERIAL_TEXELS", MATERIAL_TEXELS);
+    s += &c("NO_NORMALS", NO_NORMALS);
+    s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
+    s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
+    s += &c("PRIM_INDEX_BITS", PrimRef::INDEX_BITS);
+    s += &c("PRIM_SPHERE", PrimKind::Sphere as u32);
+    s += &c("PRIM_TRIANGLE", PrimKind::Triangle as u32);
+    for (name, kind) in [
+        ("MAT_DIFFUSE", MaterialKind::Diffuse { color: DVec3::ZERO }),
+        ("MAT_METAL", MaterialKind::Metal { color: DVec3::ZERO, exponent: 0.0 }),
+        ("MAT_DIELECTRIC", MaterialKind::Dielectric { eta: 1.0, exponent: 0.0 }),
+        ("MAT_POLISHED", MaterialKind::Polished { color: DVec3::ZERO, eta: 1.0, exponent: 0.0 }),
+    ] {
+        s += &c(name, material_code(&kind));
+    }
+    s
+}

@@ -1,0 +1,119 @@
+//! The `irt` binary end to end: it renders, and bad input gives a clear error and a non-zero
+//! exit, never a panic.
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn irt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_irt")).args(args).output().expect("irt runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Asserts a clean failure whose message contains every one of `words`.
+fn fails_with(out: &Output, words: &[&str]) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "expected failure, got success; stderr:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "irt panicked:\n{stderr}");
+    for w in words {
+        assert!(stderr.contains(w), "stderr lacks '{w}':\n{stderr}");
+    }
+}
+
+#[test]
+fn renders_the_default_scene_to_png() {
+    let out_path = tmp("default.png");
+    let _ = std::fs::remove_file(&out_path);
+    let out = irt(&["render", "--width", "64", "--height", "48", "--out", out_path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let img = image::open(&out_path).expect("a readable PNG").to_rgb8();
+    assert_eq!(img.dimensions(), (64, 48));
+    // Not a blank frame: the default scene has many distinct colours.
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort();
+    colours.dedup();
+    assert!(colours.len() > 100, "only {} distinct colours", colours.len());
+    // Nothing but the PNG is left behind (the write is atomic via a temporary file).
+    let leftovers: Vec<_> = std::fs::read_dir(out_path.parent().unwrap())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn stats_prints_ray_counts_by_kind() {
+    let out_path = tmp("stats.png");
+    let out =
+        irt(&["render", "--width", "32", "--height", "24", "--stats", "--out", out_path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    // One eye ray per pixel.
+    assert!(stdout.contains("eye 768 "), "{stdout}");
+    for kind in ["reflection", "refraction", "shadow"] {
+        assert!(stdout.contains(kind), "{stdout}");
+    }
+}
+
+#[test]
+fn missing_scene_file() {
+    fails_with(&irt(&["render", "no/such/scene.toml", "--out", "x.png"]), &["error:", "no/such/scene.toml"]);
+}
+
+#[test]
+fn zero_resolution() {
+    fails_with(
+        &irt(&["render", "--width", "0", "--out", tmp("z.png").to_str().unwrap()]),
+        &["error:", "resolution"],
+    );
+}
+
+#[test]
+fn huge_resolution_is_refused_before_allocating() {
+    let out =
+        irt(&["render", "--width", "100000", "--height", "100000", "--out", tmp("h.png").to_str().unwrap()]);
+    fails_with(&out, &["error:", "exceeds"]);
+}
+
+#[test]
+fn output_directory_must_exist() {
+    fails_with(
+        &irt(&["render", "--width", "8", "--height", "8", "--out", "/no/such/dir/x.png"]),
+        &["error:", "/no/such/dir"],
+    );
+}
+
+#[test]
+fn unknown_adapter_lists_the_available_ones() {
+    let out = irt(&[
+        "render",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--adapter",
+        "no-such-gpu",
+        "--out",
+        tmp("a.png").to_str().unwrap(),
+    ]);
+    fails_with(&out, &["error:", "no-such-gpu", "available"]);
+}
+
+#[test]
+fn bad_arguments_are_usage_errors() {
+    let out = irt(&["render", "--width", "-3"]);
+    fails_with(&out, &["--width"]);
+    let out = irt(&["frobnicate"]);
+    fails_with(&out, &["frobnicate"]);
+}
+
+#[test]
+fn info_names_the_device() {
+    let out = irt(&["info"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("irt uses:"));
+}
