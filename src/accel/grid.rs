@@ -1,6 +1,13 @@
 //! Uniform grid over the scene with a coarser macro-cell occupancy level, flattened to CSR arrays.
+//!
+//! Built once on the CPU in f64 and walked by the shader in f32. Two things make that safe:
+//! primitives are inserted into every cell they overlap *grown by a margin* that covers f32
+//! rounding of the grid's planes and the shader's cell arithmetic, and the grid box is padded
+//! so that nothing lies exactly on its boundary (flat scenes get a real thickness).
+
 use crate::scene::Scene;
 use glam::DVec3;
+use std::fmt;
 
 /// What kind of primitive a [`PrimRef`] points at (its top two bits).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,6 +41,26 @@ impl PrimRef {
     }
 }
 
+/// Target cells per primitive. The classic heuristic (Cleary & Wyvill; Wald et al. 2006) sizes
+/// cells so the grid has λN cells, cubic in shape: res_a = extent_a · ∛(λN / V). Larger λ means
+/// fewer intersection tests per ray but more DDA steps and memory; macro-cells make the empty
+/// cells that a large λ creates cheap to skip.
+pub const CELLS_PER_PRIMITIVE: f64 = 8.0;
+/// Cells per axis, at most.
+pub const MAX_RES: u32 = 512;
+/// Total cells, at most (8 Mi cells: 32 MiB of ranges).
+pub const MAX_CELLS: u64 = 1 << 23;
+/// Fine cells per macro-cell side.
+pub const MACRO_FACTOR: u32 = 4;
+/// The grid box is padded by this fraction of its largest extent on every side.
+const PAD_REL: f64 = 1e-3;
+/// Insertion margin as a fraction of the cell size: a primitive within this distance of a cell
+/// is listed in it, which absorbs the shader's f32 rounding of cell boundaries.
+const MARGIN_CELL_REL: f64 = 1e-3;
+/// ... and as a multiple of the f32 spacing at the scene's coordinate magnitude, for scenes far
+/// from the origin where f32 ulps, not cell sizes, dominate.
+const MARGIN_ULPS: f64 = 8.0;
+
 /// The flattened grid. Cell `(x, y, z)` has linear index `x + res[0] * (y + res[1] * z)`; its
 /// primitives are `prim_refs[cell_start[c] as usize..cell_start[c + 1] as usize]`.
 #[derive(Clone, Debug, PartialEq)]
@@ -45,6 +72,7 @@ pub struct Grid {
     pub cell_size: DVec3,
     /// `cell_count + 1` entries, CSR offsets into `prim_refs`.
     pub cell_start: Vec<u32>,
+    /// Per cell, in increasing primitive order (spheres first): the build is deterministic.
     pub prim_refs: Vec<PrimRef>,
     /// Fine cells per macro-cell side.
     pub macro_factor: u32,
@@ -54,40 +82,518 @@ pub struct Grid {
     pub macro_bits: Vec<u32>,
 }
 
-impl Grid {
-    pub fn build(scene: &Scene) -> Grid {
-        // TEMPORARY STUB (uncommitted): one cell with everything.
-        let mut lo = DVec3::splat(f64::MAX);
-        let mut hi = DVec3::splat(-f64::MAX);
-        let mut refs = vec![];
-        for (i, s) in scene.spheres.iter().enumerate() {
-            lo = lo.min(s.center - s.radius);
-            hi = hi.max(s.center + s.radius);
-            refs.push(PrimRef::new(PrimKind::Sphere, i as u32));
-        }
-        for (i, t) in scene.triangles().enumerate() {
-            for p in t.p {
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-            refs.push(PrimRef::new(PrimKind::Triangle, i as u32));
-        }
-        let pad = (hi - lo).max_element() * 1e-3 + 1e-3;
-        lo -= pad;
-        hi += pad;
-        Grid {
-            min: lo,
-            max: hi,
-            res: [1, 1, 1],
-            cell_size: hi - lo,
-            cell_start: vec![0, refs.len() as u32],
-            prim_refs: refs,
-            macro_factor: 4,
-            macro_res: [1, 1, 1],
-            macro_bits: vec![1],
+/// An axis-aligned box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Aabb {
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb { lo: DVec3::splat(f64::INFINITY), hi: DVec3::splat(f64::NEG_INFINITY) };
+
+    fn union(self, o: Aabb) -> Aabb {
+        Aabb { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
+    }
+    fn of_points(p: &[DVec3]) -> Aabb {
+        p.iter().fold(Aabb::EMPTY, |b, &q| b.union(Aabb { lo: q, hi: q }))
+    }
+    fn is_empty(&self) -> bool {
+        self.lo.x > self.hi.x
+    }
+}
+
+/// A primitive as the builder sees it: its bounds and an exact overlap test against a box.
+enum Shape {
+    Sphere { center: DVec3, radius: f64 },
+    Triangle([DVec3; 3]),
+}
+
+impl Shape {
+    fn bounds(&self) -> Aabb {
+        match *self {
+            Shape::Sphere { center, radius } => Aabb { lo: center - radius, hi: center + radius },
+            Shape::Triangle(p) => Aabb::of_points(&p),
         }
     }
-    pub fn stats(&self) -> String {
-        "stub".into()
+
+    fn overlaps(&self, b: &Aabb) -> bool {
+        match *self {
+            // Distance from the centre to the nearest point of the box.
+            Shape::Sphere { center, radius } => {
+                center.clamp(b.lo, b.hi).distance_squared(center) <= radius * radius
+            }
+            Shape::Triangle(p) => triangle_overlaps_box(p, b),
+        }
+    }
+}
+
+/// Separating-axis test of a triangle against a box (Akenine-Möller 2001): the box's three
+/// face normals, the triangle's normal and the nine edge × axis cross products. Exact in
+/// exact arithmetic; callers pass a box grown by a margin that dominates f64 rounding.
+fn triangle_overlaps_box(p: [DVec3; 3], b: &Aabb) -> bool {
+    let c = (b.lo + b.hi) * 0.5;
+    let h = (b.hi - b.lo) * 0.5;
+    let v = p.map(|q| q - c);
+    let separated = |axis: DVec3| {
+        let r = h.dot(axis.abs());
+        let (a, b2, c2) = (v[0].dot(axis), v[1].dot(axis), v[2].dot(axis));
+        a.min(b2).min(c2) > r || a.max(b2).max(c2) < -r
+    };
+    if [DVec3::X, DVec3::Y, DVec3::Z].into_iter().any(separated) {
+        return false;
+    }
+    let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+    // A degenerate triangle has a zero normal; a zero axis separates nothing, so the test
+    // falls back to the remaining axes (conservative, as a zero-area triangle is never hit).
+    if separated(e[0].cross(e[1])) {
+        return false;
+    }
+    !e.iter().any(|&ei| [DVec3::X, DVec3::Y, DVec3::Z].into_iter().any(|a| separated(ei.cross(a))))
+}
+
+/// Summary of a built grid, for logs and `irt bench`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridStats {
+    pub res: [u32; 3],
+    pub cells: usize,
+    pub empty_cells: usize,
+    pub prims: usize,
+    pub refs: usize,
+    pub max_refs_per_cell: u32,
+    pub macro_res: [u32; 3],
+    pub macro_occupied: usize,
+    /// Bytes of cell ranges, references and macro bits as stored (before packing).
+    pub bytes: usize,
+}
+
+impl fmt::Display for GridStats {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        let [x, y, z] = self.res;
+        let [mx, my, mz] = self.macro_res;
+        let macros = (mx * my * mz) as f64;
+        write!(
+            f,
+            "{x}x{y}x{z} cells ({:.0}% empty), {} refs for {} primitives ({:.2} per primitive, \
+             at most {} in a cell), macro-cells {mx}x{my}x{mz} ({:.0}% occupied), {:.1} MiB",
+            100.0 * self.empty_cells as f64 / self.cells as f64,
+            self.refs,
+            self.prims,
+            self.refs as f64 / self.prims.max(1) as f64,
+            self.max_refs_per_cell,
+            100.0 * self.macro_occupied as f64 / macros,
+            self.bytes as f64 / (1024.0 * 1024.0)
+        )
+    }
+}
+
+impl Grid {
+    /// Builds the grid for every sphere and mesh triangle of `scene` (which must be valid).
+    pub fn build(scene: &Scene) -> Grid {
+        let shapes: Vec<(PrimRef, Shape)> = scene
+            .spheres
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                (
+                    PrimRef::new(PrimKind::Sphere, i as u32),
+                    Shape::Sphere { center: s.center, radius: s.radius },
+                )
+            })
+            .chain(
+                scene
+                    .triangles()
+                    .enumerate()
+                    .map(|(i, t)| (PrimRef::new(PrimKind::Triangle, i as u32), Shape::Triangle(t.p))),
+            )
+            .collect();
+        let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| b.union(s.bounds()));
+        let (min, max) = padded(bounds);
+        let res = resolution(max - min, shapes.len());
+        let cell_size = (max - min) / DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64);
+        let magnitude = min.abs().max(max.abs()).max_element();
+        let margin =
+            (cell_size * MARGIN_CELL_REL).max(DVec3::splat(magnitude * MARGIN_ULPS * f32::EPSILON as f64));
+
+        // Pass 1: (cell, ref) pairs in primitive order; pass 2: a stable counting sort by cell.
+        let cell_of = |p: DVec3| {
+            let c = ((p - min) / cell_size).floor();
+            [0, 1, 2].map(|a| (c[a].max(0.0) as u32).min(res[a] - 1))
+        };
+        let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
+        for (r, shape) in &shapes {
+            let b = shape.bounds();
+            let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
+                        let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
+                        if shape.overlaps(&cell) {
+                            pairs.push((x + res[0] * (y + res[1] * z), *r));
+                        }
+                    }
+                }
+            }
+        }
+        let cells = res.iter().map(|&r| r as usize).product::<usize>();
+        let mut cell_start = vec![0u32; cells + 1];
+        for &(c, _) in &pairs {
+            cell_start[c as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            cell_start[c + 1] += cell_start[c];
+        }
+        let mut fill = cell_start.clone();
+        let mut prim_refs = vec![PrimRef(0); pairs.len()];
+        for &(c, r) in &pairs {
+            prim_refs[fill[c as usize] as usize] = r;
+            fill[c as usize] += 1;
+        }
+
+        let macro_res = res.map(|r| r.div_ceil(MACRO_FACTOR));
+        let macro_count = macro_res.iter().map(|&r| r as usize).product::<usize>();
+        let mut macro_bits = vec![0u32; macro_count.div_ceil(32)];
+        for z in 0..res[2] {
+            for y in 0..res[1] {
+                for x in 0..res[0] {
+                    let c = (x + res[0] * (y + res[1] * z)) as usize;
+                    if cell_start[c + 1] > cell_start[c] {
+                        let [mx, my, mz] = [x, y, z].map(|v| v / MACRO_FACTOR);
+                        let m = mx + macro_res[0] * (my + macro_res[1] * mz);
+                        macro_bits[(m / 32) as usize] |= 1 << (m % 32);
+                    }
+                }
+            }
+        }
+        Grid {
+            min,
+            max,
+            res,
+            cell_size,
+            cell_start,
+            prim_refs,
+            macro_factor: MACRO_FACTOR,
+            macro_res,
+            macro_bits,
+        }
+    }
+
+    pub fn cell_count(&self) -> usize {
+        self.cell_start.len() - 1
+    }
+
+    /// The references of cell `(x, y, z)`.
+    pub fn cell(&self, x: u32, y: u32, z: u32) -> &[PrimRef] {
+        let c = (x + self.res[0] * (y + self.res[1] * z)) as usize;
+        &self.prim_refs[self.cell_start[c] as usize..self.cell_start[c + 1] as usize]
+    }
+
+    /// Whether macro-cell `(mx, my, mz)` has its occupancy bit set.
+    pub fn macro_occupied(&self, mx: u32, my: u32, mz: u32) -> bool {
+        let m = mx + self.macro_res[0] * (my + self.macro_res[1] * mz);
+        self.macro_bits[(m / 32) as usize] & (1 << (m % 32)) != 0
+    }
+
+    pub fn stats(&self) -> GridStats {
+        let counts = self.cell_start.windows(2).map(|w| w[1] - w[0]);
+        let mut prims: Vec<PrimRef> = self.prim_refs.clone();
+        prims.sort_unstable();
+        prims.dedup();
+        GridStats {
+            res: self.res,
+            cells: self.cell_count(),
+            empty_cells: counts.clone().filter(|&n| n == 0).count(),
+            prims: prims.len(),
+            refs: self.prim_refs.len(),
+            max_refs_per_cell: counts.max().unwrap_or(0),
+            macro_res: self.macro_res,
+            macro_occupied: self.macro_bits.iter().map(|b| b.count_ones() as usize).sum(),
+            bytes: 4 * (self.cell_start.len() + self.prim_refs.len() + self.macro_bits.len()),
+        }
+    }
+}
+
+/// The scene bounds grown so that no primitive touches the boundary and no axis is flat. An
+/// empty scene gets a unit box around the origin.
+fn padded(b: Aabb) -> (DVec3, DVec3) {
+    if b.is_empty() {
+        return (DVec3::splat(-0.5), DVec3::splat(0.5));
+    }
+    let extent = (b.hi - b.lo).max_element();
+    let magnitude = b.lo.abs().max(b.hi.abs()).max_element();
+    // Relative to the extent for ordinary scenes; relative to the magnitude when the scene is
+    // tiny compared with its distance from the origin (f32 could not tell its planes apart);
+    // and never zero (a single degenerate triangle at the origin).
+    let pad = (extent * PAD_REL).max(magnitude * 1e-5).max(f64::MIN_POSITIVE.sqrt());
+    (b.lo - pad, b.hi + pad)
+}
+
+/// Cells per axis for `n` primitives in a box of size `extent` (see [`CELLS_PER_PRIMITIVE`]).
+fn resolution(extent: DVec3, n: usize) -> [u32; 3] {
+    if n == 0 {
+        return [1, 1, 1];
+    }
+    let volume = extent.x * extent.y * extent.z;
+    let mut density = (CELLS_PER_PRIMITIVE * n as f64 / volume).cbrt();
+    loop {
+        let res = [0, 1, 2].map(|a| ((extent[a] * density).ceil().clamp(1.0, MAX_RES as f64)) as u32);
+        if res.iter().map(|&r| r as u64).product::<u64>() <= MAX_CELLS {
+            return res;
+        }
+        density *= 0.95;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Ambient, Camera, Material, MaterialKind, Mesh, Sphere, TraceSettings};
+
+    struct Rng(u64);
+    impl Rng {
+        fn f(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn vec(&mut self, lo: f64, hi: f64) -> DVec3 {
+            DVec3::new(self.f(), self.f(), self.f()) * (hi - lo) + lo
+        }
+    }
+
+    fn scene(spheres: Vec<Sphere>, tris: Vec<[DVec3; 3]>) -> Scene {
+        Scene {
+            camera: Camera {
+                eye: DVec3::Z,
+                look_at: DVec3::ZERO,
+                up: DVec3::Y,
+                vfov_deg: 45.0,
+                width: 4,
+                height: 4,
+            },
+            lights: vec![],
+            ambient: Ambient { sky: DVec3::ONE, ground: DVec3::ZERO, up: DVec3::Y },
+            background: DVec3::ZERO,
+            materials: vec![Material { name: "m".into(), kind: MaterialKind::Diffuse { color: DVec3::ONE } }],
+            spheres,
+            meshes: vec![Mesh {
+                positions: tris.iter().flatten().copied().collect(),
+                normals: None,
+                indices: (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+                material: 0,
+            }],
+            trace: TraceSettings::default(),
+        }
+    }
+
+    fn random_scene(seed: u64, n: usize, extent: f64, offset: DVec3) -> Scene {
+        let mut rng = Rng(seed.wrapping_mul(0x9E3779B97F4A7C15) | 1);
+        let (mut spheres, mut tris) = (vec![], vec![]);
+        for i in 0..n {
+            let c = offset + rng.vec(-extent, extent);
+            let size = extent * 0.05 * (0.1 + 4.0 * rng.f() * rng.f());
+            if i % 3 == 0 {
+                spheres.push(Sphere { center: c, radius: size, material: 0 });
+            } else {
+                tris.push([c + rng.vec(-size, size), c + rng.vec(-size, size), c + rng.vec(-size, size)]);
+            }
+        }
+        scene(spheres, tris)
+    }
+
+    fn cell_containing(g: &Grid, p: DVec3) -> [u32; 3] {
+        let c = ((p - g.min) / g.cell_size).floor();
+        [0, 1, 2].map(|a| c[a].clamp(0.0, (g.res[a] - 1) as f64) as u32)
+    }
+
+    /// Points on each primitive's surface (sampled densely) lie in cells that list it.
+    fn assert_complete(g: &Grid, s: &Scene, rng: &mut Rng) {
+        let check = |r: PrimRef, p: DVec3| {
+            assert!(p.cmpgt(g.min).all() && p.cmplt(g.max).all(), "{p} outside the grid box");
+            let [x, y, z] = cell_containing(g, p);
+            assert!(g.cell(x, y, z).contains(&r), "{r:?} missing from cell {x},{y},{z} at {p}");
+            let f = g.macro_factor;
+            assert!(g.macro_occupied(x / f, y / f, z / f));
+        };
+        for (i, sp) in s.spheres.iter().enumerate() {
+            for _ in 0..200 {
+                let d = (rng.vec(-1.0, 1.0)).normalize_or(DVec3::X);
+                check(PrimRef::new(PrimKind::Sphere, i as u32), sp.center + d * sp.radius);
+            }
+        }
+        for (i, t) in s.triangles().enumerate() {
+            for _ in 0..200 {
+                let (mut u, mut v) = (rng.f(), rng.f());
+                if u + v > 1.0 {
+                    (u, v) = (1.0 - u, 1.0 - v);
+                }
+                let p = t.p[0] + u * (t.p[1] - t.p[0]) + v * (t.p[2] - t.p[0]);
+                check(PrimRef::new(PrimKind::Triangle, i as u32), p);
+            }
+        }
+    }
+
+    #[test]
+    fn every_surface_point_is_in_a_cell_that_lists_its_primitive() {
+        let mut rng = Rng(7);
+        for (seed, n, extent, offset) in [
+            (1, 1, 1.0, DVec3::ZERO),
+            (2, 50, 1.0, DVec3::ZERO),
+            (3, 500, 10.0, DVec3::ZERO),
+            (4, 300, 1e-3, DVec3::ZERO),
+            (5, 300, 1.0, DVec3::splat(1e4)),
+        ] {
+            let s = random_scene(seed, n, extent, offset);
+            let g = Grid::build(&s);
+            assert_complete(&g, &s, &mut rng);
+        }
+    }
+
+    /// A primitive is listed only in cells it comes within the margin of: overlap is decided
+    /// exactly (spheres: distance to the box; triangles: clipping the triangle to the box, an
+    /// independent method from the SAT used by the builder).
+    #[test]
+    fn cells_list_only_primitives_that_touch_them() {
+        let s = random_scene(9, 400, 5.0, DVec3::ZERO);
+        let g = Grid::build(&s);
+        let tris: Vec<_> = s.triangles().collect();
+        let slack = g.cell_size * 2e-3;
+        for z in 0..g.res[2] {
+            for y in 0..g.res[1] {
+                for x in 0..g.res[0] {
+                    let lo = g.min + DVec3::new(x as f64, y as f64, z as f64) * g.cell_size - slack;
+                    let hi = lo + g.cell_size + 2.0 * slack;
+                    for r in g.cell(x, y, z) {
+                        let touches = match r.kind() {
+                            PrimKind::Sphere => {
+                                let sp = &s.spheres[r.index() as usize];
+                                sp.center.clamp(lo, hi).distance(sp.center) <= sp.radius
+                            }
+                            PrimKind::Triangle => {
+                                !clip(tris[r.index() as usize].p.to_vec(), lo, hi).is_empty()
+                            }
+                        };
+                        assert!(touches, "{r:?} listed in cell {x},{y},{z} it does not touch");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Sutherland–Hodgman: the part of a convex polygon inside the box.
+    fn clip(mut poly: Vec<DVec3>, lo: DVec3, hi: DVec3) -> Vec<DVec3> {
+        for a in 0..3 {
+            for (bound, keep_below) in [(lo[a], false), (hi[a], true)] {
+                let inside = |p: DVec3| if keep_below { p[a] <= bound } else { p[a] >= bound };
+                let mut out = vec![];
+                for i in 0..poly.len() {
+                    let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+                    if inside(p) {
+                        out.push(p);
+                    }
+                    if inside(p) != inside(q) {
+                        let t = (bound - p[a]) / (q[a] - p[a]);
+                        out.push(p + t * (q - p));
+                    }
+                }
+                poly = out;
+                if poly.is_empty() {
+                    return poly;
+                }
+            }
+        }
+        poly
+    }
+
+    #[test]
+    fn csr_and_macro_bits_are_consistent_and_deterministic() {
+        let s = random_scene(3, 300, 2.0, DVec3::ZERO);
+        let g = Grid::build(&s);
+        assert_eq!(g, Grid::build(&s));
+        assert!(g.cell_start.windows(2).all(|w| w[0] <= w[1]));
+        assert_eq!(*g.cell_start.last().unwrap() as usize, g.prim_refs.len());
+        for c in 0..g.cell_count() {
+            let refs = &g.prim_refs[g.cell_start[c] as usize..g.cell_start[c + 1] as usize];
+            assert!(refs.windows(2).all(|w| w[0] < w[1]), "refs sorted and unique");
+        }
+        let f = g.macro_factor;
+        for mz in 0..g.macro_res[2] {
+            for my in 0..g.macro_res[1] {
+                for mx in 0..g.macro_res[0] {
+                    let mut any = false;
+                    for z in mz * f..((mz + 1) * f).min(g.res[2]) {
+                        for y in my * f..((my + 1) * f).min(g.res[1]) {
+                            for x in mx * f..((mx + 1) * f).min(g.res[0]) {
+                                any |= !g.cell(x, y, z).is_empty();
+                            }
+                        }
+                    }
+                    assert_eq!(g.macro_occupied(mx, my, mz), any, "macro-cell {mx},{my},{mz}");
+                }
+            }
+        }
+        let st = g.stats();
+        assert_eq!(st.prims, s.primitive_count());
+        assert!(st.to_string().contains("cells"));
+    }
+
+    #[test]
+    fn resolution_follows_primitive_count_and_shape() {
+        // Cubic scene: about CELLS_PER_PRIMITIVE cells per primitive, same on every axis.
+        let s = random_scene(4, 1000, 1.0, DVec3::ZERO);
+        let g = Grid::build(&s);
+        let cells = g.cell_count() as f64;
+        assert!((0.5..4.0).contains(&(cells / (CELLS_PER_PRIMITIVE * 1000.0))), "{:?}", g.res);
+        // A flat scene (a ground made of two triangles): thin but not zero thickness, one cell
+        // deep; the long axes still get cells.
+        let ground =
+            [DVec3::new(-10.0, 0.0, -10.0), DVec3::new(10.0, 0.0, -10.0), DVec3::new(10.0, 0.0, 10.0)];
+        let g = Grid::build(&scene(vec![], vec![ground]));
+        assert!(g.max.y > g.min.y && g.res[1] == 1 && g.res[0] > 1 && g.res[2] > 1, "{:?}", g.res);
+        // Caps hold for very many primitives in a long thin box.
+        let mut s = random_scene(5, 10, 1.0, DVec3::ZERO);
+        s.spheres = (0..200_000)
+            .map(|i| Sphere { center: DVec3::new(i as f64, 0.0, 0.0), radius: 0.4, material: 0 })
+            .collect();
+        let g = Grid::build(&s);
+        assert!(g.res.iter().all(|&r| r <= MAX_RES));
+        assert!(g.cell_count() as u64 <= MAX_CELLS);
+    }
+
+    #[test]
+    fn empty_and_degenerate_scenes_build() {
+        let g = Grid::build(&scene(vec![], vec![]));
+        assert_eq!(g.res, [1, 1, 1]);
+        assert!(g.prim_refs.is_empty());
+        // A zero-area triangle at a point: listed in the cell holding the point.
+        let p = DVec3::new(1.0, 2.0, 3.0);
+        let g = Grid::build(&scene(vec![], vec![[p, p, p]]));
+        assert!(g.min.cmplt(p).all() && g.max.cmpgt(p).all());
+        let [x, y, z] = cell_containing(&g, p);
+        assert_eq!(g.cell(x, y, z), [PrimRef::new(PrimKind::Triangle, 0)]);
+    }
+
+    #[test]
+    fn sat_agrees_with_clipping() {
+        let mut rng = Rng(21);
+        let (lo, hi) = (DVec3::ZERO, DVec3::ONE);
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            let c = rng.vec(-0.5, 1.5);
+            let t = [c + rng.vec(-0.6, 0.6), c + rng.vec(-0.6, 0.6), c + rng.vec(-0.6, 0.6)];
+            let sat = triangle_overlaps_box(t, &Aabb { lo, hi });
+            // Clipping against slightly smaller / larger boxes brackets the exact answer.
+            let eps = DVec3::splat(1e-9);
+            if !clip(t.to_vec(), lo + eps, hi - eps).is_empty() {
+                assert!(sat, "{t:?} overlaps the box but SAT says no");
+            }
+            if clip(t.to_vec(), lo - eps, hi + eps).is_empty() {
+                assert!(!sat, "{t:?} misses the box but SAT says yes");
+            }
+            hits += sat as usize;
+        }
+        assert!(hits > 2000 && hits < 18_000, "{hits}");
     }
 }
