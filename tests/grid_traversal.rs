@@ -5,7 +5,7 @@
 //!   scenes, with rays starting outside and inside the grid and axis-parallel rays, ±0 included).
 mod common;
 
-use common::{Rng, f32_round, gpu, plane_barycentrics, scene_of, v4};
+use common::{f32_round, gpu, plane_barycentrics, scene_of, v4, Rng};
 use glam::DVec3;
 use irt::accel::{Grid, PrimKind};
 use irt::gpu::readback::run_kernel;
