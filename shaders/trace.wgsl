@@ -70,13 +70,9 @@ fn shade_local(sf: Surface, m: Material, e: vec3f) -> vec3f {
         if dot(sf.n, l) <= 0.0 {
             continue;
         }
-        let contribution = shade_light(m, sf.n, e, l, light.color.rgb, sf.inside);
-        let o = offset_origin(sf.p, sf.ng, l);
-        let dist = length(light.position_radius.xyz - o);
-        let gap = params.trace.y * max(1.0, max(max(abs(o.x), abs(o.y)), abs(o.z)));
-        ray_counts.w += 1u;
-        if !occluded(o, l, dist - gap) {
-            c += contribution;
+        let s = light_visibility(offset_origin(sf.p, sf.ng, l), l, light);
+        if s > 0.0 {
+            c += s * shade_light(m, sf.n, e, l, light.color.rgb, sf.inside);
         }
     }
     return c;
@@ -149,6 +145,7 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     let x = tile.rect.x + gid.x;
     let y = tile.rect.y + gid.y;
     ray_counts = vec4u(1u, 0u, 0u, 0u);
+    pixel_id = y * params.image.x + x;
     let c = radiance(params.eye.xyz, eye_direction(f32(x) + 0.5, f32(y) + 0.5));
     out_buf[y * params.image.x + x] = vec4f(c, 1.0);
     if COUNT_RAYS {

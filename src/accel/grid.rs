@@ -5,7 +5,7 @@
 //! rounding of the grid's planes and the shader's cell arithmetic, and the grid box is padded
 //! so that nothing lies exactly on its boundary (flat scenes get a real thickness).
 
-use crate::scene::Scene;
+use crate::scene::{Scene, ShadowMode};
 use glam::DVec3;
 use std::fmt;
 
@@ -189,7 +189,13 @@ impl fmt::Display for GridStats {
 
 impl Grid {
     /// Builds the grid for every sphere and mesh triangle of `scene` (which must be valid).
+    /// In `shell` shadow mode every primitive is inserted grown by the largest light radius,
+    /// so that shadow rays find the shells around it (docs/shadows.md).
     pub fn build(scene: &Scene) -> Grid {
+        let shell = match scene.trace.shadows {
+            ShadowMode::Shell { .. } => scene.lights.iter().map(|l| l.radius).fold(0.0, f64::max),
+            _ => 0.0,
+        };
         let shapes: Vec<(PrimRef, Shape)> = scene
             .spheres
             .iter()
@@ -197,7 +203,7 @@ impl Grid {
             .map(|(i, s)| {
                 (
                     PrimRef::new(PrimKind::Sphere, i as u32),
-                    Shape::Sphere { center: s.center, radius: s.radius },
+                    Shape::Sphere { center: s.center, radius: s.radius + shell },
                 )
             })
             .chain(
@@ -207,7 +213,13 @@ impl Grid {
                     .map(|(i, t)| (PrimRef::new(PrimKind::Triangle, i as u32), Shape::Triangle(t.p))),
             )
             .collect();
-        let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| b.union(s.bounds()));
+        // Triangles' shells: bounds and cell boxes grown by the shell width (a superset of the
+        // triangle grown by a ball, which is all that is needed).
+        let tri_grow = |s: &Shape| if matches!(s, Shape::Triangle(_)) { shell } else { 0.0 };
+        let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| {
+            let (sb, g) = (s.bounds(), tri_grow(s));
+            b.union(Aabb { lo: sb.lo - g, hi: sb.hi + g })
+        });
         let (min, max) = padded(bounds);
         let res = resolution(max - min, shapes.len());
         let cell_size = (max - min) / DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64);
@@ -222,13 +234,14 @@ impl Grid {
         };
         let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
         for (r, shape) in &shapes {
+            let m = margin + tri_grow(shape);
             let b = shape.bounds();
-            let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
+            let (lo, hi) = (cell_of(b.lo - m), cell_of(b.hi + m));
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {
                         let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
-                        let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
+                        let cell = Aabb { lo: c_lo - m, hi: c_lo + cell_size + m };
                         if shape.overlaps(&cell) {
                             pairs.push((x + res[0] * (y + res[1] * z), *r));
                         }

@@ -7,7 +7,7 @@
 //! stored as their bits and `bitcast` back in the shader.
 
 use crate::accel::{Grid, PrimKind, PrimRef};
-use crate::scene::{MaterialKind, Scene, MAX_LIGHTS};
+use crate::scene::{bundle_samples, MaterialKind, Scene, ShadowMode, MAX_LIGHTS};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
@@ -70,12 +70,16 @@ pub struct Params {
     pub macro_res: [u32; 4],
     /// First texel of the sphere, triangle, vertex-normal and material records.
     pub prim_base: [u32; 4],
-    /// First texel of the cell ranges, primitive references and macro-cell bits.
+    /// First texel of the cell ranges, primitive references, macro-cell bits and shadow-bundle
+    /// points.
     pub grid_base: [u32; 4],
     /// width, height, max_depth, light count.
     pub image: [u32; 4],
     /// weight_cutoff, ray offset (relative), unused, unused.
     pub trace: [f32; 4],
+    /// Shadow mode (docs/shadows.md): kind (`ShadowMode::kind_index`), bundle size, rotate
+    /// (0/1), falloff | combine << 8.
+    pub shadow: [u32; 4],
     pub lights: [GpuLight; MAX_LIGHTS],
 }
 
@@ -120,6 +124,7 @@ impl PackedScene {
 /// - vertex normals: `[n0.xyz, 0]`, `[n1.xyz, 0]`, `[n2.xyz, 0]`
 /// - material: `[colour.rgb, kind]`, `[eta, exponent, 0, 0]`
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
+/// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
 pub fn pack_scene(scene: &Scene, grid: &Grid) -> PackedScene {
     let mut t: Vec<[u32; 4]> = Vec::new();
     let sphere_base = 0u32;
@@ -180,10 +185,18 @@ pub fn pack_scene(scene: &Scene, grid: &Grid) -> PackedScene {
         texel[..chunk.len()].copy_from_slice(chunk);
         t.push(texel);
     }
+    let bundle_base = t.len() as u32;
+    if let ShadowMode::Bundle { samples, .. } = scene.trace.shadows {
+        for pair in bundle_samples(samples).chunks(2) {
+            let xy = |k: usize| pair.get(k).map_or([0, 0], |p| p.map(|v| (v as f32).to_bits()));
+            let (a, b) = (xy(0), xy(1));
+            t.push([a[0], a[1], b[0], b[1]]);
+        }
+    }
     PackedScene {
         texels: t,
         prim_base: [sphere_base, triangle_base, normal_base, material_base],
-        grid_base: [cell_base, ref_base, macro_base, 0],
+        grid_base: [cell_base, ref_base, macro_base, bundle_base],
     }
 }
 
@@ -216,6 +229,11 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene) -> Params {
         grid_base: packed.grid_base,
         image: [cam.width, cam.height, scene.trace.max_depth, scene.lights.len() as u32],
         trace: [scene.trace.weight_cutoff as f32, RAY_OFFSET_REL, 0.0, 0.0],
+        shadow: match scene.trace.shadows {
+            ShadowMode::Hard => [0; 4],
+            ShadowMode::Bundle { samples, rotate } => [1, samples, rotate as u32, 0],
+            ShadowMode::Shell { falloff, combine } => [2, 0, 0, falloff as u32 | (combine as u32) << 8],
+        },
         lights,
     }
 }

@@ -4,12 +4,13 @@
 use super::layout;
 
 /// Shared modules, in dependency order.
-const MODULES: [(&str, &str); 5] = [
+const MODULES: [(&str, &str); 6] = [
     ("types.wgsl", include_str!("../../shaders/types.wgsl")),
     ("scene.wgsl", include_str!("../../shaders/scene.wgsl")),
     ("intersect.wgsl", include_str!("../../shaders/intersect.wgsl")),
     ("grid.wgsl", include_str!("../../shaders/grid.wgsl")),
     ("shading.wgsl", include_str!("../../shaders/shading.wgsl")),
+    ("shadows.wgsl", include_str!("../../shaders/shadows.wgsl")),
 ];
 
 /// What a compiled shader contains besides the shared modules.
@@ -31,21 +32,34 @@ pub struct Variant {
     pub triangles: bool,
     /// Count rays by kind into the stats buffer (costs four atomics per pixel).
     pub count_rays: bool,
+    /// The shadow mode compiled in (`ShadowMode::kind_index`), or [`SHADOWS_ANY`]: chosen at run
+    /// time from `Params::shadow`.
+    pub shadows: u32,
 }
+
+/// Shadow-mode slot of the uber-shader: every mode compiled in, picked by a uniform.
+pub const SHADOWS_ANY: u32 = 3;
 
 impl Variant {
     /// Everything on: the uber-shader.
-    pub const FULL: Variant = Variant { spheres: true, triangles: true, count_rays: true };
+    pub const FULL: Variant = Variant { spheres: true, triangles: true, count_rays: true, shadows: SHADOWS_ANY };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
-        Variant { spheres: !scene.spheres.is_empty(), triangles: scene.triangle_count() > 0, count_rays }
+        Variant {
+            spheres: !scene.spheres.is_empty(),
+            triangles: scene.triangle_count() > 0,
+            count_rays,
+            shadows: scene.trace.shadows.kind_index(),
+        }
     }
 
     /// Every variant that can be built (validated by a test).
     pub fn all() -> Vec<Variant> {
         let mut v = Vec::new();
         for bits in 0..8u32 {
-            v.push(Variant { spheres: bits & 1 != 0, triangles: bits & 2 != 0, count_rays: bits & 4 != 0 });
+            for shadows in 0..=SHADOWS_ANY {
+                v.push(Variant { spheres: bits & 1 != 0, triangles: bits & 2 != 0, count_rays: bits & 4 != 0, shadows });
+            }
         }
         v
     }
@@ -57,6 +71,7 @@ impl Variant {
         s += &b("HAS_SPHERES", self.spheres);
         s += &b("HAS_TRIANGLES", self.triangles);
         s += &b("COUNT_RAYS", self.count_rays);
+        s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);
         s
     }
 }

@@ -7,6 +7,7 @@
 mod bvh;
 mod geometry;
 mod shading;
+pub mod shadows;
 mod trace;
 
 pub use geometry::{intersect_sphere, intersect_triangle, triangle_normal};

@@ -6,7 +6,8 @@ use super::geometry::{intersect_sphere, intersect_triangle, triangle_normal};
 use super::shading::{
     ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light,
 };
-use crate::scene::{CameraBasis, MaterialKind, Scene, Triangle};
+use super::shadows::{bundle_point, frame, sphere_shell, stratified_disc, triangle_shell};
+use crate::scene::{bundle_samples, CameraBasis, Combine, Light, MaterialKind, Scene, ShadowMode, Triangle};
 use glam::DVec3;
 use std::cell::Cell;
 use std::ops::AddAssign;
@@ -74,6 +75,10 @@ pub struct Reference<'a> {
     up: DVec3,
     /// `None`: scan every primitive (the plain oracle the BVH is tested against).
     bvh: Option<Bvh>,
+    /// `Some(n)`: soft shadows integrated over an `n × n` stratified disc instead of the scene's
+    /// shadow mode (the ground truth of docs/shadows.md).
+    ground_truth: Option<u32>,
+    bundle: Vec<[f64; 2]>,
 }
 
 impl<'a> Reference<'a> {
@@ -103,7 +108,18 @@ impl<'a> Reference<'a> {
             // docs/shading.md wants a unit `up`; the scene only guarantees non-zero.
             up: scene.ambient.up.normalize(),
             bvh: None,
+            ground_truth: None,
+            bundle: match scene.trace.shadows {
+                ShadowMode::Bundle { samples, .. } => bundle_samples(samples),
+                _ => Vec::new(),
+            },
         }
+    }
+
+    /// Traces soft shadows as the ground truth does: `strata²` stratified rays per light.
+    pub fn with_ground_truth(mut self, strata: u32) -> Self {
+        self.ground_truth = Some(strata.max(1));
+        self
     }
 
     /// Radiance through image position (`px`, `py`) in pixels; `(x + 0.5, y + 0.5)` is the
@@ -112,7 +128,8 @@ impl<'a> Reference<'a> {
         let cam = &self.scene.camera;
         let d = cam.direction(&self.basis, px, py).normalize();
         stats.eye += 1;
-        self.trace(cam.eye, d, 1, DVec3::ONE, stats)
+        let pixel = px.floor().max(0.0) as u32 + py.floor().max(0.0) as u32 * cam.width;
+        self.trace_from(cam.eye, d, 1, DVec3::ONE, pixel, stats)
     }
 
     /// Nearest hit with `0 < t < t_max`; `d` unit. The winner is the smallest `t`, and on an
@@ -235,6 +252,11 @@ impl<'a> Reference<'a> {
     /// Radiance arriving at `o` from direction `d` (unit) for a ray of the given depth and
     /// weight (eye ray: depth 1, weight 1).
     pub fn trace(&self, o: DVec3, d: DVec3, depth: u32, weight: DVec3, stats: &mut Stats) -> DVec3 {
+        self.trace_from(o, d, depth, weight, 0, stats)
+    }
+
+    /// [`Self::trace`] for the ray tree of pixel `pixel` (bundles are rotated per pixel).
+    fn trace_from(&self, o: DVec3, d: DVec3, depth: u32, weight: DVec3, pixel: u32, stats: &mut Stats) -> DVec3 {
         let Some(hit) = self.intersect(o, d, f64::INFINITY) else {
             return self.scene.background;
         };
@@ -267,14 +289,9 @@ impl<'a> Reference<'a> {
             if n.dot(l) <= 0.0 {
                 continue; // faces away: no light, no shadow ray
             }
-            let so = origin(l);
-            let sv = light.position - so;
-            let sdist = sv.length();
-            stats.shadow += 1;
-            // Decision: a light within eps of the offset origin is unblocked.
-            let visible = sdist <= eps || !self.occluded(so, sv / sdist, sdist - eps);
-            if visible {
-                radiance += shade_light(m, n, e, l, light.color, inside);
+            let s = self.visibility(origin(l), light, eps, pixel, stats);
+            if s > 0.0 {
+                radiance += s * shade_light(m, n, e, l, light.color, inside);
             }
         }
 
@@ -285,7 +302,7 @@ impl<'a> Reference<'a> {
             if wr.max_element() > cutoff {
                 let r = reflect(d, n).normalize();
                 stats.reflection += 1;
-                radiance += ks * self.trace(origin(r), r, depth + 1, wr, stats);
+                radiance += ks * self.trace_from(origin(r), r, depth + 1, wr, pixel, stats);
             }
             let wt = weight * kt;
             if wt.max_element() > cutoff {
@@ -296,12 +313,61 @@ impl<'a> Reference<'a> {
                     // "none on total internal reflection" says.
                     if let Some(t) = refract(d, n, eta_ratio) {
                         stats.refraction += 1;
-                        radiance += kt * self.trace(origin(t), t, depth + 1, wt, stats);
+                        radiance += kt * self.trace_from(origin(t), t, depth + 1, wt, pixel, stats);
                     }
                 }
             }
         }
         radiance
+    }
+
+    /// Visibility `s` of `light` from the offset origin `so` (docs/shadows.md).
+    fn visibility(&self, so: DVec3, light: &Light, eps: f64, pixel: u32, stats: &mut Stats) -> f64 {
+        let c = light.position;
+        let dist = (c - so).length();
+        // Decision: a light within eps of the offset origin is unblocked.
+        let ray_to = |q: DVec3, stats: &mut Stats| {
+            stats.shadow += 1;
+            let v = q - so;
+            let len = v.length();
+            if len <= eps || !self.occluded(so, v / len, len - eps) {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        if dist <= eps || light.radius == 0.0 {
+            return ray_to(c, stats);
+        }
+        let l = (c - so) / dist;
+        let (u, v) = frame(l);
+        let on_disc = |x: glam::DVec2| c + light.radius * (x.x * u + x.y * v);
+        if let Some(n) = self.ground_truth {
+            let total: f64 = (0..n * n).map(|k| ray_to(on_disc(stratified_disc(k / n, k % n, n)), stats)).sum();
+            return total / (n * n) as f64;
+        }
+        match self.scene.trace.shadows {
+            ShadowMode::Hard => ray_to(c, stats),
+            ShadowMode::Bundle { rotate, .. } => {
+                let total: f64 =
+                    self.bundle.iter().map(|&x| ray_to(on_disc(bundle_point(x, pixel, rotate)), stats)).sum();
+                total / self.bundle.len() as f64
+            }
+            ShadowMode::Shell { falloff, combine } => {
+                stats.shadow += 1;
+                if self.occluded(so, l, dist - eps) {
+                    return 0.0;
+                }
+                let r = light.radius;
+                let spheres = self.scene.spheres.iter().map(|s| sphere_shell(falloff, so, l, dist, r, s.center, s.radius));
+                let tris = self.triangles.iter().map(|t| triangle_shell(falloff, so, l, dist, r, t.p));
+                let sigmas = spheres.chain(tris);
+                match combine {
+                    Combine::Min => sigmas.fold(1.0, f64::min),
+                    Combine::Product => sigmas.product(),
+                }
+            }
+        }
     }
 
     /// Every pixel at its centre, rows shared round-robin over the available cores.

@@ -5,8 +5,10 @@
 //! reference read it. Units are arbitrary; colours are linear RGB.
 
 mod builtin;
+mod shadows;
 
 pub use builtin::default_scene;
+pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
 use glam::DVec3;
 
 /// Largest image side we accept; larger is refused before anything is allocated.
@@ -140,11 +142,13 @@ pub struct TraceSettings {
     pub max_depth: u32,
     /// A reflected/refracted ray is traced only if its weight (max channel) exceeds this.
     pub weight_cutoff: f64,
+    /// How light visibility is found (docs/shadows.md).
+    pub shadows: ShadowMode,
 }
 
 impl Default for TraceSettings {
     fn default() -> Self {
-        TraceSettings { max_depth: 5, weight_cutoff: 1.0 / 512.0 }
+        TraceSettings { max_depth: 5, weight_cutoff: 1.0 / 512.0, shadows: ShadowMode::Hard }
     }
 }
 

@@ -1,0 +1,182 @@
+//! f64 twins of the shadow modes in docs/shadows.md, and the ground truth they are judged by.
+
+use crate::scene::{Falloff, pixel_hash};
+use glam::{DVec2, DVec3};
+use std::f64::consts::PI;
+
+/// Branchless orthonormal basis around unit `n` (Duff et al. 2017): the light disc's axes.
+pub fn frame(n: DVec3) -> (DVec3, DVec3) {
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        DVec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// Shell transparency for `tau` in [0, 1] (clamped outside).
+pub fn falloff(f: Falloff, tau: f64) -> f64 {
+    let t = tau.clamp(0.0, 1.0);
+    match f {
+        Falloff::Smoothstep => t * t * (3.0 - 2.0 * t),
+        Falloff::Linear => t,
+        Falloff::Disc => {
+            let x = 1.0 - 2.0 * t;
+            (x.acos() - x * (1.0 - x * x).max(0.0).sqrt()) / PI
+        }
+    }
+}
+
+/// Transparency of a sphere's shell for the shadow ray `p + t l`, `0 < t < dist`, towards a
+/// light of radius `light_r`; 1 when the ray passes outside the shell (the caller has already
+/// established that the ray misses the sphere itself).
+pub fn sphere_shell(f: Falloff, p: DVec3, l: DVec3, dist: f64, light_r: f64, center: DVec3, radius: f64) -> f64 {
+    let t = (center - p).dot(l);
+    if t <= 0.0 || t >= dist {
+        return 1.0;
+    }
+    let d = (center - (p + t * l)).length();
+    let b = light_r * t / dist;
+    if b <= 0.0 || d >= radius + b {
+        return 1.0;
+    }
+    falloff(f, (d - radius) / b)
+}
+
+/// Transparency of a triangle's shell (the points within `b` of its edges).
+pub fn triangle_shell(f: Falloff, p: DVec3, l: DVec3, dist: f64, light_r: f64, tri: [DVec3; 3]) -> f64 {
+    let (mut d, mut t) = (f64::INFINITY, 0.0);
+    for i in 0..3 {
+        let (di, ti) = segment_distance(p, l, dist, tri[i], tri[(i + 1) % 3]);
+        if di < d {
+            (d, t) = (di, ti);
+        }
+    }
+    if t <= 0.0 || t >= dist {
+        return 1.0;
+    }
+    let b = light_r * t / dist;
+    if b <= 0.0 || d >= b {
+        return 1.0;
+    }
+    falloff(f, d / b)
+}
+
+/// Distance between the segment `p + t l`, `t ∈ [0, len]` (`l` unit) and the segment `a b`,
+/// with the `t` of the closest point (Ericson, Real-Time Collision Detection §5.1.9).
+pub fn segment_distance(p: DVec3, l: DVec3, len: f64, a: DVec3, b: DVec3) -> (f64, f64) {
+    let e = b - a;
+    let r = p - a;
+    let ee = e.dot(e);
+    let le = l.dot(e);
+    let lr = l.dot(r);
+    let er = e.dot(r);
+    // t along the ray, s along the edge; first the unconstrained solution, then clamping.
+    let (t, s) = if ee <= f64::MIN_POSITIVE {
+        ((-lr).clamp(0.0, len), 0.0)
+    } else {
+        let denom = ee - le * le; // |l|² |e|² − (l·e)², |l| = 1
+        let mut t = if denom > 1e-12 * ee { ((le * er - ee * lr) / denom).clamp(0.0, len) } else { 0.0 };
+        let mut s = (le * t + er) / ee;
+        if s < 0.0 {
+            s = 0.0;
+            t = (-lr).clamp(0.0, len);
+        } else if s > 1.0 {
+            s = 1.0;
+            t = (le - lr).clamp(0.0, len);
+        }
+        (t, s)
+    };
+    (((p + t * l) - (a + s * e)).length(), t)
+}
+
+/// The `k`-th bundle point rotated for pixel `pixel` (`rotate`), as an offset on the unit disc.
+pub fn bundle_point(sample: [f64; 2], pixel: u32, rotate: bool) -> DVec2 {
+    let s = DVec2::from(sample);
+    if !rotate {
+        return s;
+    }
+    let angle = 2.0 * PI * (pixel_hash(pixel) as f64 / 4294967296.0);
+    DVec2::from_angle(angle).rotate(s)
+}
+
+/// Point `(i, j)` of an `n × n` jittered stratification of the unit disc (Shirley–Chiu's
+/// concentric map of the square), the ground truth's sample set.
+pub fn stratified_disc(i: u32, j: u32, n: u32) -> DVec2 {
+    let jitter = |k: u32| pixel_hash(k) as f64 / 4294967296.0;
+    let u = (i as f64 + jitter(i * n + j)) / n as f64;
+    let v = (j as f64 + jitter(n * n + i * n + j)) / n as f64;
+    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return DVec2::ZERO;
+    }
+    let (r, phi) = if a * a > b * b { (a, PI / 4.0 * (b / a)) } else { (b, PI / 2.0 - PI / 4.0 * (a / b)) };
+    DVec2::new(r * phi.cos(), r * phi.sin())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal() {
+        for n in [DVec3::X, DVec3::NEG_Z, DVec3::new(0.3, -0.5, 0.8).normalize(), DVec3::new(1e-9, 0.0, -1.0).normalize()] {
+            let (u, v) = frame(n);
+            for (a, b) in [(u, v), (u, n), (v, n)] {
+                assert!(a.dot(b).abs() < 1e-12);
+            }
+            assert!((u.length() - 1.0).abs() < 1e-12 && (v.length() - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn falloffs_rise_from_zero_to_one() {
+        for f in Falloff::ALL {
+            assert_eq!(falloff(f, 0.0), 0.0);
+            assert!((falloff(f, 1.0) - 1.0).abs() < 1e-12);
+            let mut last = 0.0;
+            for k in 1..=100 {
+                let s = falloff(f, k as f64 / 100.0);
+                assert!(s >= last, "{f:?} not monotone");
+                last = s;
+            }
+        }
+        assert!((falloff(Falloff::Disc, 0.5) - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn segment_distance_matches_sampling() {
+        let p = DVec3::new(0.1, -0.2, 0.3);
+        let l = DVec3::new(1.0, 0.4, -0.2).normalize();
+        for (a, b) in [
+            (DVec3::new(1.0, 1.0, 0.0), DVec3::new(1.5, -1.0, 0.5)),
+            (DVec3::new(-2.0, 0.0, 0.0), DVec3::new(-1.0, 0.1, 0.0)),
+            (DVec3::new(0.5, 0.5, 0.5), DVec3::new(0.5, 0.5, 0.5)),
+            (p + 2.0 * l + DVec3::Y, p + 3.0 * l + DVec3::Y),
+        ] {
+            let (d, t) = segment_distance(p, l, 4.0, a, b);
+            let mut best = f64::INFINITY;
+            for i in 0..=400 {
+                for j in 0..=400 {
+                    let q = p + l * (4.0 * i as f64 / 400.0);
+                    let r = a + (b - a) * (j as f64 / 400.0);
+                    best = best.min(q.distance(r));
+                }
+            }
+            assert!(d <= best + 1e-12 && d > best - 0.02, "{d} vs sampled {best}");
+            assert!(((p + t * l) - a).length() >= d - 1e-9);
+        }
+    }
+
+    #[test]
+    fn stratified_disc_stays_inside_and_fills_it() {
+        let n = 16;
+        let pts: Vec<DVec2> = (0..n).flat_map(|i| (0..n).map(move |j| stratified_disc(i, j, n))).collect();
+        assert!(pts.iter().all(|p| p.length() <= 1.0));
+        let mean = pts.iter().copied().sum::<DVec2>() / pts.len() as f64;
+        assert!(mean.length() < 0.02, "{mean}");
+        let inner = pts.iter().filter(|p| p.length() < 0.5f64.sqrt()).count();
+        assert!((118..=138).contains(&inner), "{inner}");
+    }
+}
