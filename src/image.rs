@@ -57,24 +57,27 @@ impl Image {
     }
 }
 
-/// Writes 8-bit RGB data as PNG via a temporary file and a rename.
+/// Encodes 8-bit RGB as PNG and writes it with [`write_atomic`].
 pub fn write_png_atomic(path: &Path, width: u32, height: u32, rgb: &[u8]) -> std::io::Result<()> {
+    use image::ImageEncoder;
+    let mut buf = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut buf)
+        .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(std::io::Error::other)?;
+    write_atomic(path, &buf)
+}
+
+/// Writes `bytes` to a temporary file beside `path`, then renames it over `path`: readers see
+/// the old file or the whole new one, never a half-written one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = path.file_name().ok_or_else(|| {
-        std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            format!("'{}' is not a file path", path.display()),
-        )
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("'{}' is not a file path", path.display()))
     })?;
     let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
     let result = (|| {
-        use image::ImageEncoder;
-        let mut buf = Vec::new();
-        image::codecs::png::PngEncoder::new(&mut buf)
-            .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
-            .map_err(std::io::Error::other)?;
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&buf)?;
+        f.write_all(bytes)?;
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();

@@ -11,3 +11,4 @@ pub mod io;
 pub mod metrics;
 pub mod reference;
 pub mod scene;
+pub mod tradeoff;

@@ -29,6 +29,8 @@ enum Command {
     Info(DeviceArgs),
     /// Measure grid build, time to first frame and Mrays/s.
     Bench(BenchArgs),
+    /// Measure every shadow mode's time and error against the ground truth; table + plot.
+    Tradeoff(TradeoffArgs),
 }
 
 #[derive(Args)]
@@ -49,6 +51,15 @@ struct SceneArgs {
     /// Image height in pixels (overrides the scene's camera).
     #[arg(long)]
     height: Option<u32>,
+    /// Shadow mode (overrides the scene's [trace] shadows): hard, bundle:K (K rays to a
+    /// precomputed point set on the light, rotated per pixel; bundle:K:fixed unrotated), or shell
+    /// (one ray through translucent shells; shell:FALLOFF:COMBINE with FALLOFF smoothstep, linear
+    /// or disc and COMBINE min or product). See docs/shadows.md.
+    #[arg(long, value_name = "MODE")]
+    shadows: Option<irt::scene::ShadowMode>,
+    /// Radius of every light (overrides the scene; 0 is a point light, soft modes need > 0).
+    #[arg(long, value_name = "R")]
+    light_radius: Option<f64>,
 }
 
 #[derive(Args)]
@@ -61,6 +72,23 @@ struct RenderArgs {
     /// Print rays traced by kind (eye, reflection, refraction, shadow).
     #[arg(long)]
     stats: bool,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+#[derive(Args)]
+struct TradeoffArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Where table.md and plot.svg go (created if missing).
+    #[arg(long, default_value = "tradeoff")]
+    out_dir: PathBuf,
+    /// Ground truth: STRATA² stratified shadow rays per light and shading point (64 → 4096).
+    #[arg(long, default_value_t = 64)]
+    strata: u32,
+    /// Timed frames per mode (median reported).
+    #[arg(long, default_value_t = 3)]
+    frames: u32,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -89,6 +117,7 @@ fn main() {
         Command::Render(a) => render(a),
         Command::Info(a) => info(a),
         Command::Bench(a) => bench(a),
+        Command::Tradeoff(a) => tradeoff(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -106,6 +135,12 @@ fn load_scene(args: &SceneArgs) -> Result<Scene> {
     }
     if let Some(h) = args.height {
         scene.camera.height = h;
+    }
+    if let Some(m) = args.shadows {
+        scene.trace.shadows = m;
+    }
+    if let Some(r) = args.light_radius {
+        scene.lights.iter_mut().for_each(|l| l.radius = r);
     }
     let origin = args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
     scene.validate().with_context(|| format!("{origin} cannot be rendered"))?;
@@ -283,4 +318,69 @@ fn bench(args: BenchArgs) -> Result<()> {
         println!("throughput       {mrays:.2} Mrays/s");
     }
     Ok(())
+}
+
+fn tradeoff(args: TradeoffArgs) -> Result<()> {
+    let mut scene_args = args.scene;
+    // Half the default scene's size unless told: the f64 ground truth traces `strata²` rays per
+    // shading point on the CPU.
+    if scene_args.width.is_none() && scene_args.height.is_none() {
+        scene_args.width = Some(320);
+        scene_args.height = Some(240);
+    }
+    let scene = load_scene(&scene_args)?;
+    if scene.lights.iter().all(|l| l.radius == 0.0) {
+        bail!("every light is a point light (radius 0): soft shadows equal hard ones; give the lights a radius (--light-radius R)");
+    }
+    if !(1..=256).contains(&args.strata) {
+        bail!("--strata {} must be between 1 and 256", args.strata);
+    }
+    std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
+    let ctx = open_device(&args.device)?;
+    let name = scene_args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    eprintln!("ground truth: {w}x{h}, {} shadow rays per light and shading point, f64 on the CPU...", args.strata * args.strata);
+    let t = Instant::now();
+    let truth = irt::reference::Reference::new(&scene).with_ground_truth(args.strata).render().0;
+    let truth = irt::image::Image {
+        width: truth.width,
+        height: truth.height,
+        pixels: truth.pixels.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
+    };
+    eprintln!("ground truth took {:.1} s", t.elapsed().as_secs_f64());
+    truth.save_png(&args.out_dir.join("ground-truth.png"))?;
+    let modes = irt::tradeoff::modes();
+    let bar = indicatif::ProgressBar::new(modes.len() as u64);
+    let mut rows = Vec::new();
+    for mode in modes {
+        bar.set_message(mode.to_string());
+        rows.push(irt::tradeoff::measure(&ctx, &scene, mode, &truth, args.frames).map_err(anyhow::Error::msg)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let header = format!(
+        "Scene: {name}, {w}x{h}, light radius {}; device: {}; ground truth {}² stratified rays (f64 CPU); {}; command: `irt tradeoff{}`\n\n",
+        scene.lights.iter().map(|l| l.radius.to_string()).collect::<Vec<_>>().join(", "),
+        ctx.info.name,
+        args.strata,
+        machine_line(),
+        std::env::args().skip(2).map(|a| format!(" {a}")).collect::<String>(),
+    );
+    let table = header + &irt::tradeoff::markdown_table(&rows);
+    print!("{table}");
+    irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
+    irt::tradeoff::plot_svg(&rows, &format!("shadow modes on {name}: error vs time"), &args.out_dir.join("plot.svg"))
+        .map_err(anyhow::Error::msg)?;
+    eprintln!("wrote {}/table.md, plot.svg, ground-truth.png", args.out_dir.display());
+    Ok(())
+}
+
+/// CPU model and core count, for tables that state the machine.
+fn machine_line() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
+        .unwrap_or_else(|| "unknown CPU".into());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!("{cpu}, {cores} cores")
 }

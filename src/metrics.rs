@@ -80,3 +80,76 @@ pub fn diff_image(a: &Image, b: &Image, gain: f32) -> Image {
         .collect();
     Image { width: a.width, height: a.height, pixels }
 }
+
+/// Mean structural similarity (Wang et al. 2004) of the display-space luma of `test` against
+/// `reference`: 11×11 Gaussian windows (σ = 1.5), the paper's constants. 1 is identical; the
+/// perceptual metric of `irt tradeoff`, which rewards smooth penumbrae over noisy ones at equal
+/// RMSE.
+pub fn ssim(test: &Image, reference: &Image) -> f64 {
+    assert_eq!((test.width, test.height), (reference.width, reference.height), "image sizes differ");
+    let (w, h) = (test.width as usize, test.height as usize);
+    let luma = |img: &Image| -> Vec<f64> {
+        img.pixels
+            .iter()
+            .map(|p| 0.2126 * display(p[0] as f64) + 0.7152 * display(p[1] as f64) + 0.0722 * display(p[2] as f64))
+            .collect()
+    };
+    let (x, y) = (luma(test), luma(reference));
+    const R: isize = 5;
+    let g: Vec<f64> = (-R..=R).map(|i| (-(i * i) as f64 / (2.0 * 1.5 * 1.5)).exp()).collect();
+    let (c1, c2) = (0.01f64.powi(2), 0.03f64.powi(2));
+    let (mut total, mut count) = (0.0, 0usize);
+    // Windows wholly inside the image (or the whole image when it is smaller than a window).
+    let range = |n: usize| if n > 2 * R as usize { R as usize..n - R as usize } else { n / 2..n / 2 + 1 };
+    for cy in range(h) {
+        for cx in range(w) {
+            let (mut sw, mut mx, mut my, mut xx, mut yy, mut xy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+            for dy in -R..=R {
+                for dx in -R..=R {
+                    let (px, py) = (cx as isize + dx, cy as isize + dy);
+                    if px < 0 || py < 0 || px >= w as isize || py >= h as isize {
+                        continue;
+                    }
+                    let k = py as usize * w + px as usize;
+                    let wt = g[(dx + R) as usize] * g[(dy + R) as usize];
+                    sw += wt;
+                    mx += wt * x[k];
+                    my += wt * y[k];
+                    xx += wt * x[k] * x[k];
+                    yy += wt * y[k] * y[k];
+                    xy += wt * x[k] * y[k];
+                }
+            }
+            let (mx, my) = (mx / sw, my / sw);
+            let (vx, vy, cov) = (xx / sw - mx * mx, yy / sw - my * my, xy / sw - mx * my);
+            total += ((2.0 * mx * my + c1) * (2.0 * cov + c2)) / ((mx * mx + my * my + c1) * (vx + vy + c2));
+            count += 1;
+        }
+    }
+    total / count.max(1) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn noise(w: u32, h: u32, amp: f32, seed: u32) -> Image {
+        let mut s = seed;
+        let pixels = (0..w * h)
+            .map(|i| {
+                s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+                let v = 0.3 + 0.2 * ((i % w) as f32 / w as f32) + amp * ((s >> 8) as f32 / 16777216.0 - 0.5);
+                [v, v, v]
+            })
+            .collect();
+        Image { width: w, height: h, pixels }
+    }
+
+    #[test]
+    fn ssim_is_one_for_equal_images_and_falls_with_noise() {
+        let a = noise(40, 30, 0.0, 1);
+        assert!((ssim(&a, &a) - 1.0).abs() < 1e-12);
+        let (s1, s2) = (ssim(&noise(40, 30, 0.05, 2), &a), ssim(&noise(40, 30, 0.2, 3), &a));
+        assert!(s1 < 1.0 && s2 < s1, "{s1} {s2}");
+    }
+}

@@ -1,0 +1,137 @@
+//! `irt tradeoff`: what each shadow mode costs and how wrong it is, measured side by side in one
+//! run against the CPU ground truth (docs/shadows.md).
+
+use crate::gpu::{GpuContext, RenderOptions, Renderer};
+use crate::image::Image;
+use crate::metrics::{compare, ssim};
+use crate::scene::{Combine, Falloff, Scene, ShadowMode};
+use plotters::prelude::*;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// One mode's measurements.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub mode: ShadowMode,
+    /// Median frame time (specialised pipeline, warm).
+    pub frame: Duration,
+    pub mrays: f64,
+    pub shadow_rays_per_pixel: f64,
+    /// Display-space error against the ground truth.
+    pub rmse: f64,
+    pub max: f64,
+    pub ssim: f64,
+}
+
+/// The modes compared: hard, every shell variant, bundles of 4 to 256 (rotated) and one fixed.
+pub fn modes() -> Vec<ShadowMode> {
+    let mut v = vec![ShadowMode::Hard];
+    for falloff in Falloff::ALL {
+        for combine in [Combine::Min, Combine::Product] {
+            v.push(ShadowMode::Shell { falloff, combine });
+        }
+    }
+    for samples in [4, 16, 64, 256] {
+        v.push(ShadowMode::Bundle { samples, rotate: true });
+    }
+    v.push(ShadowMode::Bundle { samples: 16, rotate: false });
+    v
+}
+
+/// Renders `scene` in `mode` (median of `frames` warm frames) and compares it with `truth`.
+pub fn measure(ctx: &GpuContext, scene: &Scene, mode: ShadowMode, truth: &Image, frames: u32) -> Result<Row, String> {
+    let mut s = scene.clone();
+    s.trace.shadows = mode;
+    let renderer = Renderer::new(ctx, &s, RenderOptions::default())?;
+    let image = renderer.render(ctx, &mut |_, _| {}).image;
+    let mut times: Vec<Duration> = (0..frames.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            renderer.render(ctx, &mut |_, _| {});
+            t.elapsed()
+        })
+        .collect();
+    times.sort();
+    let frame = times[times.len() / 2];
+    let rays = Renderer::new(ctx, &s, RenderOptions { count_rays: true, ..Default::default() })?
+        .render(ctx, &mut |_, _| {})
+        .rays;
+    let diff = compare(&image, truth);
+    let pixels = (s.camera.width * s.camera.height) as f64;
+    Ok(Row {
+        mode,
+        frame,
+        mrays: rays.total() as f64 / frame.as_secs_f64() / 1e6,
+        shadow_rays_per_pixel: rays.shadow as f64 / pixels,
+        rmse: diff.rmse,
+        max: diff.max,
+        ssim: ssim(&image, truth),
+    })
+}
+
+/// The rows as a Markdown table, with each mode's time relative to hard shadows.
+pub fn markdown_table(rows: &[Row]) -> String {
+    let hard = rows.iter().find(|r| r.mode == ShadowMode::Hard).map(|r| r.frame.as_secs_f64());
+    let mut s = String::from(
+        "| mode | frame ms | × hard | Mrays/s | shadow rays/pixel | RMSE | max error | SSIM |\n\
+         |---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let rel = hard.map_or("–".into(), |h| format!("{:.2}", r.frame.as_secs_f64() / h));
+        s += &format!(
+            "| {} | {:.1} | {rel} | {:.2} | {:.2} | {:.5} | {:.3} | {:.4} |\n",
+            r.mode,
+            r.frame.as_secs_f64() * 1e3,
+            r.mrays,
+            r.shadow_rays_per_pixel,
+            r.rmse,
+            r.max,
+            r.ssim
+        );
+    }
+    s
+}
+
+/// Error (RMSE) against frame time, log–log, one labelled point per mode, as SVG.
+pub fn plot_svg(rows: &[Row], title: &str, path: &Path) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("plotting {}: {e}", path.display());
+    let ms: Vec<f64> = rows.iter().map(|r| r.frame.as_secs_f64() * 1e3).collect();
+    let rmse: Vec<f64> = rows.iter().map(|r| r.rmse.max(1e-6)).collect();
+    let span = |v: &[f64]| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(0.0, f64::max);
+        (lo / 1.5)..(hi * 1.5)
+    };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(20)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(span(&ms).log_scale(), span(&rmse).log_scale())
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("frame time (ms, log)")
+            .y_desc("RMSE vs ground truth (display space, log)")
+            .draw()
+            .map_err(|e| err(&e))?;
+        let colour = |m: &ShadowMode| match m {
+            ShadowMode::Hard => BLACK,
+            ShadowMode::Shell { .. } => RED,
+            ShadowMode::Bundle { .. } => BLUE,
+        };
+        chart
+            .draw_series(rows.iter().zip(ms.iter().zip(&rmse)).map(|(r, (&x, &y))| {
+                EmptyElement::at((x, y))
+                    + Circle::new((0, 0), 4, colour(&r.mode).filled())
+                    + Text::new(r.mode.to_string(), (6, -12), ("sans-serif", 12))
+            }))
+            .map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
+    }
+    crate::image::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
+}
