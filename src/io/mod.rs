@@ -1,5 +1,132 @@
 //! Scene files → [`crate::scene::Scene`]. Errors name the file, line and column.
+//!
+//! [`load`] picks a parser by file extension from [`FORMATS`]; each parser turns text into a
+//! validated [`Scene`] and reports problems as a [`LoadError`] pointing at the offending value.
+
+pub mod shapes;
 pub mod toml;
-pub fn load(p: &std::path::Path) -> Result<crate::scene::Scene, std::io::Error> {
-    Err(std::io::Error::other(format!("stub {}", p.display())))
+
+use crate::scene::Scene;
+use std::io::Read;
+use std::path::Path;
+
+/// Files above this size are refused before reading. Text formats are parsed into a document
+/// tree that costs tens of bytes per number, so this already means gigabytes of memory; meshes
+/// that need more belong in a binary format.
+pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
+/// Loader limits on counts, well inside what the GPU records can index (`PrimRef` has 30 bits),
+/// so that a typo (an icosphere in a loop, a runaway generator) is an error and not a hang.
+pub const MAX_SPHERES: usize = 1 << 22;
+pub const MAX_TRIANGLES: usize = 1 << 22;
+pub const MAX_VERTICES: usize = 1 << 22;
+pub const MAX_MATERIALS: usize = 1 << 16;
+
+/// Why a scene could not be loaded, with the position in the file when one is known.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{path}{}: {message}", position(*.line, *.column))]
+pub struct LoadError {
+    /// The file (or a description such as `<built-in default scene>`).
+    pub path: String,
+    /// 1-based line.
+    pub line: Option<usize>,
+    /// 1-based column, counted in characters.
+    pub column: Option<usize>,
+    pub message: String,
+}
+
+fn position(line: Option<usize>, column: Option<usize>) -> String {
+    match (line, column) {
+        (Some(l), Some(c)) => format!(":{l}:{c}"),
+        (Some(l), None) => format!(":{l}"),
+        _ => String::new(),
+    }
+}
+
+impl LoadError {
+    /// An error about the file as a whole.
+    pub fn new(path: &str, message: impl Into<String>) -> Self {
+        LoadError { path: path.into(), line: None, column: None, message: message.into() }
+    }
+
+    /// An error at byte `offset` of `src`.
+    pub fn at(path: &str, src: &str, offset: usize, message: impl Into<String>) -> Self {
+        let (line, column) = line_column(src, offset);
+        LoadError { line: Some(line), column: Some(column), ..Self::new(path, message) }
+    }
+}
+
+/// 1-based line and character column of byte `offset` in `src`. Offsets past the end or inside
+/// a character are moved back to a character start, so any offset is safe.
+pub fn line_column(src: &str, offset: usize) -> (usize, usize) {
+    let mut offset = offset.min(src.len());
+    while !src.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let before = &src[..offset];
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    (before.matches('\n').count() + 1, before[line_start..].chars().count() + 1)
+}
+
+/// A scene file format: the extensions it claims and its parser (`bytes`, `origin` for messages).
+pub struct Format {
+    pub name: &'static str,
+    pub extensions: &'static [&'static str],
+    pub parse: fn(&[u8], &str) -> Result<Scene, LoadError>,
+}
+
+/// Every format [`load`] understands, tried in order by extension.
+pub const FORMATS: &[Format] = &[Format { name: "TOML", extensions: &["toml"], parse: parse_toml }];
+
+fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
+    toml::parse_str(utf8(bytes, origin)?, origin)
+}
+
+/// The text of a text format, or an error at the first byte that is not UTF-8.
+fn utf8<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str, LoadError> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let valid = std::str::from_utf8(&bytes[..e.valid_up_to()]).unwrap_or_default();
+        LoadError::at(origin, valid, valid.len(), "the file is not valid UTF-8 text")
+    })
+}
+
+/// Loads and validates a scene file, choosing the format by its extension.
+pub fn load(path: &Path) -> Result<Scene, LoadError> {
+    load_with_limit(path, MAX_SCENE_FILE_BYTES)
+}
+
+/// [`load`] with a different size limit in bytes (tests use a small one).
+pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<Scene, LoadError> {
+    let origin = path.display().to_string();
+    let format = format_of(path).ok_or_else(|| {
+        let supported: Vec<String> = FORMATS
+            .iter()
+            .flat_map(|f| f.extensions.iter().map(move |e| format!(".{e} ({})", f.name)))
+            .collect();
+        LoadError::new(&origin, format!("unknown scene file extension; supported: {}", supported.join(", ")))
+    })?;
+    let bytes = read_limited(path, max_bytes).map_err(|m| LoadError::new(&origin, m))?;
+    (format.parse)(&bytes, &origin)
+}
+
+fn format_of(path: &Path) -> Option<&'static Format> {
+    let ext = path.extension()?.to_str()?;
+    FORMATS.iter().find(|f| f.extensions.iter().any(|e| e.eq_ignore_ascii_case(ext)))
+}
+
+/// Reads at most `max_bytes`. The metadata check refuses big files without touching them; the
+/// bounded read also catches files whose size is not known up front (pipes, `/dev/zero`).
+fn read_limited(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
+    let too_big = |size: &str| format!("file is {size} bytes; scene files are limited to {max_bytes} bytes");
+    let cannot = |e: std::io::Error| format!("cannot read the scene file: {e}");
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    let size = file.metadata().map_err(cannot)?.len();
+    if size > max_bytes {
+        return Err(too_big(&size.to_string()));
+    }
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(max_bytes.saturating_add(1)).read_to_end(&mut bytes).map_err(cannot)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_big(&format!("more than {max_bytes}")));
+    }
+    Ok(bytes)
 }

@@ -1,0 +1,230 @@
+//! Generated meshes for scene files: quad, box and icosphere.
+//!
+//! Every shape shares vertices between its triangles (closed shapes are watertight) and winds
+//! triangles counter-clockwise seen from outside, because flat-shaded triangles take their
+//! outside, and so which side is inside a dielectric, from the winding (docs/shading.md).
+
+use crate::scene::Mesh;
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// Icosphere subdivision limit: level 6 is 81 920 triangles, already smooth at any resolution.
+pub const MAX_ICOSPHERE_SUBDIVISIONS: u32 = 6;
+
+/// Triangle mesh geometry without a material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Geometry {
+    pub positions: Vec<DVec3>,
+    pub normals: Option<Vec<DVec3>>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+impl Geometry {
+    /// Scales each axis by `scale` (about the origin), then moves by `translate`. Normals follow
+    /// the inverse scale so that they stay perpendicular to the surface.
+    pub fn transform(&mut self, scale: DVec3, translate: DVec3) {
+        for p in &mut self.positions {
+            *p = *p * scale + translate;
+        }
+        for n in self.normals.iter_mut().flatten() {
+            *n = (*n / scale).normalize_or_zero();
+        }
+    }
+
+    pub fn into_mesh(self, material: u32) -> Mesh {
+        Mesh { positions: self.positions, normals: self.normals, indices: self.indices, material }
+    }
+}
+
+/// A quad in the plane `y = center.y`, `size[0]` along x and `size[1]` along z, facing +y.
+pub fn quad(center: DVec3, size: [f64; 2]) -> Geometry {
+    let (hx, hz) = (size[0] * 0.5, size[1] * 0.5);
+    // Going -x-z → -x+z → +x+z winds counter-clockwise seen from +y: z × x = +y.
+    let corner = |sx: f64, sz: f64| center + DVec3::new(sx * hx, 0.0, sz * hz);
+    quad_corners([corner(-1.0, -1.0), corner(-1.0, 1.0), corner(1.0, 1.0), corner(1.0, -1.0)])
+}
+
+/// A quad through four corners in order; it faces the side from which they run counter-clockwise.
+pub fn quad_corners(corners: [DVec3; 4]) -> Geometry {
+    Geometry { positions: corners.to_vec(), normals: None, indices: vec![[0, 1, 2], [0, 2, 3]] }
+}
+
+/// The axis-aligned box from `min` to `max`: 8 shared corners, 12 triangles.
+pub fn cuboid(min: DVec3, max: DVec3) -> Geometry {
+    // Corner i has x from bit 0, y from bit 1, z from bit 2 (0 = min, 1 = max).
+    let positions = (0..8)
+        .map(|i| {
+            let pick = |bit: u32, lo: f64, hi: f64| if i & (1 << bit) == 0 { lo } else { hi };
+            DVec3::new(pick(0, min.x, max.x), pick(1, min.y, max.y), pick(2, min.z, max.z))
+        })
+        .collect();
+    // Each face as a counter-clockwise loop seen from outside.
+    const FACES: [[u32; 4]; 6] = [
+        [0, 2, 3, 1], // -z
+        [4, 5, 7, 6], // +z
+        [0, 4, 6, 2], // -x
+        [1, 3, 7, 5], // +x
+        [0, 1, 5, 4], // -y
+        [2, 6, 7, 3], // +y
+    ];
+    let indices = FACES.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
+    Geometry { positions, normals: None, indices }
+}
+
+/// A sphere approximated by a subdivided icosahedron, with the exact sphere normals per vertex.
+/// `subdivisions` is clamped to [`MAX_ICOSPHERE_SUBDIVISIONS`].
+pub fn icosphere(center: DVec3, radius: f64, subdivisions: u32) -> Geometry {
+    let (mut unit, mut indices) = icosahedron();
+    for _ in 0..subdivisions.min(MAX_ICOSPHERE_SUBDIVISIONS) {
+        indices = subdivide(&mut unit, &indices);
+    }
+    let positions = unit.iter().map(|&n| center + radius * n).collect();
+    Geometry { positions, normals: Some(unit), indices }
+}
+
+/// The regular icosahedron on the unit sphere, faces wound outward.
+fn icosahedron() -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    #[rustfmt::skip]
+    let corners = [
+        [-1.0, t, 0.0], [1.0, t, 0.0], [-1.0, -t, 0.0], [1.0, -t, 0.0],
+        [0.0, -1.0, t], [0.0, 1.0, t], [0.0, -1.0, -t], [0.0, 1.0, -t],
+        [t, 0.0, -1.0], [t, 0.0, 1.0], [-t, 0.0, -1.0], [-t, 0.0, 1.0],
+    ];
+    #[rustfmt::skip]
+    let faces = vec![
+        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
+        [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
+        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
+        [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+    ];
+    (corners.iter().map(|&c| DVec3::from_array(c).normalize()).collect(), faces)
+}
+
+/// Splits every triangle into four, adding one vertex (on the unit sphere) per edge. Edge
+/// midpoints are shared through a map so that neighbouring triangles keep sharing vertices.
+fn subdivide(vertices: &mut Vec<DVec3>, triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut midpoint = |a: u32, b: u32| {
+        *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+            vertices.push((vertices[a as usize] + vertices[b as usize]).normalize());
+            vertices.len() as u32 - 1
+        })
+    };
+    let mut out = Vec::with_capacity(triangles.len() * 4);
+    for &[a, b, c] in triangles {
+        let (ab, bc, ca) = (midpoint(a, b), midpoint(b, c), midpoint(c, a));
+        out.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashSet;
+
+    /// Directed edges of all triangles; in a consistently wound mesh none repeats.
+    fn directed_edges(g: &Geometry) -> Vec<(u32, u32)> {
+        g.indices.iter().flat_map(|&[a, b, c]| [(a, b), (b, c), (c, a)]).collect()
+    }
+
+    /// Closed and consistently wound: every directed edge appears once and so does its reverse.
+    fn assert_watertight(g: &Geometry) {
+        let edges = directed_edges(g);
+        let set: HashSet<_> = edges.iter().copied().collect();
+        assert_eq!(set.len(), edges.len(), "a directed edge repeats: inconsistent winding");
+        for &(a, b) in &edges {
+            assert!(set.contains(&(b, a)), "edge {a}-{b} has no neighbour: not watertight");
+        }
+    }
+
+    fn face_normal(g: &Geometry, t: [u32; 3]) -> DVec3 {
+        let [a, b, c] = t.map(|i| g.positions[i as usize]);
+        (b - a).cross(c - a)
+    }
+
+    /// Six times the enclosed volume; positive when a closed mesh is wound outward.
+    fn signed_volume6(g: &Geometry) -> f64 {
+        g.indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| g.positions[i as usize]);
+                a.dot(b.cross(c))
+            })
+            .sum()
+    }
+
+    #[test]
+    fn box_is_watertight_outward_and_has_the_right_volume() {
+        let (min, max) = (DVec3::new(-1.0, 0.5, 2.0), DVec3::new(2.0, 1.5, 4.0));
+        let g = cuboid(min, max);
+        assert_eq!((g.positions.len(), g.indices.len()), (8, 12));
+        assert_watertight(&g);
+        assert!((signed_volume6(&g) / 6.0 - 3.0 * 1.0 * 2.0).abs() < 1e-12);
+        let centre = (min + max) * 0.5;
+        for &t in &g.indices {
+            let to_face = g.positions[t[0] as usize] - centre;
+            assert!(face_normal(&g, t).dot(to_face) > 0.0, "triangle {t:?} faces inward");
+        }
+    }
+
+    #[test]
+    fn icosphere_is_watertight_outward_with_unit_normals_at_every_level() {
+        let centre = DVec3::new(1.0, -2.0, 3.0);
+        for level in 0..=3 {
+            let g = icosphere(centre, 2.0, level);
+            let faces = 20 * 4usize.pow(level);
+            assert_eq!(g.indices.len(), faces);
+            assert_eq!(g.positions.len(), faces / 2 + 2, "Euler: V = F/2 + 2 when shared");
+            assert_watertight(&g);
+            assert!(signed_volume6(&g) > 0.0);
+            let normals = g.normals.as_ref().unwrap();
+            for (p, n) in g.positions.iter().zip(normals) {
+                assert!((n.length() - 1.0).abs() < 1e-12);
+                assert!(((*p - centre) / 2.0 - *n).length() < 1e-12, "normal is radial");
+            }
+            for &t in &g.indices {
+                let mid = t.iter().map(|&i| g.positions[i as usize]).sum::<DVec3>() / 3.0 - centre;
+                assert!(face_normal(&g, t).dot(mid) > 0.0, "triangle {t:?} faces inward");
+            }
+        }
+    }
+
+    #[test]
+    fn icosphere_subdivisions_are_capped() {
+        let g = icosphere(DVec3::ZERO, 1.0, 100);
+        assert_eq!(g.indices.len(), 20 * 4usize.pow(MAX_ICOSPHERE_SUBDIVISIONS));
+    }
+
+    #[test]
+    fn quad_faces_up_with_shared_vertices_and_the_given_size() {
+        let g = quad(DVec3::new(1.0, 2.0, 3.0), [4.0, 6.0]);
+        assert_eq!((g.positions.len(), g.indices.len()), (4, 2));
+        let edges = directed_edges(&g);
+        assert_eq!(edges.iter().collect::<HashSet<_>>().len(), edges.len(), "consistent winding");
+        let mut area = 0.0;
+        for &t in &g.indices {
+            let n = face_normal(&g, t);
+            assert!(n.x == 0.0 && n.z == 0.0 && n.y > 0.0, "faces +y: {n}");
+            area += n.length() / 2.0;
+        }
+        assert_eq!(area, 24.0);
+        assert!(g.positions.iter().all(|p| p.y == 2.0));
+    }
+
+    #[test]
+    fn transform_scales_then_translates_and_keeps_normals_perpendicular() {
+        let mut g = icosphere(DVec3::ZERO, 1.0, 1);
+        let scale = DVec3::new(2.0, 1.0, 0.5);
+        g.transform(scale, DVec3::new(0.0, 5.0, 0.0));
+        let normals = g.normals.as_ref().unwrap();
+        for (p, n) in g.positions.iter().zip(normals) {
+            // The scaled sphere is the ellipsoid (x/2)² + (y-5)² + (2z)² = 1; its gradient is
+            // the normal direction.
+            let q = *p - DVec3::new(0.0, 5.0, 0.0);
+            let grad = (q / (scale * scale)).normalize();
+            assert!((grad - *n).length() < 1e-12);
+        }
+    }
+}
