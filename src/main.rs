@@ -46,10 +46,10 @@ struct SceneArgs {
     /// Scene file (.toml); the built-in default scene when omitted.
     scene: Option<PathBuf>,
     /// Image width in pixels (overrides the scene's camera).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     width: Option<u32>,
     /// Image height in pixels (overrides the scene's camera).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     height: Option<u32>,
     /// Shadow mode (overrides the scene's [trace] shadows): hard, bundle:K (K rays to a
     /// precomputed point set on the light, rotated per pixel; bundle:K:fixed unrotated), or shell

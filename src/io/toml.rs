@@ -103,6 +103,7 @@ struct LightDoc {
 struct TraceDoc {
     max_depth: Option<u32>,
     weight_cutoff: Option<Number>,
+    shadows: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -311,6 +312,10 @@ fn trace(t: &TraceDoc) -> Res<TraceSettings> {
     Ok(TraceSettings {
         max_depth: t.max_depth.unwrap_or(default.max_depth),
         weight_cutoff: number_or(&t.weight_cutoff, "weight_cutoff", default.weight_cutoff)?,
+        shadows: match &t.shadows {
+            None => default.shadows,
+            Some(s) => s.get_ref().parse().or_else(|e: String| err(s.span(), e))?,
+        },
     })
 }
 
