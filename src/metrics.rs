@@ -91,7 +91,9 @@ pub fn ssim(test: &Image, reference: &Image) -> f64 {
     let luma = |img: &Image| -> Vec<f64> {
         img.pixels
             .iter()
-            .map(|p| 0.2126 * display(p[0] as f64) + 0.7152 * display(p[1] as f64) + 0.0722 * display(p[2] as f64))
+            .map(|p| {
+                0.2126 * display(p[0] as f64) + 0.7152 * display(p[1] as f64) + 0.0722 * display(p[2] as f64)
+            })
             .collect()
     };
     let (x, y) = (luma(test), luma(reference));

@@ -39,7 +39,13 @@ pub fn modes() -> Vec<ShadowMode> {
 }
 
 /// Renders `scene` in `mode` (median of `frames` warm frames) and compares it with `truth`.
-pub fn measure(ctx: &GpuContext, scene: &Scene, mode: ShadowMode, truth: &Image, frames: u32) -> Result<Row, String> {
+pub fn measure(
+    ctx: &GpuContext,
+    scene: &Scene,
+    mode: ShadowMode,
+    truth: &Image,
+    frames: u32,
+) -> Result<Row, String> {
     let mut s = scene.clone();
     s.trace.shadows = mode;
     let renderer = Renderer::new(ctx, &s, RenderOptions::default())?;

@@ -54,7 +54,8 @@ fn scene(light_radius: f64, shadows: ShadowMode) -> Scene {
         height: 72,
     };
     s.ambient = Ambient { sky: DVec3::splat(0.1), ground: DVec3::splat(0.02), up: DVec3::Y };
-    s.lights = vec![Light { position: DVec3::new(3.0, 6.0, 2.0), color: DVec3::splat(0.9), radius: light_radius }];
+    s.lights =
+        vec![Light { position: DVec3::new(3.0, 6.0, 2.0), color: DVec3::splat(0.9), radius: light_radius }];
     s.trace.shadows = shadows;
     s.validate().expect("valid scene");
     s
@@ -62,7 +63,7 @@ fn scene(light_radius: f64, shadows: ShadowMode) -> Scene {
 
 fn modes() -> Vec<ShadowMode> {
     let mut v: Vec<ShadowMode> =
-        ["hard", "bundle:16", "bundle:16:fixed"].iter().map(|m| m.parse().unwrap()).collect();
+        ["hard", "bundle:16", "bundle:16:fixed", "bundle:256"].iter().map(|m| m.parse().unwrap()).collect();
     for f in Falloff::ALL {
         for c in [Combine::Min, Combine::Product] {
             v.push(ShadowMode::Shell { falloff: f, combine: c });
@@ -101,7 +102,12 @@ fn shell_functions_match_their_f64_twins() {
         let (g0, g1) = (out[2 * k], out[2 * k + 1]);
         // The falloff curves: f32 against f64, same τ. 1e-4: lavapipe's acos is a polynomial
         // approximation (errors of 1.3e-5 seen in `disc`); the others agree to f32 rounding.
-        assert!((g0[0] as f64 - cpu::falloff(f, radius)).abs() < 1e-4, "case {k}: falloff {f:?}({radius}) {} vs {}", g0[0], cpu::falloff(f, radius));
+        assert!(
+            (g0[0] as f64 - cpu::falloff(f, radius)).abs() < 1e-4,
+            "case {k}: falloff {f:?}({radius}) {} vs {}",
+            g0[0],
+            cpu::falloff(f, radius)
+        );
         // Segment distance and its t: f32 rounding of dot products at these scales (≤ 20 units).
         let (d, t) = cpu::segment_distance(o, l, dist, a, b);
         assert!((g1[2] as f64 - d).abs() < 1e-4, "case {k}: segment distance {} vs {d}", g1[2]);
@@ -124,7 +130,8 @@ fn shell_functions_match_their_f64_twins() {
         }
         let want_tri = cpu::triangle_shell(f, o, l, dist, light_r, [a, b, c]);
         assert!((g1[0] as f64 - want_tri).abs() < 0.02, "case {k}: triangle σ {} vs {want_tri}", g1[0]);
-        in_shell += (want_sphere > 0.0 && want_sphere < 1.0) as usize + (want_tri > 0.0 && want_tri < 1.0) as usize;
+        in_shell +=
+            (want_sphere > 0.0 && want_sphere < 1.0) as usize + (want_tri > 0.0 && want_tri < 1.0) as usize;
     }
     assert!(in_shell > 1000, "only {in_shell} cases inside a shell");
 }

@@ -42,7 +42,8 @@ pub const SHADOWS_ANY: u32 = 3;
 
 impl Variant {
     /// Everything on: the uber-shader.
-    pub const FULL: Variant = Variant { spheres: true, triangles: true, count_rays: true, shadows: SHADOWS_ANY };
+    pub const FULL: Variant =
+        Variant { spheres: true, triangles: true, count_rays: true, shadows: SHADOWS_ANY };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
         Variant {
@@ -58,7 +59,12 @@ impl Variant {
         let mut v = Vec::new();
         for bits in 0..8u32 {
             for shadows in 0..=SHADOWS_ANY {
-                v.push(Variant { spheres: bits & 1 != 0, triangles: bits & 2 != 0, count_rays: bits & 4 != 0, shadows });
+                v.push(Variant {
+                    spheres: bits & 1 != 0,
+                    triangles: bits & 2 != 0,
+                    count_rays: bits & 4 != 0,
+                    shadows,
+                });
             }
         }
         v

@@ -39,10 +39,7 @@ impl Bvh {
                 (i as PrimId, lo - DVec3::splat(pad), hi + DVec3::splat(pad))
             })
             .collect();
-        let mut bvh = Bvh {
-            nodes: Vec::new(),
-            prims: Vec::with_capacity(items.len()),
-        };
+        let mut bvh = Bvh { nodes: Vec::new(), prims: Vec::with_capacity(items.len()) };
         if !items.is_empty() {
             bvh.build_node(&mut items);
         }
@@ -60,12 +57,7 @@ impl Bvh {
             chi = chi.max(c);
         }
         let me = self.nodes.len();
-        self.nodes.push(Node {
-            lo,
-            hi,
-            index: 0,
-            count: 0,
-        });
+        self.nodes.push(Node { lo, hi, index: 0, count: 0 });
         let extent = chi - clo;
         if items.len() <= LEAF_SIZE || extent.max_element() <= 0.0 {
             self.nodes[me].index = self.prims.len() as u32;

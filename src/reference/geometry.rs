@@ -38,9 +38,7 @@ pub fn intersect_sphere(
         let other = c / q;
         (q.min(other), q.max(other))
     };
-    [s0 / len, s1 / len]
-        .into_iter()
-        .find(|&t| t > t_min && t < t_max)
+    [s0 / len, s1 / len].into_iter().find(|&t| t > t_min && t < t_max)
 }
 
 /// Two-sided ray–triangle test (Möller–Trumbore). Returns `(t, b1, b2)`: the ray parameter (in
@@ -109,18 +107,11 @@ mod tests {
         let t = intersect_sphere(v(0., 0., -5.), v(0., 0., 2.), DVec3::ZERO, 1.0, 0.0, INF);
         assert_eq!(t, Some(2.0));
         // Off-axis: closest approach 0.6 => half chord 0.8.
-        let t =
-            intersect_sphere(v(0.6, 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF).unwrap();
+        let t = intersect_sphere(v(0.6, 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF).unwrap();
         assert!((t - 4.2).abs() < 1e-14, "{t}");
         // t_max before the sphere, or sphere behind the origin: miss.
-        assert_eq!(
-            intersect_sphere(v(0., 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, 3.9),
-            None
-        );
-        assert_eq!(
-            intersect_sphere(v(0., 0., 5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF),
-            None
-        );
+        assert_eq!(intersect_sphere(v(0., 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, 3.9), None);
+        assert_eq!(intersect_sphere(v(0., 0., 5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF), None);
         // t_min past the near root gives the far root.
         let t = intersect_sphere(v(0., 0., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 4.5, INF);
         assert_eq!(t, Some(6.0));
@@ -137,22 +128,12 @@ mod tests {
 
     #[test]
     fn sphere_miss_and_tangent() {
-        assert_eq!(
-            intersect_sphere(v(0., 2., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF),
-            None
-        );
+        assert_eq!(intersect_sphere(v(0., 2., -5.), v(0., 0., 1.), DVec3::ZERO, 1.0, 0.0, INF), None);
         // Exactly tangent: closest approach equals the radius; grazes at x = 0.
         let t = intersect_sphere(v(-5., 1., 0.), v(1., 0., 0.), DVec3::ZERO, 1.0, 0.0, INF);
         assert_eq!(t, Some(5.0));
         // A hair outside: miss.
-        let t = intersect_sphere(
-            v(-5., 1. + 1e-9, 0.),
-            v(1., 0., 0.),
-            DVec3::ZERO,
-            1.0,
-            0.0,
-            INF,
-        );
+        let t = intersect_sphere(v(-5., 1. + 1e-9, 0.), v(1., 0., 0.), DVec3::ZERO, 1.0, 0.0, INF);
         assert_eq!(t, None);
     }
 
@@ -183,14 +164,8 @@ mod tests {
         let h = intersect_triangle(v(0.25, 0.5, -2.), v(0., 0., 4.), P0, P1, P2, 0.0, INF);
         assert_eq!(h, Some((0.5, 0.25, 0.5)));
         // Out of [t_min, t_max]: miss.
-        assert_eq!(
-            intersect_triangle(v(0.25, 0.5, 2.), down, P0, P1, P2, 0.0, 2.0),
-            None
-        );
-        assert_eq!(
-            intersect_triangle(v(0.25, 0.5, 2.), down, P0, P1, P2, 2.0, INF),
-            None
-        );
+        assert_eq!(intersect_triangle(v(0.25, 0.5, 2.), down, P0, P1, P2, 0.0, 2.0), None);
+        assert_eq!(intersect_triangle(v(0.25, 0.5, 2.), down, P0, P1, P2, 2.0, INF), None);
         // Oblique ray: hit point matches the barycentrics.
         let o = v(-1., -2., 3.);
         let target = v(0.2, 0.3, 0.);
@@ -201,51 +176,24 @@ mod tests {
     #[test]
     fn triangle_miss_edge_and_vertex() {
         let down = v(0., 0., -1.);
-        assert_eq!(
-            intersect_triangle(v(0.6, 0.6, 1.), down, P0, P1, P2, 0.0, INF),
-            None
-        );
-        assert_eq!(
-            intersect_triangle(v(-0.1, 0.5, 1.), down, P0, P1, P2, 0.0, INF),
-            None
-        );
+        assert_eq!(intersect_triangle(v(0.6, 0.6, 1.), down, P0, P1, P2, 0.0, INF), None);
+        assert_eq!(intersect_triangle(v(-0.1, 0.5, 1.), down, P0, P1, P2, 0.0, INF), None);
         // On an edge and at a vertex: inclusive.
-        assert_eq!(
-            intersect_triangle(v(0.5, 0., 1.), down, P0, P1, P2, 0.0, INF),
-            Some((1.0, 0.5, 0.0))
-        );
-        assert_eq!(
-            intersect_triangle(v(0.5, 0.5, 1.), down, P0, P1, P2, 0.0, INF),
-            Some((1.0, 0.5, 0.5))
-        );
-        assert_eq!(
-            intersect_triangle(v(0., 1., 1.), down, P0, P1, P2, 0.0, INF),
-            Some((1.0, 0.0, 1.0))
-        );
+        assert_eq!(intersect_triangle(v(0.5, 0., 1.), down, P0, P1, P2, 0.0, INF), Some((1.0, 0.5, 0.0)));
+        assert_eq!(intersect_triangle(v(0.5, 0.5, 1.), down, P0, P1, P2, 0.0, INF), Some((1.0, 0.5, 0.5)));
+        assert_eq!(intersect_triangle(v(0., 1., 1.), down, P0, P1, P2, 0.0, INF), Some((1.0, 0.0, 1.0)));
         // Parallel to the plane: miss.
-        assert_eq!(
-            intersect_triangle(v(0.2, 0.2, 0.), v(1., 0., 0.), P0, P1, P2, 0.0, INF),
-            None
-        );
+        assert_eq!(intersect_triangle(v(0.2, 0.2, 0.), v(1., 0., 0.), P0, P1, P2, 0.0, INF), None);
     }
 
     #[test]
     fn degenerate_triangles_never_hit() {
         let down = v(0., 0., -1.);
         let collinear = v(2., 0., 0.);
-        assert_eq!(
-            intersect_triangle(v(0.5, 0., 1.), down, P0, P1, collinear, 0.0, INF),
-            None
-        );
-        assert_eq!(
-            intersect_triangle(v(0., 0., 1.), down, P0, P0, P0, 0.0, INF),
-            None
-        );
+        assert_eq!(intersect_triangle(v(0.5, 0., 1.), down, P0, P1, collinear, 0.0, INF), None);
+        assert_eq!(intersect_triangle(v(0., 0., 1.), down, P0, P0, P0, 0.0, INF), None);
         // A ray along the degenerate triangle's line misses too.
-        assert_eq!(
-            intersect_triangle(v(-1., 0., 0.), v(1., 0., 0.), P0, P1, collinear, 0.0, INF),
-            None
-        );
+        assert_eq!(intersect_triangle(v(-1., 0., 0.), v(1., 0., 0.), P0, P1, collinear, 0.0, INF), None);
         assert_eq!(triangle_normal(P0, P1, P2), v(0., 0., 1.));
     }
 }

@@ -16,8 +16,7 @@ pub use shading::{
     shade_ambient, shade_light,
 };
 pub use trace::{
-    render, render_with_stats, trace_pixel, RadianceImage, Reference, Stats, SurfaceHit,
-    RAY_OFFSET_REL,
+    render, render_with_stats, trace_pixel, RadianceImage, Reference, Stats, SurfaceHit, RAY_OFFSET_REL,
 };
 
 #[cfg(test)]

@@ -91,14 +91,10 @@ fn fresnel(m: &MaterialKind, n: DVec3, e: DVec3, inside: bool) -> DVec3 {
     let ne = n.dot(e);
     match *m {
         MaterialKind::Diffuse { .. } => DVec3::ZERO,
-        MaterialKind::Metal { color, .. } => DVec3::new(
-            schlick(ne, color.x),
-            schlick(ne, color.y),
-            schlick(ne, color.z),
-        ),
-        MaterialKind::Dielectric { eta, .. } => {
-            DVec3::splat(dielectric_reflectance(ne, eta, inside))
+        MaterialKind::Metal { color, .. } => {
+            DVec3::new(schlick(ne, color.x), schlick(ne, color.y), schlick(ne, color.z))
         }
+        MaterialKind::Dielectric { eta, .. } => DVec3::splat(dielectric_reflectance(ne, eta, inside)),
         MaterialKind::Polished { eta, .. } => DVec3::splat(schlick(ne, r0_from_eta(eta))),
     }
 }
@@ -115,14 +111,7 @@ pub fn shade_ambient(m: &MaterialKind, n: DVec3, e: DVec3, ia: DVec3, inside: bo
 /// Contribution of one unshadowed light of colour `l_e` in direction `l`; 0 when `n·l <= 0`.
 /// Highlights are Blinn–Phong `F l_e (n·h)^N`, `h = normalize(l + e)`.
 /// Decision: if `l + e` is the zero vector (only possible with shading normals), `n·h = 0`.
-pub fn shade_light(
-    m: &MaterialKind,
-    n: DVec3,
-    e: DVec3,
-    l: DVec3,
-    l_e: DVec3,
-    inside: bool,
-) -> DVec3 {
+pub fn shade_light(m: &MaterialKind, n: DVec3, e: DVec3, l: DVec3, l_e: DVec3, inside: bool) -> DVec3 {
     let nl = n.dot(l);
     if nl <= 0.0 {
         return DVec3::ZERO;
@@ -137,9 +126,7 @@ pub fn shade_light(
         MaterialKind::Metal { exponent, .. } | MaterialKind::Dielectric { exponent, .. } => {
             highlight(exponent)
         }
-        MaterialKind::Polished {
-            color, exponent, ..
-        } => {
+        MaterialKind::Polished { color, exponent, .. } => {
             let ne = clamp01(n.dot(e));
             let base = (1.0 - pow5(1.0 - ne)) * (1.0 - pow5(1.0 - nl));
             color * l_e * base + highlight(exponent)
@@ -225,25 +212,13 @@ mod tests {
         let a = v(0.2, 0.4, 0.8);
         let b = v(0.6, 0.3, 0.0);
         assert_eq!(ambient_intensity(up, up, a, b), a);
-        assert!(close(
-            ambient_intensity(v(1., 0., 0.), up, a, b),
-            (a + b) / 2.0,
-            1e-15
-        ));
+        assert!(close(ambient_intensity(v(1., 0., 0.), up, a, b), (a + b) / 2.0, 1e-15));
         assert_eq!(ambient_intensity(-up, up, a, b), b);
         // θ = 45°: sin θ / 2 = √2/4 of the far colour.
         let s = 2f64.sqrt() / 4.0;
         let n45 = v(1., 1., 0.).normalize();
-        assert!(close(
-            ambient_intensity(n45, up, a, b),
-            (1.0 - s) * a + s * b,
-            1e-15
-        ));
-        assert!(close(
-            ambient_intensity(v(1., -1., 0.).normalize(), up, a, b),
-            s * a + (1.0 - s) * b,
-            1e-15
-        ));
+        assert!(close(ambient_intensity(n45, up, a, b), (1.0 - s) * a + s * b, 1e-15));
+        assert!(close(ambient_intensity(v(1., -1., 0.).normalize(), up, a, b), s * a + (1.0 - s) * b, 1e-15));
     }
 
     #[test]
@@ -256,19 +231,12 @@ mod tests {
         let kd = v(0.5, 0.25, 1.0);
         let ia = v(0.1, 0.2, 0.3);
         let diffuse = MaterialKind::Diffuse { color: kd };
-        assert!(close(
-            shade_light(&diffuse, n, e, l, le, false),
-            kd * le * 0.5,
-            1e-15
-        ));
+        assert!(close(shade_light(&diffuse, n, e, l, le, false), kd * le * 0.5, 1e-15));
         assert_eq!(shade_ambient(&diffuse, n, e, ia, false), kd * ia);
         assert_eq!(reflectance(&diffuse, n, e, false), (DVec3::ZERO, 0.0));
         // Facing away from the light: nothing, whatever the material.
         let away = v(0., 0., -1.);
-        let metal = MaterialKind::Metal {
-            color: v(0.9, 0.5, 0.1),
-            exponent: 10.0,
-        };
+        let metal = MaterialKind::Metal { color: v(0.9, 0.5, 0.1), exponent: 10.0 };
         for m in [&diffuse, &metal] {
             assert_eq!(shade_light(m, n, e, away, le, false), DVec3::ZERO);
             assert_eq!(shade_light(m, n, e, v(1., 0., 0.), le, false), DVec3::ZERO);
@@ -277,38 +245,20 @@ mod tests {
         let (ks, kt) = reflectance(&metal, n, e, false);
         assert!(close(ks, v(0.9, 0.5, 0.1), 1e-15) && kt == 0.0);
         let nh = 30f64.to_radians().cos();
-        assert!(close(
-            shade_light(&metal, n, e, l, le, false),
-            ks * le * nh.powf(10.0),
-            1e-14
-        ));
+        assert!(close(shade_light(&metal, n, e, l, le, false), ks * le * nh.powf(10.0), 1e-14));
         assert_eq!(shade_ambient(&metal, n, e, ia, false), DVec3::ZERO);
         // Exponent 0: 0^0 = 1 style constant highlight.
-        let flat = MaterialKind::Metal {
-            color: DVec3::ONE,
-            exponent: 0.0,
-        };
+        let flat = MaterialKind::Metal { color: DVec3::ONE, exponent: 0.0 };
         assert!(close(shade_light(&flat, n, e, l, le, false), le, 1e-15));
         // Dielectric: F and 1 - F.
-        let glass = MaterialKind::Dielectric {
-            eta: 1.5,
-            exponent: 0.0,
-        };
+        let glass = MaterialKind::Dielectric { eta: 1.5, exponent: 0.0 };
         let (ks, kt) = reflectance(&glass, n, e, false);
         assert!(close(ks, DVec3::splat(0.04), 1e-15) && (kt - 0.96).abs() < 1e-15);
         // Polished at normal incidence to the eye: base (1 - 0)(1 - 0.5^5), F = 0.04.
-        let pol = MaterialKind::Polished {
-            color: kd,
-            eta: 1.5,
-            exponent: 1.0,
-        };
+        let pol = MaterialKind::Polished { color: kd, eta: 1.5, exponent: 1.0 };
         let want = kd * le * (1.0 - 0.5f64.powi(5)) + 0.04 * le * nh;
         assert!(close(shade_light(&pol, n, e, l, le, false), want, 1e-14));
-        assert!(close(
-            shade_ambient(&pol, n, e, ia, false),
-            kd * ia * 0.96,
-            1e-15
-        ));
+        assert!(close(shade_ambient(&pol, n, e, ia, false), kd * ia * 0.96, 1e-15));
         let (ks, kt) = reflectance(&pol, n, e, false);
         assert!(close(ks, DVec3::splat(0.04), 1e-15) && kt == 0.0);
     }

@@ -1,6 +1,6 @@
 //! f64 twins of the shadow modes in docs/shadows.md, and the ground truth they are judged by.
 
-use crate::scene::{Falloff, pixel_hash};
+use crate::scene::{pixel_hash, Falloff};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 
@@ -9,10 +9,7 @@ pub fn frame(n: DVec3) -> (DVec3, DVec3) {
     let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
-    (
-        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        DVec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
+    (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 /// Shell transparency for `tau` in [0, 1] (clamped outside).
@@ -31,7 +28,15 @@ pub fn falloff(f: Falloff, tau: f64) -> f64 {
 /// Transparency of a sphere's shell for the shadow ray `p + t l`, `0 < t < dist`, towards a
 /// light of radius `light_r`; 1 when the ray passes outside the shell (the caller has already
 /// established that the ray misses the sphere itself).
-pub fn sphere_shell(f: Falloff, p: DVec3, l: DVec3, dist: f64, light_r: f64, center: DVec3, radius: f64) -> f64 {
+pub fn sphere_shell(
+    f: Falloff,
+    p: DVec3,
+    l: DVec3,
+    dist: f64,
+    light_r: f64,
+    center: DVec3,
+    radius: f64,
+) -> f64 {
     let t = (center - p).dot(l);
     if t <= 0.0 || t >= dist {
         return 1.0;
@@ -121,7 +126,12 @@ mod tests {
 
     #[test]
     fn frame_is_orthonormal() {
-        for n in [DVec3::X, DVec3::NEG_Z, DVec3::new(0.3, -0.5, 0.8).normalize(), DVec3::new(1e-9, 0.0, -1.0).normalize()] {
+        for n in [
+            DVec3::X,
+            DVec3::NEG_Z,
+            DVec3::new(0.3, -0.5, 0.8).normalize(),
+            DVec3::new(1e-9, 0.0, -1.0).normalize(),
+        ] {
             let (u, v) = frame(n);
             for (a, b) in [(u, v), (u, n), (v, n)] {
                 assert!(a.dot(b).abs() < 1e-12);

@@ -3,9 +3,7 @@
 
 use super::bvh::{Bvh, PrimId};
 use super::geometry::{intersect_sphere, intersect_triangle, triangle_normal};
-use super::shading::{
-    ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light,
-};
+use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light};
 use super::shadows::{bundle_point, frame, sphere_shell, stratified_disc, triangle_shell};
 use crate::scene::{bundle_samples, CameraBasis, Combine, Light, MaterialKind, Scene, ShadowMode, Triangle};
 use glam::DVec3;
@@ -89,12 +87,8 @@ impl<'a> Reference<'a> {
             let r = DVec3::splat(s.radius);
             (s.center - r, s.center + r)
         });
-        let tris = r.triangles.iter().map(|t| {
-            (
-                t.p[0].min(t.p[1]).min(t.p[2]),
-                t.p[0].max(t.p[1]).max(t.p[2]),
-            )
-        });
+        let tris =
+            r.triangles.iter().map(|t| (t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2])));
         r.bvh = Some(Bvh::build(&spheres.chain(tris).collect::<Vec<_>>()));
         r
     }
@@ -192,8 +186,7 @@ impl<'a> Reference<'a> {
         let id = id as usize;
         if id < ns {
             let s = &self.scene.spheres[id];
-            intersect_sphere(o, d, s.center, s.radius, 0.0, f64::INFINITY)
-                .map(|t| (t, Prim::Sphere(id)))
+            intersect_sphere(o, d, s.center, s.radius, 0.0, f64::INFINITY).map(|t| (t, Prim::Sphere(id)))
         } else {
             let index = id - ns;
             let [p0, p1, p2] = self.triangles[index].p;
@@ -239,14 +232,7 @@ impl<'a> Reference<'a> {
         if n.dot(n_g) < 0.0 {
             n = n_g;
         }
-        SurfaceHit {
-            t,
-            p,
-            n_g,
-            n,
-            inside,
-            material,
-        }
+        SurfaceHit { t, p, n_g, n, inside, material }
     }
 
     /// Radiance arriving at `o` from direction `d` (unit) for a ray of the given depth and
@@ -256,7 +242,15 @@ impl<'a> Reference<'a> {
     }
 
     /// [`Self::trace`] for the ray tree of pixel `pixel` (bundles are rotated per pixel).
-    fn trace_from(&self, o: DVec3, d: DVec3, depth: u32, weight: DVec3, pixel: u32, stats: &mut Stats) -> DVec3 {
+    fn trace_from(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        depth: u32,
+        weight: DVec3,
+        pixel: u32,
+        stats: &mut Stats,
+    ) -> DVec3 {
         let Some(hit) = self.intersect(o, d, f64::INFINITY) else {
             return self.scene.background;
         };
@@ -343,7 +337,8 @@ impl<'a> Reference<'a> {
         let (u, v) = frame(l);
         let on_disc = |x: glam::DVec2| c + light.radius * (x.x * u + x.y * v);
         if let Some(n) = self.ground_truth {
-            let total: f64 = (0..n * n).map(|k| ray_to(on_disc(stratified_disc(k / n, k % n, n)), stats)).sum();
+            let total: f64 =
+                (0..n * n).map(|k| ray_to(on_disc(stratified_disc(k / n, k % n, n)), stats)).sum();
             return total / (n * n) as f64;
         }
         match self.scene.trace.shadows {
@@ -359,7 +354,11 @@ impl<'a> Reference<'a> {
                     return 0.0;
                 }
                 let r = light.radius;
-                let spheres = self.scene.spheres.iter().map(|s| sphere_shell(falloff, so, l, dist, r, s.center, s.radius));
+                let spheres = self
+                    .scene
+                    .spheres
+                    .iter()
+                    .map(|s| sphere_shell(falloff, so, l, dist, r, s.center, s.radius));
                 let tris = self.triangles.iter().map(|t| triangle_shell(falloff, so, l, dist, r, t.p));
                 let sigmas = spheres.chain(tris);
                 match combine {
@@ -375,19 +374,11 @@ impl<'a> Reference<'a> {
         let (w, h) = (self.scene.camera.width, self.scene.camera.height);
         let mut pixels = vec![DVec3::ZERO; w as usize * h as usize];
         if pixels.is_empty() {
-            let image = RadianceImage {
-                width: w,
-                height: h,
-                pixels,
-            };
+            let image = RadianceImage { width: w, height: h, pixels };
             return (image, Stats::default());
         }
-        let threads = std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(h as usize)
-            .max(1);
-        let mut buckets: Vec<Vec<(usize, &mut [DVec3])>> =
-            (0..threads).map(|_| Vec::new()).collect();
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(h as usize).max(1);
+        let mut buckets: Vec<Vec<(usize, &mut [DVec3])>> = (0..threads).map(|_| Vec::new()).collect();
         for (y, row) in pixels.chunks_mut(w as usize).enumerate() {
             buckets[y % threads].push((y, row));
         }
@@ -411,14 +402,7 @@ impl<'a> Reference<'a> {
                 stats += h.join().expect("reference render thread panicked");
             }
         });
-        (
-            RadianceImage {
-                width: w,
-                height: h,
-                pixels,
-            },
-            stats,
-        )
+        (RadianceImage { width: w, height: h, pixels }, stats)
     }
 }
 

@@ -8,8 +8,8 @@ mod builtin;
 mod shadows;
 
 pub use builtin::default_scene;
-pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
 use glam::DVec3;
+pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
 
 /// Largest image side we accept; larger is refused before anything is allocated.
 pub const MAX_IMAGE_SIDE: u32 = 16384;

@@ -100,7 +100,9 @@ impl FromStr for ShadowMode {
                 for p in parts.by_ref() {
                     if let Some(f) = Falloff::ALL.into_iter().find(|f| f.name() == p) {
                         falloff = f;
-                    } else if let Some(c) = [Combine::Min, Combine::Product].into_iter().find(|c| c.name() == p) {
+                    } else if let Some(c) =
+                        [Combine::Min, Combine::Product].into_iter().find(|c| c.name() == p)
+                    {
                         combine = c;
                     } else {
                         return Err(bad());
@@ -123,7 +125,9 @@ impl fmt::Display for ShadowMode {
             ShadowMode::Hard => write!(f, "hard"),
             ShadowMode::Bundle { samples, rotate: true } => write!(f, "bundle:{samples}"),
             ShadowMode::Bundle { samples, rotate: false } => write!(f, "bundle:{samples}:fixed"),
-            ShadowMode::Shell { falloff, combine } => write!(f, "shell:{}:{}", falloff.name(), combine.name()),
+            ShadowMode::Shell { falloff, combine } => {
+                write!(f, "shell:{}:{}", falloff.name(), combine.name())
+            }
         }
     }
 }
@@ -171,7 +175,8 @@ mod tests {
         assert!(s.iter().all(|p| p[0].hypot(p[1]) < 1.0));
         // Each quadrant and each annulus of equal area gets its share (±10%).
         for q in 0..4 {
-            let n = s.iter().filter(|p| (p[0] >= 0.0) == (q & 1 == 0) && (p[1] >= 0.0) == (q & 2 == 0)).count();
+            let n =
+                s.iter().filter(|p| (p[0] >= 0.0) == (q & 1 == 0) && (p[1] >= 0.0) == (q & 2 == 0)).count();
             assert!((58..=70).contains(&n), "quadrant {q}: {n}");
         }
         let inner = s.iter().filter(|p| p[0].hypot(p[1]) < 0.5f64.sqrt()).count();
