@@ -100,6 +100,7 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
     var macro_id = NO_HIT;
     var macro_full = false;
     loop {
+        loop_iters += 1u;
         let m = macro_linear(s.cell);
         if m != macro_id {
             macro_id = m;
@@ -108,6 +109,7 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
         if macro_full {
             let range = cell_range(cell_linear(s.cell));
             for (var k = 0u; k < range.y; k++) {
+                loop_iters += 1u;
                 let r = prim_ref(range.x + k);
                 let h = intersect_prim(r, o, d, t_min, best.t);
                 if h.x != MISS {

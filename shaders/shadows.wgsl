@@ -163,6 +163,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
     var macro_id = NO_HIT;
     var macro_full = false;
     loop {
+        loop_iters += 1u;
         let m = macro_linear(st.cell);
         if m != macro_id {
             macro_id = m;
@@ -172,6 +173,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
         if macro_full {
             let range = cell_range(cell_linear(st.cell));
             for (var k = 0u; k < range.y; k++) {
+                loop_iters += 1u;
                 let r = prim_ref(range.x + k);
                 if intersect_prim(r, o, l, 0.0, dist - gap).x != MISS {
                     return 0.0;
@@ -194,12 +196,18 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
     return s;
 }
 
-// s for `light` seen from the offset origin `o`; `l` is the unit direction to its centre.
+// s for `light` seen from the offset origin `o`; `l` is the unit direction to its centre. A
+// bundle is split over passes (`tile.pass`): each returns its samples' share of s. Every other
+// mode belongs wholly to the first pass.
 fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
     let c = light.position_radius.xyz;
     let r = light.position_radius.w;
     let gap = params.trace.y * max(1.0, max(max(abs(o.x), abs(o.y)), abs(o.z)));
     let kind = shadow_kind();
+    let bundle = kind == 1u && r != 0.0;
+    if !bundle && tile.pass_range.z == 0u {
+        return 0.0;
+    }
     if kind == 0u || r == 0.0 {
         ray_counts.w += 1u;
         let dist = length(c - o);
@@ -210,7 +218,8 @@ fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
         let k = params.shadow.y;
         let rotate = params.shadow.z != 0u;
         var seen = 0.0;
-        for (var i = 0u; i < k; i++) {
+        for (var i = tile.pass_range.x; i < min(k, tile.pass_range.y); i++) {
+            loop_iters += 1u;
             let x = bundle_point(i, pixel_id, rotate);
             seen += ray_visibility(o, c + r * (x.x * fr.u + x.y * fr.v), gap);
         }

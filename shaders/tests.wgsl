@@ -137,3 +137,15 @@ fn k_shell(@builtin(global_invocation_id) gid: vec3u) {
     out_buf[2u * i] = vec4f(falloff(f, b.w), 0.0, sphere);
     out_buf[2u * i + 1u] = vec4f(tri, segment_distance(o.xyz, l.xyz, o.w, a.xyz, b.xyz));
 }
+
+// in: (o, light index), (l = unit direction to the light's centre, pixel) -> (s, 0, 0, 0) of
+// `light_visibility` in the pipeline's shadow mode.
+@compute @workgroup_size(8, 8, 1)
+fn k_visibility(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[2u * i];
+    let b = test_in[2u * i + 1u];
+    pixel_id = u32(b.w);
+    out_buf[i] = vec4f(light_visibility(a.xyz, b.xyz, params.lights[u32(a.w)]), 0.0, 0.0, 0.0);
+}

@@ -3,6 +3,8 @@
 
 // Rays traced by this invocation, by kind: eye, reflection, refraction, shadow.
 var<private> ray_counts: vec4u;
+// Loop iterations run by this invocation (see `LAVAPIPE_LOOP_LIMIT` in src/gpu/layout.rs).
+var<private> loop_iters: u32;
 
 struct Surface {
     p: vec3f,
@@ -61,8 +63,12 @@ fn offset_origin(p: vec3f, ng: vec3f, dir: vec3f) -> vec3f {
 // Emitted towards the eye at `sf` by ambient and lights, shadows included.
 fn shade_local(sf: Surface, m: Material, e: vec3f) -> vec3f {
     let ia = ambient_intensity(sf.n, params.ambient_up.xyz, params.ambient_sky.xyz, params.ambient_ground.xyz);
-    var c = shade_ambient(m, sf.n, e, ia, sf.inside);
+    var c = vec3f(0.0);
+    if tile.pass_range.z != 0u {
+        c = shade_ambient(m, sf.n, e, ia, sf.inside);
+    }
     for (var i = 0u; i < params.image.w; i++) {
+        loop_iters += 1u;
         let light = params.lights[i];
         let to_light = light.position_radius.xyz - sf.p;
         let l = normalize(to_light);
@@ -94,8 +100,11 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
     let cutoff = params.trace.x;
     loop {
         let h = trace_closest(ray.o, ray.d, 0.0, BIG);
+        loop_iters += 1u;
         if h.prim == NO_HIT {
-            total += ray.w * params.background.rgb;
+            if tile.pass_range.z != 0u {
+                total += ray.w * params.background.rgb;
+            }
         } else {
             let sf = surface_at(h, ray.o, ray.d);
             let m = load_material(sf.material);
@@ -146,8 +155,17 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     let y = tile.rect.y + gid.y;
     ray_counts = vec4u(1u, 0u, 0u, 0u);
     pixel_id = y * params.image.x + x;
+    loop_iters = 0u;
     let c = radiance(params.eye.xyz, eye_direction(f32(x) + 0.5, f32(y) + 0.5));
-    out_buf[y * params.image.x + x] = vec4f(c, 1.0);
+    let out = y * params.image.x + x;
+    // Alpha carries the loop iterations (the most of any pass), checked by the renderer.
+    if tile.pass_range.z != 0u {
+        out_buf[out] = vec4f(c, f32(loop_iters));
+    } else {
+        let prev = out_buf[out];
+        out_buf[out] = vec4f(prev.rgb + c, max(prev.a, f32(loop_iters)));
+        ray_counts = vec4u(0u, 0u, 0u, ray_counts.w);
+    }
     if COUNT_RAYS {
         atomicAdd(&stats[0], ray_counts.x);
         atomicAdd(&stats[1], ray_counts.y);

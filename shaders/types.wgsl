@@ -30,6 +30,7 @@ struct Params {
 
 struct Tile {
     rect: vec4u,
+    pass_range: vec4u,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;

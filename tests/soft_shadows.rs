@@ -211,6 +211,20 @@ fn bundle_error_falls_as_the_bundle_grows() {
     }
 }
 
+/// The largest bundle on the default scene, whose glass and mirrors make deep ray trees: in one
+/// pass its pixels ran past lavapipe's loop limit and came out dark; split into passes they
+/// match the CPU twin. (With the bundle in one pass, `render_gpu`'s loop check fails first:
+/// 48k iterations in a pixel.)
+#[test]
+fn the_largest_bundle_matches_its_twin_on_the_default_scene() {
+    let ctx = gpu();
+    let mut s = default_scene();
+    s.camera.width = 80;
+    s.camera.height = 60;
+    s.trace.shadows = ShadowMode::Bundle { samples: MAX_BUNDLE, rotate: true };
+    assert_matches_reference("default-bundle256", &render_gpu(&ctx, &s), &reference_image(&s));
+}
+
 #[test]
 fn gpu_matches_the_reference_in_every_mode() {
     let ctx = gpu();

@@ -216,7 +216,13 @@ impl Dispatcher {
     /// Runs the kernel over `rect` = (x0, y0, width, height) invocations in 8x8 workgroups and
     /// waits for it.
     pub fn dispatch(&self, ctx: &GpuContext, rect: [u32; 4]) {
-        ctx.queue.write_buffer(&self.tile_buf, 0, bytemuck::bytes_of(&Tile { rect }));
+        self.dispatch_tile(ctx, Tile::whole(rect));
+    }
+
+    /// [`Self::dispatch`] with an explicit pass (bundle sample range).
+    pub fn dispatch_tile(&self, ctx: &GpuContext, tile: Tile) {
+        let rect = tile.rect;
+        ctx.queue.write_buffer(&self.tile_buf, 0, bytemuck::bytes_of(&tile));
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = enc.begin_compute_pass(&Default::default());

@@ -89,7 +89,28 @@ pub struct Params {
 pub struct Tile {
     /// x0, y0, width, height in pixels.
     pub rect: [u32; 4],
+    /// Bundle samples `[first, end)` this pass traces (end clamped to the bundle size), and
+    /// whether it is the first pass (which writes ambient, background and ray counts; later
+    /// passes add their share of the light to the output). See [`Tile::whole`].
+    pub pass_range: [u32; 4],
 }
+
+impl Tile {
+    /// One pass over everything: what a single dispatch of `rect` means.
+    pub fn whole(rect: [u32; 4]) -> Tile {
+        Tile { rect, pass_range: [0, u32::MAX, 1, 0] }
+    }
+}
+
+/// lavapipe (gallivm) stops every loop of a shader invocation once the loops together have run
+/// 65535 iterations (`LP_MAX_TGSI_LOOP_ITERATIONS`, shared by all loops of the shader; it exists
+/// to stop hangs). Renders past it are silently wrong, so the render kernel counts its loop
+/// iterations into the output's alpha and the renderer checks them against this.
+pub const LAVAPIPE_LOOP_LIMIT: u32 = 65535;
+/// Bundle samples per pass: shadow bundles are split over passes so that no invocation comes
+/// near [`LAVAPIPE_LOOP_LIMIT`] (each sample is a grid walk of tens of iterations, per shading
+/// point of the ray tree). The light term is linear in the visibility, so passes add up exactly.
+pub const BUNDLE_SAMPLES_PER_PASS: u32 = 16;
 
 /// Relative offset of spawned rays along the geometric normal (docs/shading.md, "Ray origins").
 pub const RAY_OFFSET_REL: f32 = 1e-4;

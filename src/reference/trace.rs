@@ -316,7 +316,7 @@ impl<'a> Reference<'a> {
     }
 
     /// Visibility `s` of `light` from the offset origin `so` (docs/shadows.md).
-    fn visibility(&self, so: DVec3, light: &Light, eps: f64, pixel: u32, stats: &mut Stats) -> f64 {
+    pub fn visibility(&self, so: DVec3, light: &Light, eps: f64, pixel: u32, stats: &mut Stats) -> f64 {
         let c = light.position;
         let dist = (c - so).length();
         // Decision: a light within eps of the offset origin is unblocked.

@@ -105,10 +105,15 @@ pub fn plane_barycentrics(o: DVec3, d: DVec3, t: [DVec3; 3]) -> (f64, f64) {
     ((d22 * p1 - d12 * p2) / den, (d11 * p2 - d12 * p1) / den)
 }
 
-/// The scene traced on the GPU (its own shadow mode, the specialised pipeline).
+/// The scene traced on the GPU (its own shadow mode, the specialised pipeline). Every test render
+/// also checks that no pixel came near lavapipe's loop-iteration limit (a quarter of it: the
+/// count is per pixel, the limit per group of SIMD lanes), past which its results are wrong.
 pub fn render_gpu(ctx: &irt::gpu::GpuContext, scene: &Scene) -> irt::image::Image {
     let r = irt::gpu::Renderer::new(ctx, scene, irt::gpu::RenderOptions::default()).expect("renderer");
-    r.render(ctx, &mut |_, _| {}).image
+    let frame = r.render(ctx, &mut |_, _| {});
+    let limit = irt::gpu::layout::LAVAPIPE_LOOP_LIMIT;
+    assert!(frame.max_loop_iterations < limit / 4, "{} loop iterations in a pixel", frame.max_loop_iterations);
+    frame.image
 }
 
 pub fn to_image(r: &irt::reference::RadianceImage) -> irt::image::Image {
