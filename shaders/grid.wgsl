@@ -111,6 +111,10 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
             for (var k = 0u; k < range.y; k++) {
                 loop_iters += 1u;
                 let r = prim_ref(range.x + k);
+                // Listed here only for its soft-shadow shell: it cannot be hit in this cell.
+                if (r & PRIM_SHELL_ONLY) != 0u {
+                    continue;
+                }
                 let h = intersect_prim(r, o, d, t_min, best.t);
                 if h.x != MISS {
                     best = Hit(h.x, r, h.y, h.z);

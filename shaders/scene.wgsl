@@ -10,7 +10,7 @@ fn ftexel(i: u32) -> vec4f {
 }
 
 fn prim_kind(r: u32) -> u32 {
-    return r >> PRIM_INDEX_BITS;
+    return r >> PRIM_KIND_SHIFT;
 }
 
 fn prim_index(r: u32) -> u32 {

@@ -78,6 +78,14 @@ fn segment_distance(o: vec3f, l: vec3f, len: f32, a: vec3f, b: vec3f) -> vec2f {
 
 // Transparency of a triangle's shell (points within b of its edges) and the t of closest approach.
 fn triangle_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, p0: vec3f, p1: vec3f, p2: vec3f) -> vec2f {
+    // Cheap rejection: the segment passes farther from the triangle's bounding sphere than the
+    // widest shell (b < light_r), so no edge is within b of it.
+    let centre = (p0 + p1 + p2) / 3.0;
+    let radius = sqrt(max(max(dot(p0 - centre, p0 - centre), dot(p1 - centre, p1 - centre)), dot(p2 - centre, p2 - centre)));
+    let tc = clamp(dot(centre - o, l), 0.0, dist);
+    if length(centre - (o + tc * l)) > radius + light_r {
+        return vec2f(1.0, tc);
+    }
     var best = segment_distance(o, l, dist, p0, p1);
     let e1 = segment_distance(o, l, dist, p1, p2);
     let e2 = segment_distance(o, l, dist, p2, p0);
@@ -175,7 +183,9 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
             for (var k = 0u; k < range.y; k++) {
                 loop_iters += 1u;
                 let r = prim_ref(range.x + k);
-                if intersect_prim(r, o, l, 0.0, dist - gap).x != MISS {
+                // A shell-only reference cannot be hit here; where the segment does hit that
+                // primitive, the cell holding the hit lists it as a full reference.
+                if (r & PRIM_SHELL_ONLY) == 0u && intersect_prim(r, o, l, 0.0, dist - gap).x != MISS {
                     return 0.0;
                 }
                 let sh = prim_shell(r, f, o, l, dist, light_r);

@@ -245,16 +245,16 @@ fn light_visibility_matches_its_twin() {
         let gs = GpuScene::upload(&ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
         let r = Reference::new(&s);
         let light = &s.lights[0];
-        let pts: Vec<DVec3> =
-            (0..2000).map(|_| f32_round(DVec3::new(rng.range(-4.0, 4.0), 1e-3, rng.range(-4.0, 4.0)))).collect();
-        let inputs: Vec<[f32; 4]> = pts
-            .iter()
-            .flat_map(|&o| [v4(o, 0.0), v4((light.position - o).normalize(), 7.0)])
+        let pts: Vec<DVec3> = (0..2000)
+            .map(|_| f32_round(DVec3::new(rng.range(-4.0, 4.0), 1e-3, rng.range(-4.0, 4.0))))
             .collect();
+        let inputs: Vec<[f32; 4]> =
+            pts.iter().flat_map(|&o| [v4(o, 0.0), v4((light.position - o).normalize(), 7.0)]).collect();
         let out = run_kernel(&ctx, &gs, "k_visibility", &inputs, pts.len() as u32, 1);
         let (mut off, mut penumbra) = (0, 0);
         for (k, &o) in pts.iter().enumerate() {
-            let want = r.visibility(o, light, 1e-4 * o.abs().max_element().max(1.0), 7, &mut Default::default());
+            let want =
+                r.visibility(o, light, 1e-4 * o.abs().max_element().max(1.0), 7, &mut Default::default());
             penumbra += (want > 0.0 && want < 1.0) as usize;
             // A sample ray within f32 rounding of an occluder's silhouette may go either way:
             // one bundle ray (1/64..1/16) or a shell value moved by the f32 distance; allow a

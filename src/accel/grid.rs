@@ -17,27 +17,35 @@ pub enum PrimKind {
     Triangle = 1,
 }
 
-/// A primitive reference as stored in the grid: kind in bits 30..32, index into that kind's
-/// array (`Scene::spheres`, `Scene::triangles()`) in bits 0..30.
+/// A primitive reference as stored in the grid: kind in bits 30..32, [`PrimRef::SHELL_ONLY`] in
+/// bit 29, index into that kind's array (`Scene::spheres`, `Scene::triangles()`) in bits 0..29.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(transparent)]
 pub struct PrimRef(pub u32);
 
 impl PrimRef {
-    pub const INDEX_BITS: u32 = 30;
+    pub const INDEX_BITS: u32 = 29;
+    pub const KIND_SHIFT: u32 = 30;
+    /// Set on references that a cell holds only because of the primitive's soft-shadow shell
+    /// (shell mode grows primitives by the light radius): shell walks use them, hit searches
+    /// skip them without intersecting.
+    pub const SHELL_ONLY: u32 = 1 << Self::INDEX_BITS;
     pub const MAX_INDEX: u32 = (1 << Self::INDEX_BITS) - 1;
     pub fn new(kind: PrimKind, index: u32) -> Self {
         assert!(index <= Self::MAX_INDEX);
-        PrimRef(((kind as u32) << Self::INDEX_BITS) | index)
+        PrimRef(((kind as u32) << Self::KIND_SHIFT) | index)
     }
     pub fn kind(self) -> PrimKind {
-        match self.0 >> Self::INDEX_BITS {
+        match self.0 >> Self::KIND_SHIFT {
             0 => PrimKind::Sphere,
             _ => PrimKind::Triangle,
         }
     }
     pub fn index(self) -> u32 {
         self.0 & Self::MAX_INDEX
+    }
+    pub fn shell_only(self) -> bool {
+        self.0 & Self::SHELL_ONLY != 0
     }
 }
 
@@ -117,13 +125,15 @@ impl Shape {
         }
     }
 
-    fn overlaps(&self, b: &Aabb) -> bool {
+    /// Whether the shape grown by `grow` overlaps the box. Triangles test the box grown instead
+    /// (a superset of the triangle grown by a ball, which is all a shell search needs).
+    fn overlaps(&self, b: &Aabb, grow: f64) -> bool {
         match *self {
             // Distance from the centre to the nearest point of the box.
             Shape::Sphere { center, radius } => {
-                center.clamp(b.lo, b.hi).distance_squared(center) <= radius * radius
+                center.clamp(b.lo, b.hi).distance_squared(center) <= (radius + grow) * (radius + grow)
             }
-            Shape::Triangle(p) => triangle_overlaps_box(p, b),
+            Shape::Triangle(p) => triangle_overlaps_box(p, &Aabb { lo: b.lo - grow, hi: b.hi + grow }),
         }
     }
 }
@@ -203,7 +213,7 @@ impl Grid {
             .map(|(i, s)| {
                 (
                     PrimRef::new(PrimKind::Sphere, i as u32),
-                    Shape::Sphere { center: s.center, radius: s.radius + shell },
+                    Shape::Sphere { center: s.center, radius: s.radius },
                 )
             })
             .chain(
@@ -213,12 +223,9 @@ impl Grid {
                     .map(|(i, t)| (PrimRef::new(PrimKind::Triangle, i as u32), Shape::Triangle(t.p))),
             )
             .collect();
-        // Triangles' shells: bounds and cell boxes grown by the shell width (a superset of the
-        // triangle grown by a ball, which is all that is needed).
-        let tri_grow = |s: &Shape| if matches!(s, Shape::Triangle(_)) { shell } else { 0.0 };
         let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| {
-            let (sb, g) = (s.bounds(), tri_grow(s));
-            b.union(Aabb { lo: sb.lo - g, hi: sb.hi + g })
+            let sb = s.bounds();
+            b.union(Aabb { lo: sb.lo - shell, hi: sb.hi + shell })
         });
         let (min, max) = padded(bounds);
         let res = resolution(max - min, shapes.len());
@@ -234,16 +241,18 @@ impl Grid {
         };
         let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
         for (r, shape) in &shapes {
-            let m = margin + tri_grow(shape);
             let b = shape.bounds();
-            let (lo, hi) = (cell_of(b.lo - m), cell_of(b.hi + m));
+            let (lo, hi) = (cell_of(b.lo - margin - shell), cell_of(b.hi + margin + shell));
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {
                         let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
-                        let cell = Aabb { lo: c_lo - m, hi: c_lo + cell_size + m };
-                        if shape.overlaps(&cell) {
-                            pairs.push((x + res[0] * (y + res[1] * z), *r));
+                        let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
+                        let c = x + res[0] * (y + res[1] * z);
+                        if shape.overlaps(&cell, 0.0) {
+                            pairs.push((c, *r));
+                        } else if shell > 0.0 && shape.overlaps(&cell, shell) {
+                            pairs.push((c, PrimRef(r.0 | PrimRef::SHELL_ONLY)));
                         }
                     }
                 }
@@ -310,7 +319,7 @@ impl Grid {
 
     pub fn stats(&self) -> GridStats {
         let counts = self.cell_start.windows(2).map(|w| w[1] - w[0]);
-        let mut prims: Vec<PrimRef> = self.prim_refs.clone();
+        let mut prims: Vec<u32> = self.prim_refs.iter().map(|r| r.0 & !PrimRef::SHELL_ONLY).collect();
         prims.sort_unstable();
         prims.dedup();
         GridStats {
@@ -573,6 +582,45 @@ mod tests {
         let g = Grid::build(&s);
         assert!(g.res.iter().all(|&r| r <= MAX_RES));
         assert!(g.cell_count() as u64 <= MAX_CELLS);
+    }
+
+    /// Shell mode lists a primitive in every cell within the light radius of it; references
+    /// there only because of the shell are flagged so hit searches can skip them.
+    #[test]
+    fn shell_mode_adds_flagged_references_around_primitives() {
+        use crate::scene::{Light, ShadowMode};
+        let mut s = scene(vec![Sphere { center: DVec3::ZERO, radius: 0.5, material: 0 }], vec![]);
+        s.lights = vec![Light { position: DVec3::splat(9.0), color: DVec3::ONE, radius: 1.0 }];
+        s.trace.shadows = ShadowMode::Shell { falloff: Default::default(), combine: Default::default() };
+        // Pad with small spheres far away so the grid has many cells.
+        s.spheres.extend((0..200).map(|i| Sphere {
+            center: DVec3::new(-4.0 + 0.04 * i as f64, 4.0, 4.0),
+            radius: 0.01,
+            material: 0,
+        }));
+        let g = Grid::build(&s);
+        let sphere = PrimRef::new(PrimKind::Sphere, 0);
+        let at = |p: DVec3| {
+            let [x, y, z] = cell_containing(&g, p);
+            g.cell(x, y, z).iter().copied().find(|r| r.0 & !PrimRef::SHELL_ONLY == sphere.0)
+        };
+        assert_eq!(at(DVec3::new(0.45, 0.0, 0.0)), Some(sphere));
+        let shell = at(DVec3::new(0.0, -1.4, 0.0)).expect("listed in its shell");
+        assert!(shell.shell_only() && shell.index() == 0 && shell.kind() == PrimKind::Sphere);
+        for (i, r) in g.prim_refs.iter().enumerate() {
+            let c = g.cell_start.partition_point(|&st| st as usize <= i) - 1;
+            let (x, y, z) =
+                (c as u32 % g.res[0], c as u32 / g.res[0] % g.res[1], c as u32 / g.res[0] / g.res[1]);
+            let lo = g.min + DVec3::new(x as f64, y as f64, z as f64) * g.cell_size;
+            let d = DVec3::ZERO.clamp(lo, lo + g.cell_size).length();
+            if r.0 & !PrimRef::SHELL_ONLY == sphere.0 {
+                assert!(d <= 1.5 + 1e-2, "listed {d} from the centre");
+                // Within the insertion margin of the surface either is right.
+                if d > 0.5 + 1e-2 || d <= 0.5 {
+                    assert_eq!(r.shell_only(), d > 0.5, "flag at distance {d}");
+                }
+            }
+        }
     }
 
     #[test]

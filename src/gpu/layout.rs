@@ -273,6 +273,8 @@ pub fn wgsl_constants() -> String {
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
     s += &c("PRIM_INDEX_BITS", PrimRef::INDEX_BITS);
+    s += &c("PRIM_KIND_SHIFT", PrimRef::KIND_SHIFT);
+    s += &c("PRIM_SHELL_ONLY", PrimRef::SHELL_ONLY);
     s += &c("PRIM_SPHERE", PrimKind::Sphere as u32);
     s += &c("PRIM_TRIANGLE", PrimKind::Triangle as u32);
     for (name, kind) in [

@@ -112,7 +112,11 @@ pub fn render_gpu(ctx: &irt::gpu::GpuContext, scene: &Scene) -> irt::image::Imag
     let r = irt::gpu::Renderer::new(ctx, scene, irt::gpu::RenderOptions::default()).expect("renderer");
     let frame = r.render(ctx, &mut |_, _| {});
     let limit = irt::gpu::layout::LAVAPIPE_LOOP_LIMIT;
-    assert!(frame.max_loop_iterations < limit / 4, "{} loop iterations in a pixel", frame.max_loop_iterations);
+    assert!(
+        frame.max_loop_iterations < limit / 4,
+        "{} loop iterations in a pixel",
+        frame.max_loop_iterations
+    );
     frame.image
 }
 
