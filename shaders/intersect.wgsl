@@ -31,30 +31,55 @@ fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, t_min: f32, t_max: f32
     return MISS;
 }
 
-// Möller–Trumbore, two-sided. Returns (t, b1, b2) with b1, b2 the barycentrics of p1 and p2,
-// or t = MISS. Zero-area triangles never hit (det == 0).
+// Watertight ray–triangle test (Woop, Benthin & Wald, JCGT 2013), two-sided. The vertices are
+// moved into a ray-aligned frame (a permutation and a shear that make the ray the +z axis), where
+// each edge's 2D edge function depends only on its two vertices: the triangles on both sides of a
+// shared edge compute it from the same numbers with opposite signs, so a ray through the edge or
+// a shared vertex hits at least one of them. Returns (t, b1, b2) with b1, b2 the barycentrics of
+// p1 and p2, or t = MISS. Zero-area triangles never hit (det == 0).
 fn intersect_triangle(o: vec3f, d: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, t_min: f32, t_max: f32) -> vec3f {
-    let e1 = p1 - p0;
-    let e2 = p2 - p0;
-    let pv = cross(d, e2);
-    let det = dot(e1, pv);
+    let ad = abs(d);
+    var kz = 2;
+    if ad.x >= ad.y && ad.x >= ad.z {
+        kz = 0;
+    } else if ad.y >= ad.z {
+        kz = 1;
+    }
+    var kx = (kz + 1) % 3;
+    var ky = (kx + 1) % 3;
+    // Keep the winding: swapping x and y when the ray points down its main axis.
+    if d[kz] < 0.0 {
+        let k = kx;
+        kx = ky;
+        ky = k;
+    }
+    let sz = 1.0 / d[kz];
+    let sx = d[kx] * sz;
+    let sy = d[ky] * sz;
+    let a = p0 - o;
+    let b = p1 - o;
+    let c = p2 - o;
+    let ax = a[kx] - sx * a[kz];
+    let ay = a[ky] - sy * a[kz];
+    let bx = b[kx] - sx * b[kz];
+    let by = b[ky] - sy * b[kz];
+    let cx = c[kx] - sx * c[kz];
+    let cy = c[ky] - sy * c[kz];
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return vec3f(MISS, 0.0, 0.0);
+    }
+    let det = u + v + w;
     if det == 0.0 {
         return vec3f(MISS, 0.0, 0.0);
     }
+    let tt = sz * (u * a[kz] + v * b[kz] + w * c[kz]);
     let inv = 1.0 / det;
-    let tv = o - p0;
-    let b1 = dot(tv, pv) * inv;
-    if b1 < 0.0 || b1 > 1.0 {
-        return vec3f(MISS, 0.0, 0.0);
-    }
-    let qv = cross(tv, e1);
-    let b2 = dot(d, qv) * inv;
-    if b2 < 0.0 || b1 + b2 > 1.0 {
-        return vec3f(MISS, 0.0, 0.0);
-    }
-    let t = dot(e2, qv) * inv;
+    let t = tt * inv;
     if t > t_min && t < t_max {
-        return vec3f(t, b1, b2);
+        return vec3f(t, v * inv, w * inv);
     }
     return vec3f(MISS, 0.0, 0.0);
 }
