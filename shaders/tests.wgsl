@@ -149,3 +149,23 @@ fn k_visibility(@builtin(global_invocation_id) gid: vec3u) {
     pixel_id = u32(b.w);
     out_buf[i] = vec4f(light_visibility(a.xyz, b.xyz, params.lights[u32(a.w)]), 0.0, 0.0, 0.0);
 }
+
+// in: (o, _), (d, _) -> (hit 1/0, n_g·l, s, 0): the eye ray's nearest hit, then the first
+// light's visibility from the offset origin there (self-shadowing tests).
+@compute @workgroup_size(8, 8, 1)
+fn k_acne(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let o = test_in[2u * i].xyz;
+    let d = test_in[2u * i + 1u].xyz;
+    let h = trace_closest(o, d, 0.0, BIG);
+    if h.prim == NO_HIT {
+        out_buf[i] = vec4f(0.0);
+        return;
+    }
+    let sf = surface_at(h, o, d);
+    let light = params.lights[0];
+    let l = normalize(light.position_radius.xyz - sf.p);
+    let s = light_visibility(offset_origin(sf.p, sf.ng, l), l, light);
+    out_buf[i] = vec4f(1.0, dot(sf.ng, l), s, 0.0);
+}

@@ -16,8 +16,11 @@ struct Surface {
     inside: bool,
 }
 
+// The hit point is recomputed from the primitive (sphere: centre + r n; triangle: barycentrics),
+// so its error is relative to the primitive's coordinates, not to the ray's origin and length:
+// what the ulp-based offset below assumes.
 fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
-    let p = o + d * h.t;
+    var p = o + d * h.t;
     let i = prim_index(h.prim);
     var ng: vec3f;
     var n: vec3f;
@@ -26,9 +29,11 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
         let s = load_sphere(i);
         ng = normalize(p - s.xyz);
         n = ng;
+        p = s.xyz + s.w * ng;
         material = sphere_material(i);
     } else {
         let tri = load_triangle(i);
+        p = tri.p0 + h.b1 * (tri.p1 - tri.p0) + h.b2 * (tri.p2 - tri.p0);
         ng = normalize(cross(tri.p1 - tri.p0, tri.p2 - tri.p0));
         n = ng;
         if tri.normals != NO_NORMALS {
@@ -54,10 +59,14 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
 }
 
 // `p` moved off the surface to the side `dir` leaves on (docs/shading.md, "Ray origins").
+// Wächter & Binder (Ray Tracing Gems ch. 6): a fixed number of ulps of each coordinate (256, in
+// the normal's direction), so the offset scales with the point's own f32 spacing at every
+// magnitude; near the origin, where ulps vanish, a small absolute offset instead.
 fn offset_origin(p: vec3f, ng: vec3f, dir: vec3f) -> vec3f {
-    let a = abs(p);
-    let scale = params.trace.y * max(1.0, max(max(a.x, a.y), a.z));
-    return p + select(-ng, ng, dot(dir, ng) > 0.0) * scale;
+    let n = select(-ng, ng, dot(dir, ng) > 0.0);
+    let of_i = vec3i(256.0 * n);
+    let p_i = bitcast<vec3f>(bitcast<vec3i>(p) + select(of_i, -of_i, p < vec3f(0.0)));
+    return select(p_i, p + (1.0 / 65536.0) * n, abs(p) < vec3f(1.0 / 32.0));
 }
 
 // Emitted towards the eye at `sf` by ambient and lights, shadows included.
