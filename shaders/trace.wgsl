@@ -16,6 +16,20 @@ struct Surface {
     inside: bool,
 }
 
+// `v` normalised, or `fallback` when `v` is zero or too small to normalise (a hit at a sphere's
+// centre, a triangle that collapsed in f32): never a NaN normal.
+fn unit_or(v: vec3f, fallback: vec3f) -> vec3f {
+    let len2 = dot(v, v);
+    if !(len2 > 1.0e-30) || len2 > 1.0e30 {
+        let m = max(max(abs(v.x), abs(v.y)), abs(v.z));
+        if m > 0.0 && m < 3.0e38 {
+            return normalize(v / m);
+        }
+        return fallback;
+    }
+    return v * inverseSqrt(len2);
+}
+
 // The hit point is recomputed from the primitive (sphere: centre + r n; triangle: barycentrics),
 // so its error is relative to the primitive's coordinates, not to the ray's origin and length:
 // what the ulp-based offset below assumes.
@@ -27,14 +41,14 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
     var material: u32;
     if HAS_SPHERES && prim_kind(h.prim) == PRIM_SPHERE {
         let s = load_sphere(i);
-        ng = normalize(p - s.xyz);
+        ng = unit_or(p - s.xyz, -d);
         n = ng;
         p = s.xyz + s.w * ng;
         material = sphere_material(i);
     } else {
         let tri = load_triangle(i);
         p = tri.p0 + h.b1 * (tri.p1 - tri.p0) + h.b2 * (tri.p2 - tri.p0);
-        ng = normalize(cross(tri.p1 - tri.p0, tri.p2 - tri.p0));
+        ng = unit_or(cross(tri.p1 - tri.p0, tri.p2 - tri.p0), -d);
         n = ng;
         if tri.normals != NO_NORMALS {
             let nv = vertex_normal(tri.normals, h.b1, h.b2);

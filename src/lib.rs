@@ -11,4 +11,5 @@ pub mod io;
 pub mod metrics;
 pub mod reference;
 pub mod scene;
+pub mod stability;
 pub mod tradeoff;

@@ -6,6 +6,7 @@ use super::shaders::{self, Kernel, Variant};
 use super::GpuContext;
 use crate::accel::Grid;
 use crate::scene::Scene;
+use glam::DVec3;
 
 /// A scene resident on the device: the scene texture and the frame constants.
 pub struct GpuScene {
@@ -17,9 +18,17 @@ pub struct GpuScene {
 }
 
 impl GpuScene {
+    /// Uploads in world coordinates (what readback tests, which give world-space rays, need).
     pub fn upload(ctx: &GpuContext, scene: &Scene, grid: &Grid) -> Result<Self, String> {
-        let packed = layout::pack_scene(scene, grid);
-        let params = layout::params(scene, grid, &packed);
+        Self::upload_at(ctx, scene, grid, DVec3::ZERO)
+    }
+
+    /// Uploads with every position relative to `origin` (subtracted in f64, then rounded to
+    /// f32): rendering passes the camera's eye, so f32 precision follows distances from the
+    /// viewer instead of from the world's origin (docs/stability.md).
+    pub fn upload_at(ctx: &GpuContext, scene: &Scene, grid: &Grid, origin: DVec3) -> Result<Self, String> {
+        let packed = layout::pack_scene(scene, grid, origin);
+        let params = layout::params(scene, grid, &packed, origin);
         Self::upload_packed(ctx, &packed, params)
     }
 

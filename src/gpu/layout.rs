@@ -138,6 +138,7 @@ impl PackedScene {
     }
 }
 
+/// Positions are stored relative to `origin` (see `GpuScene::upload_at`).
 /// Lays out, in order: spheres, triangles, vertex normals, materials, cell ranges, references,
 /// macro-cell bits. Record formats (the shader's `scene.wgsl` decodes the same):
 /// - sphere: `[c.xyz, r]`, `[material, 0, 0, 0]`
@@ -146,11 +147,11 @@ impl PackedScene {
 /// - material: `[colour.rgb, kind]`, `[eta, exponent, 0, 0]`
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
-pub fn pack_scene(scene: &Scene, grid: &Grid) -> PackedScene {
+pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     let mut t: Vec<[u32; 4]> = Vec::new();
     let sphere_base = 0u32;
     for s in &scene.spheres {
-        t.push(f4(s.center, (s.radius as f32).to_bits()));
+        t.push(f4(s.center - origin, (s.radius as f32).to_bits()));
         t.push([s.material, 0, 0, 0]);
     }
     let triangle_base = t.len() as u32;
@@ -164,9 +165,9 @@ pub fn pack_scene(scene: &Scene, grid: &Grid) -> PackedScene {
             }
             None => NO_NORMALS,
         };
-        t.push(f4(tri.p[0], tri.material));
-        t.push(f4(tri.p[1], normal_record));
-        t.push(f4(tri.p[2], 0));
+        t.push(f4(tri.p[0] - origin, tri.material));
+        t.push(f4(tri.p[1] - origin, normal_record));
+        t.push(f4(tri.p[2] - origin, 0));
     }
     let normal_base = t.len() as u32;
     t.extend(normals);
@@ -221,18 +222,19 @@ pub fn pack_scene(scene: &Scene, grid: &Grid) -> PackedScene {
     }
 }
 
-/// The frame constants for `scene` drawn with `grid` laid out as in `packed`.
-pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene) -> Params {
+/// The frame constants for `scene` drawn with `grid` laid out as in `packed`, positions relative
+/// to `origin` as in [`pack_scene`].
+pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -> Params {
     let cam = &scene.camera;
     let b = cam.basis();
     let mut lights = [GpuLight::default(); MAX_LIGHTS];
     for (g, l) in lights.iter_mut().zip(&scene.lights) {
-        g.position_radius = v4(l.position, l.radius as f32);
+        g.position_radius = v4(l.position - origin, l.radius as f32);
         g.color = v4(l.color, 0.0);
     }
     let res = grid.res;
     Params {
-        eye: v4(cam.eye, 0.0),
+        eye: v4(cam.eye - origin, 0.0),
         cam_u: v4(b.u, 0.0),
         cam_v: v4(b.v, 0.0),
         cam_w: v4(b.w, 0.0),
@@ -240,8 +242,8 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene) -> Params {
         ambient_ground: v4(scene.ambient.ground, 0.0),
         ambient_up: v4(scene.ambient.up.normalize(), 0.0),
         background: v4(scene.background, 0.0),
-        grid_min: v4(grid.min, 0.0),
-        grid_max: v4(grid.max, 0.0),
+        grid_min: v4(grid.min - origin, 0.0),
+        grid_max: v4(grid.max - origin, 0.0),
         grid_cell: v4(grid.cell_size, 0.0),
         grid_inv_cell: v4(grid.cell_size.recip(), 0.0),
         grid_res: [res[0], res[1], res[2], grid.macro_factor],

@@ -56,7 +56,7 @@ impl Renderer {
         let t0 = Instant::now();
         let grid = Grid::build(scene);
         let t1 = Instant::now();
-        let gpu_scene = GpuScene::upload(ctx, scene, &grid)?;
+        let gpu_scene = GpuScene::upload_at(ctx, scene, &grid, scene.camera.eye)?;
         ctx.wait();
         let t2 = Instant::now();
         let variant = if opts.uber_shader {

@@ -177,6 +177,28 @@ impl Scene {
         })
     }
 
+    /// The same scene scaled by `scale` about the origin, then moved by `offset`: every position,
+    /// radius and camera point (light intensities and the ambient are unchanged, so a valid
+    /// scene renders the same picture). The stability suite's way of making extreme scenes.
+    pub fn transformed(&self, scale: f64, offset: DVec3) -> Scene {
+        let p = |v: DVec3| v * scale + offset;
+        let mut s = self.clone();
+        s.camera.eye = p(s.camera.eye);
+        s.camera.look_at = p(s.camera.look_at);
+        for l in &mut s.lights {
+            l.position = p(l.position);
+            l.radius *= scale;
+        }
+        for sp in &mut s.spheres {
+            sp.center = p(sp.center);
+            sp.radius *= scale;
+        }
+        for m in &mut s.meshes {
+            m.positions.iter_mut().for_each(|v| *v = p(*v));
+        }
+        s
+    }
+
     /// Checks everything a loader might let through: finite numbers, positive sizes, indices in
     /// range, image size within limits. Loaders call it; so does anyone building a Scene by hand.
     pub fn validate(&self) -> Result<(), InvalidScene> {
