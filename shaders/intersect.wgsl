@@ -1,22 +1,30 @@
 // Ray–primitive intersection. CPU twins: src/reference (same names).
 
-// Nearest root of |o + t d - c| = r in (t_min, t_max), or MISS. `d` must be unit length.
-// The discriminant is r² - |oc - (oc·d) d|² (Ray Tracing Gems, ch. 7), which keeps its
-// precision when the sphere is small and far away, unlike b² - c.
-fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, t_min: f32, t_max: f32) -> f32 {
-    let f = o - c;
-    let b = -dot(f, d);
-    let q = f + b * d;
-    let disc = r * r - dot(q, q);
+// Nearest root of |o + t d - c| = r in (t_min, t_max), or MISS; `d` unit length, `a` a point on
+// the sphere (its anchor: the point nearest the eye, computed in f64 on the host). Everything is
+// measured from the anchor, g = o - a, with f = o - c = g + r n_a:
+//   disc = r² - |f⊥|² = r² (n_a·d)² - 2r (g⊥·n_a) - |g⊥|²     (⊥: perpendicular to d)
+//   t0 t1 = |f|² - r² = |g|² + 2r (n_a·g)
+// so no term is a difference of two large numbers: for a small, distant sphere this is Ray
+// Tracing Gems ch. 7's r² - |f⊥|², and for a sphere far larger than the view (a planet-sized
+// ground) its numbers stay near the hit, where f32 centre-based forms lose metres.
+fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, a: vec3f, t_min: f32, t_max: f32) -> f32 {
+    let na = (a - c) / r;
+    let g = o - a;
+    let gd = dot(g, d);
+    let nd = dot(na, d);
+    let gp = g - gd * d;
+    let disc = r * r * nd * nd - 2.0 * r * dot(gp, na) - dot(gp, gp);
     if disc < 0.0 {
         return MISS;
     }
-    // Roots without cancellation: t0 * t1 = |f|² - r².
-    let s = select(-1.0, 1.0, b >= 0.0);
-    let qq = b + s * sqrt(disc);
-    let cc = dot(f, f) - r * r;
-    var t0 = select(cc / qq, 0.0, qq == 0.0);
-    var t1 = qq;
+    let fd = gd + r * nd;
+    let cc = dot(g, g) + 2.0 * r * dot(na, g);
+    // Roots of t² + 2 fd t + cc = 0 without cancellation.
+    let s = sqrt(disc);
+    let q = -(fd + select(-s, s, fd >= 0.0));
+    var t0 = select(cc / q, 0.0, q == 0.0);
+    var t1 = q;
     if t0 > t1 {
         let tmp = t0;
         t0 = t1;
@@ -89,7 +97,7 @@ fn intersect_prim(r: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
     let i = prim_index(r);
     if HAS_SPHERES && prim_kind(r) == PRIM_SPHERE {
         let s = load_sphere(i);
-        return vec3f(intersect_sphere(o, d, s.xyz, s.w, t_min, t_max), 0.0, 0.0);
+        return vec3f(intersect_sphere(o, d, s.xyz, s.w, sphere_anchor(i), t_min, t_max), 0.0, 0.0);
     }
     if HAS_TRIANGLES && prim_kind(r) == PRIM_TRIANGLE {
         let tri = load_triangle(i);

@@ -26,6 +26,11 @@ fn sphere_material(i: u32) -> u32 {
     return texel(params.prim_base.x + i * SPHERE_TEXELS + 1u).x;
 }
 
+// Sphere `i`'s anchor: the point of its surface nearest the eye (see `intersect_sphere`).
+fn sphere_anchor(i: u32) -> vec3f {
+    return ftexel(params.prim_base.x + i * SPHERE_TEXELS + 1u).yzw;
+}
+
 struct Triangle {
     p0: vec3f,
     p1: vec3f,

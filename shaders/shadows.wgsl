@@ -212,7 +212,10 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
 fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
     let c = light.position_radius.xyz;
     let r = light.position_radius.w;
-    let gap = params.trace.y * max(1.0, max(max(abs(o.x), abs(o.y)), abs(o.z)));
+    // Stop short of the light by a relative margin of the segment's end points' magnitudes
+    // (positions are camera-relative, so this follows the scene's own scale).
+    let ends = max(abs(o), abs(c));
+    let gap = params.trace.y * max(max(ends.x, ends.y), ends.z);
     let kind = shadow_kind();
     let bundle = kind == 1u && r != 0.0;
     if !bundle && tile.pass_range.z == 0u {

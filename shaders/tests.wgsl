@@ -9,15 +9,16 @@ fn item(gid: vec3u) -> u32 {
     return gid.x;
 }
 
-// in: (o, t_min), (d, t_max), (c, r) -> (t, 0, 0, 0)
+// in: (o, t_min), (d, t_max), (c, r), anchor -> (t, 0, 0, 0)
 @compute @workgroup_size(8, 8, 1)
 fn k_sphere(@builtin(global_invocation_id) gid: vec3u) {
     let i = item(gid);
     if i == NO_HIT { return; }
-    let a = test_in[3u * i];
-    let b = test_in[3u * i + 1u];
-    let c = test_in[3u * i + 2u];
-    out_buf[i] = vec4f(intersect_sphere(a.xyz, b.xyz, c.xyz, c.w, a.w, b.w), 0.0, 0.0, 0.0);
+    let a = test_in[4u * i];
+    let b = test_in[4u * i + 1u];
+    let c = test_in[4u * i + 2u];
+    let anchor = test_in[4u * i + 3u].xyz;
+    out_buf[i] = vec4f(intersect_sphere(a.xyz, b.xyz, c.xyz, c.w, anchor, a.w, b.w), 0.0, 0.0, 0.0);
 }
 
 // in: (o, t_min), (d, t_max), p0, p1, p2 -> (t, b1, b2, 0)
@@ -166,6 +167,6 @@ fn k_acne(@builtin(global_invocation_id) gid: vec3u) {
     let sf = surface_at(h, o, d);
     let light = params.lights[0];
     let l = normalize(light.position_radius.xyz - sf.p);
-    let s = light_visibility(offset_origin(sf.p, sf.ng, l), l, light);
+    let s = light_visibility(offset_origin(sf, l), l, light);
     out_buf[i] = vec4f(1.0, dot(sf.ng, l), s, 0.0);
 }

@@ -14,6 +14,12 @@ struct Surface {
     material: u32,
     // The ray hit the back side (for dielectrics: it is leaving the medium).
     inside: bool,
+    // Magnitude of the numbers p was computed from; its rounding error is relative to this.
+    scale: f32,
+}
+
+fn vmax(v: vec3f) -> f32 {
+    return max(max(v.x, v.y), v.z);
 }
 
 // `v` normalised, or `fallback` when `v` is zero or too small to normalise (a hit at a sphere's
@@ -35,6 +41,7 @@ fn unit_or(v: vec3f, fallback: vec3f) -> vec3f {
 // what the ulp-based offset below assumes.
 fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
     var p = o + d * h.t;
+    var scale = 0.0;
     let i = prim_index(h.prim);
     var ng: vec3f;
     var n: vec3f;
@@ -43,11 +50,21 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
         let s = load_sphere(i);
         ng = unit_or(p - s.xyz, -d);
         n = ng;
-        p = s.xyz + s.w * ng;
+        // Whichever way of computing p used smaller numbers: the centre and radius, or (for a
+        // sphere much larger than the view, such as a planet-sized ground) the ray.
+        let sphere_scale = vmax(abs(s.xyz)) + s.w;
+        let ray_scale = vmax(abs(o)) + h.t;
+        if sphere_scale <= ray_scale {
+            p = s.xyz + s.w * ng;
+            scale = sphere_scale;
+        } else {
+            scale = ray_scale;
+        }
         material = sphere_material(i);
     } else {
         let tri = load_triangle(i);
         p = tri.p0 + h.b1 * (tri.p1 - tri.p0) + h.b2 * (tri.p2 - tri.p0);
+        scale = vmax(max(max(abs(tri.p0), abs(tri.p1)), abs(tri.p2)));
         ng = unit_or(cross(tri.p1 - tri.p0, tri.p2 - tri.p0), -d);
         n = ng;
         if tri.normals != NO_NORMALS {
@@ -69,18 +86,22 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
     if dot(n, ng) < 0.0 {
         n = ng;
     }
-    return Surface(p, ng, n, material, inside);
+    return Surface(p, ng, n, material, inside, scale);
 }
 
 // `p` moved off the surface to the side `dir` leaves on (docs/shading.md, "Ray origins").
 // Wächter & Binder (Ray Tracing Gems ch. 6): a fixed number of ulps of each coordinate (256, in
-// the normal's direction), so the offset scales with the point's own f32 spacing at every
-// magnitude; near the origin, where ulps vanish, a small absolute offset instead.
-fn offset_origin(p: vec3f, ng: vec3f, dir: vec3f) -> vec3f {
-    let n = select(-ng, ng, dot(dir, ng) > 0.0);
+// the normal's direction), so the offset follows the point's own f32 spacing at every
+// magnitude; where a coordinate is small next to the numbers the point was computed from
+// (`sf.scale`: ulps of a coordinate near 0 say nothing about the error of p), an offset of
+// 2^-15 of that scale instead. With scale 1 these are W&B's constants.
+fn offset_origin(sf: Surface, dir: vec3f) -> vec3f {
+    let p = sf.p;
+    let n = select(-sf.ng, sf.ng, dot(dir, sf.ng) > 0.0);
     let of_i = vec3i(256.0 * n);
     let p_i = bitcast<vec3f>(bitcast<vec3i>(p) + select(of_i, -of_i, p < vec3f(0.0)));
-    return select(p_i, p + (1.0 / 65536.0) * n, abs(p) < vec3f(1.0 / 32.0));
+    let p_f = p + (sf.scale / 32768.0) * n;
+    return select(p_i, p_f, abs(p) < vec3f(sf.scale / 32.0));
 }
 
 // Emitted towards the eye at `sf` by ambient and lights, shadows included.
@@ -99,7 +120,7 @@ fn shade_local(sf: Surface, m: Material, e: vec3f) -> vec3f {
         if dot(sf.n, l) <= 0.0 {
             continue;
         }
-        let s = light_visibility(offset_origin(sf.p, sf.ng, l), l, light);
+        let s = light_visibility(offset_origin(sf, l), l, light);
         if s > 0.0 {
             c += s * shade_light(m, sf.n, e, l, light.color.rgb, sf.inside);
         }
@@ -138,7 +159,7 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
                 let w_s = ray.w * k.ks;
                 if max(max(w_s.x, w_s.y), w_s.z) > cutoff {
                     let r = reflect_dir(ray.d, sf.n);
-                    stack[sp] = PendingRay(offset_origin(sf.p, sf.ng, r), ray.depth + 1u, r, w_s);
+                    stack[sp] = PendingRay(offset_origin(sf, r), ray.depth + 1u, r, w_s);
                     sp += 1u;
                     ray_counts.y += 1u;
                 }
@@ -146,7 +167,7 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
                 if k.kt > 0.0 && max(max(w_t.x, w_t.y), w_t.z) > cutoff {
                     let t = refract_dir(ray.d, sf.n, select(1.0 / m.eta, m.eta, sf.inside));
                     if t.w != 0.0 {
-                        stack[sp] = PendingRay(offset_origin(sf.p, sf.ng, t.xyz), ray.depth + 1u, t.xyz, w_t);
+                        stack[sp] = PendingRay(offset_origin(sf, t.xyz), ray.depth + 1u, t.xyz, w_t);
                         sp += 1u;
                         ray_counts.z += 1u;
                     }

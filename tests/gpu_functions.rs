@@ -42,22 +42,40 @@ fn ray_sphere() {
     let mut rng = Rng::new(1);
     let mut cases = Vec::new();
     for i in 0..N {
-        let c = f32_round(rng.vec(-10.0, 10.0));
-        let r = rng.range(0.05, 5.0) as f32 as f64;
+        // Every tenth sphere is planet-sized, with rays starting just above its surface.
+        let huge = i % 10 == 9;
+        let c = if huge {
+            f32_round(DVec3::new(0.0, -1e6, 0.0) + rng.vec(-10.0, 10.0))
+        } else {
+            f32_round(rng.vec(-10.0, 10.0))
+        };
+        let r = if huge { 1e6 } else { rng.range(0.05, 5.0) as f32 as f64 };
         // A third of the rays start inside the sphere; the rest aim near it (hits and misses).
-        let o = if i % 3 == 0 {
+        let o = if huge {
+            f32_round(c + DVec3::new(rng.range(-5.0, 5.0), r + rng.range(0.01, 3.0), rng.range(-5.0, 5.0)))
+        } else if i % 3 == 0 {
             f32_round(c + rng.unit() * r * rng.f() * 0.99)
         } else {
             f32_round(rng.vec(-20.0, 20.0))
         };
-        let target = c + rng.unit() * r * rng.range(0.0, 1.5);
+        let target = if huge {
+            o + DVec3::new(rng.range(-4.0, 4.0), -rng.range(0.5, 3.0), rng.range(-4.0, 4.0))
+        } else {
+            c + rng.unit() * r * rng.range(0.0, 1.5)
+        };
         let d = f32_round((target - o).normalize());
         let (t_min, t_max) =
             if i % 5 == 0 { (rng.range(0.0, 2.0), rng.range(2.0, 30.0)) } else { (0.0, 1e30) };
         cases.push((o, d, c, r, t_min as f32 as f64, t_max as f32 as f64));
     }
-    let inputs: Vec<[f32; 4]> =
-        cases.iter().flat_map(|&(o, d, c, r, a, b)| [v4(o, a), v4(d, b), v4(c, r)]).collect();
+    let inputs: Vec<[f32; 4]> = cases
+        .iter()
+        .flat_map(|&(o, d, c, r, a, b)| {
+            // The anchor as the renderer makes it: nearest the ray's origin here.
+            let anchor = irt::gpu::layout::sphere_anchor(c, r, o);
+            [v4(o, a), v4(d, b), v4(c, r), v4(anchor, 0.0)]
+        })
+        .collect();
     let out = h.run("k_sphere", &inputs, N, 1);
     let mut checked = 0;
     for (k, &(o, d, c, r, a, b)) in cases.iter().enumerate() {
@@ -67,7 +85,9 @@ fn ray_sphere() {
         // 1e-4 of t_min/t_max may be classified either way in f32.
         let oc = o - c;
         let closest = (oc - oc.dot(d) * d).length();
-        let scale = oc.length() + r;
+        // The numbers the root is computed from: distances from the anchor (and the radius for
+        // a sphere smaller than them).
+        let scale = if r > 1e3 { 10.0 * ((o - c).length() - r).abs().max(1.0) } else { oc.length() + r };
         let ambiguous = (closest - r).abs() < 1e-4 * scale
             || want.is_some_and(|t| (t - a).abs() < 1e-4 * scale || (t - b).abs() < 1e-4 * scale);
         if ambiguous {

@@ -138,10 +138,16 @@ impl PackedScene {
     }
 }
 
+/// The point of a sphere's surface nearest `eye` (any point when the eye is at the centre), in
+/// f64: `intersect_sphere` measures from it.
+pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
+    center + radius * (eye - center).try_normalize().unwrap_or(DVec3::Y)
+}
+
 /// Positions are stored relative to `origin` (see `GpuScene::upload_at`).
 /// Lays out, in order: spheres, triangles, vertex normals, materials, cell ranges, references,
 /// macro-cell bits. Record formats (the shader's `scene.wgsl` decodes the same):
-/// - sphere: `[c.xyz, r]`, `[material, 0, 0, 0]`
+/// - sphere: `[c.xyz, r]`, `[material, anchor.xyz]` (`sphere_anchor`)
 /// - triangle: `[p0.xyz, material]`, `[p1.xyz, normal_record or NO_NORMALS]`, `[p2.xyz, 0]`
 /// - vertex normals: `[n0.xyz, 0]`, `[n1.xyz, 0]`, `[n2.xyz, 0]`
 /// - material: `[colour.rgb, kind]`, `[eta, exponent, 0, 0]`
@@ -152,7 +158,8 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     let sphere_base = 0u32;
     for s in &scene.spheres {
         t.push(f4(s.center - origin, (s.radius as f32).to_bits()));
-        t.push([s.material, 0, 0, 0]);
+        let anchor = f4(sphere_anchor(s.center, s.radius, origin) - origin, 0);
+        t.push([s.material, anchor[0], anchor[1], anchor[2]]);
     }
     let triangle_base = t.len() as u32;
     let mut normals: Vec<[u32; 4]> = Vec::new();

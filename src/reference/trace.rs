@@ -57,6 +57,10 @@ pub struct SurfaceHit {
     /// The ray hit the back side (the normals were flipped).
     pub inside: bool,
     pub material: u32,
+    /// Magnitude of the numbers `p` was computed from (origin and distance along the ray, the
+    /// sphere's centre and radius or the triangle's vertices): its rounding error is relative
+    /// to this, so ray offsets are too.
+    pub scale: f64,
 }
 
 #[derive(Clone, Copy)]
@@ -197,15 +201,18 @@ impl<'a> Reference<'a> {
 
     fn resolve(&self, o: DVec3, d: DVec3, t: f64, prim: Prim) -> SurfaceHit {
         let p = o + t * d;
+        let mut scale = o.abs().max_element() + t * d.length();
         let (n_g, n, material) = match prim {
             Prim::Sphere(i) => {
                 let s = &self.scene.spheres[i];
+                scale = scale.max(s.center.abs().max_element() + s.radius);
                 // (p - c)/r, normalised so rounding in p cannot leave it off unit length.
                 let n = (p - s.center).normalize();
                 (n, n, s.material)
             }
             Prim::Triangle { index, b1, b2 } => {
                 let tri = &self.triangles[index];
+                scale = tri.p.iter().fold(scale, |m, v| m.max(v.abs().max_element()));
                 let n_g = triangle_normal(tri.p[0], tri.p[1], tri.p[2]);
                 let n = match tri.n {
                     Some([n0, n1, n2]) => {
@@ -232,7 +239,7 @@ impl<'a> Reference<'a> {
         if n.dot(n_g) < 0.0 {
             n = n_g;
         }
-        SurfaceHit { t, p, n_g, n, inside, material }
+        SurfaceHit { t, p, n_g, n, inside, material, scale }
     }
 
     /// Radiance arriving at `o` from direction `d` (unit) for a ray of the given depth and
@@ -257,7 +264,7 @@ impl<'a> Reference<'a> {
         let m = &self.scene.materials[hit.material as usize].kind;
         let (p, n, n_g, inside) = (hit.p, hit.n, hit.n_g, hit.inside);
         let e = -d;
-        let eps = RAY_OFFSET_REL * p.abs().max_element().max(1.0);
+        let eps = RAY_OFFSET_REL * hit.scale.max(1.0);
         // Move p along n_g to the side a new ray in direction `dir` leaves on.
         // Decision: a direction exactly in the tangent plane leaves on the n_g (viewer) side.
         let origin = |dir: DVec3| {
