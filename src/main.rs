@@ -31,6 +31,8 @@ enum Command {
     Bench(BenchArgs),
     /// Measure every shadow mode's time and error against the ground truth; table + plot.
     Tradeoff(TradeoffArgs),
+    /// Measure the GPU's error against the f64 reference as the scene moves away from the origin.
+    Stability(StabilityArgs),
 }
 
 #[derive(Args)]
@@ -95,6 +97,17 @@ struct TradeoffArgs {
 }
 
 #[derive(Args)]
+struct StabilityArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Where table.md and plot.svg go (created if missing).
+    #[arg(long, default_value = "stability")]
+    out_dir: PathBuf,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+#[derive(Args)]
 struct BenchArgs {
     #[command(flatten)]
     scene: SceneArgs,
@@ -119,6 +132,7 @@ fn main() {
         Command::Info(a) => info(a),
         Command::Bench(a) => bench(a),
         Command::Tradeoff(a) => tradeoff(a),
+        Command::Stability(a) => stability(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -419,4 +433,43 @@ impl Drop for TempDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
+}
+
+fn stability(args: StabilityArgs) -> Result<()> {
+    let mut scene_args = args.scene;
+    // The f64 reference renders every distance: keep it small unless told.
+    if scene_args.width.is_none() && scene_args.height.is_none() {
+        scene_args.width = Some(160);
+        scene_args.height = Some(120);
+    }
+    let scene = load_scene(&scene_args)?;
+    std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
+    let ctx = open_device(&args.device)?;
+    let bar = indicatif::ProgressBar::new(irt::stability::DISTANCES.len() as u64);
+    let mut rows = Vec::new();
+    for d in irt::stability::DISTANCES {
+        bar.set_message(format!("{d:e}"));
+        rows.push((d, irt::stability::measure(&ctx, &scene, d).map_err(anyhow::Error::msg)?));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let name = scene_args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let table = format!(
+        "Scene: {name}, {w}x{h}, moved along (1, 0.8, -0.6); device: {}; {}; command: `irt stability{}`\n\n{}",
+        ctx.info.name,
+        machine_line(),
+        std::env::args().skip(2).map(|a| format!(" {a}")).collect::<String>(),
+        irt::stability::markdown_table(&rows)
+    );
+    print!("{table}");
+    irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
+    irt::stability::plot_svg(
+        &rows,
+        &format!("f32 GPU vs f64 reference: {name}"),
+        &args.out_dir.join("plot.svg"),
+    )
+    .map_err(anyhow::Error::msg)?;
+    eprintln!("wrote {}/table.md and plot.svg", args.out_dir.display());
+    Ok(())
 }
