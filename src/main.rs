@@ -189,6 +189,11 @@ fn render(args: RenderArgs) -> Result<()> {
     let frame = renderer.render(&ctx, &mut |done, _| bar.set_position(done as u64));
     let elapsed = t.elapsed();
     bar.finish_and_clear();
+    // Never expected (the extreme-scene suite checks it), but never silently written either.
+    let bad = frame.image.non_finite();
+    if bad > 0 {
+        log::warn!("{bad} pixel channels are NaN or infinite (written black or clamped)");
+    }
     frame.image.save_png(&args.out).with_context(|| format!("writing {}", args.out.display()))?;
     eprintln!(
         "wrote {} ({w}x{h}, {} primitives, {:.2} s on {})",
