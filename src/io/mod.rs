@@ -6,6 +6,7 @@
 pub mod gltf;
 pub mod shapes;
 pub mod toml;
+pub mod toml_write;
 
 use crate::scene::Scene;
 use std::io::Read;
