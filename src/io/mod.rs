@@ -1,6 +1,7 @@
-//! Scene files → [`crate::scene::Scene`]. Errors name the file, line and column.
+//! Scene files → [`crate::scene::Scene`]. Errors name the file and the place in it (line and
+//! column; for glTF, the JSON object).
 //!
-//! [`load`] picks a parser by file extension from [`FORMATS`]; each parser turns text into a
+//! [`load`] picks a parser by file extension from [`FORMATS`]; each parser turns the file into a
 //! validated [`Scene`] and reports problems as a [`LoadError`] pointing at the offending value.
 
 pub mod gltf;
@@ -69,7 +70,8 @@ pub fn line_column(src: &str, offset: usize) -> (usize, usize) {
     (before.matches('\n').count() + 1, before[line_start..].chars().count() + 1)
 }
 
-/// A scene file format: the extensions it claims and its parser (`bytes`, `origin` for messages).
+/// A scene file format: the extensions it claims and its parser (`bytes`, `origin` for messages;
+/// `origin` is the file's path, and glTF finds external buffers relative to it).
 pub struct Format {
     pub name: &'static str,
     pub extensions: &'static [&'static str],
