@@ -4,6 +4,7 @@
 mod common;
 
 use glam::DVec3;
+use image::ImageEncoder;
 use irt::io::{gltf::parse, load, LoadError};
 use irt::scene::{MaterialKind, Scene};
 use serde_json::{json, Value};
@@ -437,8 +438,67 @@ fn node_cycles_are_refused() {
 
 #[test]
 fn points_and_lines_are_skipped_and_nothing_left_is_an_error() {
+    let doc = with(triangle(), |d| {
+        let points = json!({ "attributes": { "POSITION": 0 }, "mode": 0 });
+        d["meshes"][0]["primitives"].as_array_mut().unwrap().push(points);
+    });
+    assert_eq!(load_json("points.gltf", &doc).unwrap().triangle_count(), 1, "the triangles stay");
     let doc = with(triangle(), |d| d["meshes"][0]["primitives"][0]["mode"] = json!(1));
     refused("lines.gltf", &doc, &["no triangles"]);
+}
+
+#[test]
+fn without_a_scene_every_root_node_is_shown_and_orthographic_cameras_are_replaced() {
+    let doc = with(triangle(), |d| {
+        let o = d.as_object_mut().unwrap();
+        o.remove("scene");
+        o.remove("scenes");
+        d["cameras"] = json!([{ "type": "orthographic", "orthographic": { "xmag": 1, "ymag": 1, "zfar": 10, "znear": 0.1 } }]);
+        d["nodes"] =
+            json!([{ "mesh": 0 }, { "mesh": 0, "translation": [5, 0, 0], "children": [2] }, { "camera": 0 }]);
+    });
+    let s = load_json("no_scene.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.meshes.len(), 2, "both roots, the mesh instanced twice");
+    assert_eq!(s.camera.look_at, DVec3::new(3.0, 0.5, 0.0), "the framing camera, at the bounds' centre");
+}
+
+#[test]
+fn base_colour_textures_are_averaged_where_the_surface_uses_them() {
+    // A 2x1 PNG, red | blue; the triangle's texture coordinates all lie in the red half.
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&[255, 0, 0, 0, 0, 255], 2, 1, image::ExtendedColorType::Rgb8)
+        .unwrap();
+    let uv: Vec<u8> = [0.1f32, 0.2, 0.4, 0.2, 0.1, 0.9].iter().flat_map(|x| x.to_le_bytes()).collect();
+    let mut bin = triangle_bin(POSITIONS, [0, 1, 2]);
+    bin.extend(&uv);
+    let doc = with(triangle(), |d| {
+        d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
+        d["textures"] = json!([{ "source": 0 }]);
+        d["images"] = json!([{ "uri": format!("data:image/png;base64,{}", base64(&png)) }]);
+        d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(2);
+        d["accessors"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({ "bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2" }));
+        d["bufferViews"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({ "buffer": 0, "byteOffset": 44, "byteLength": 24 }));
+        d["buffers"][0] = json!({ "byteLength": 68, "uri": data_uri(&bin) });
+    });
+    let s = load_json("textured.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        s.materials[0].kind,
+        MaterialKind::Diffuse { color: DVec3::new(0.5, 0.0, 0.0) },
+        "factor 0.5 × red"
+    );
+    // Without texture coordinates, the whole image's mean: half red, half blue.
+    let doc = with(doc, |d| {
+        d["meshes"][0]["primitives"][0]["attributes"].as_object_mut().unwrap().remove("TEXCOORD_0");
+    });
+    let s = load_json("untextured.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.materials[0].kind, MaterialKind::Diffuse { color: DVec3::new(0.25, 0.0, 0.25) });
 }
 
 #[test]

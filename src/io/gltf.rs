@@ -50,8 +50,7 @@ pub fn parse(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     let (doc, blob) = open(bytes, origin)?;
     let base = Path::new(origin).parent();
     let buffers = load_buffers(&doc, blob, base).map_err(fail)?;
-    let builder = Builder { doc: Some(&doc), buffers: &buffers, base, origin, ..Default::default() };
-    let scene = builder.build().map_err(fail)?;
+    let scene = Builder::new(&doc, &buffers, base, origin).build().map_err(fail)?;
     // Everything is checked on the way in; this is the scene model's own guard.
     scene.validate().map_err(|e| fail(e.0))?;
     Ok(scene)
@@ -515,8 +514,8 @@ fn walk(doc: &Document) -> Res<Vec<(::gltf::Node<'_>, DMat4)>> {
 // ---- Materials -----------------------------------------------------------------------------
 
 /// The Blinn–Phong exponent of a GGX roughness: α = roughness², N = 2/α² − 2 (Walter et al.
-/// 2007, the exponent whose lobe matches GGX's near its peak), clamped to
-/// [[`MIN_EXPONENT`], [`MAX_EXPONENT`]].
+/// 2007, the exponent whose lobe matches GGX's near its peak), clamped between [`MIN_EXPONENT`]
+/// and [`MAX_EXPONENT`].
 pub fn blinn_exponent(roughness: f64) -> f64 {
     let alpha = roughness * roughness;
     (2.0 / (alpha * alpha) - 2.0).clamp(MIN_EXPONENT, MAX_EXPONENT)
@@ -655,9 +654,8 @@ struct TextureSum {
     area: f64,
 }
 
-#[derive(Default)]
 struct Builder<'a> {
-    doc: Option<&'a Document>,
+    doc: &'a Document,
     buffers: &'a [Cow<'a, [u8]>],
     base: Option<&'a Path>,
     origin: &'a str,
@@ -671,6 +669,21 @@ struct Builder<'a> {
 }
 
 impl<'a> Builder<'a> {
+    fn new(doc: &'a Document, buffers: &'a [Cow<'a, [u8]>], base: Option<&'a Path>, origin: &'a str) -> Self {
+        Builder {
+            doc,
+            buffers,
+            base,
+            origin,
+            materials: Vec::new(),
+            slots: HashMap::new(),
+            names: HashSet::new(),
+            textures: HashMap::new(),
+            sums: HashMap::new(),
+            warned: HashSet::new(),
+        }
+    }
+
     fn warn(&mut self, message: String) {
         if self.warned.insert(message.clone()) {
             log::warn!("{}: {message}", self.origin);
@@ -678,8 +691,7 @@ impl<'a> Builder<'a> {
     }
 
     fn build(mut self) -> Res<Scene> {
-        let doc = self.doc.expect("set by parse");
-        let nodes = walk(doc)?;
+        let nodes = walk(self.doc)?;
         let draws = self.plan(&nodes)?;
         let mut meshes = Vec::with_capacity(draws.len());
         for d in &draws {
@@ -911,7 +923,7 @@ impl<'a> Builder<'a> {
             let what = format!("images[{index}]");
             // The raw JSON: the crate's `source()` unwraps a `mimeType` or `uri` that validation
             // does not guarantee is there.
-            let doc = self.doc.expect("set by parse");
+            let doc = self.doc;
             let json = &doc.as_json().images[index];
             let bytes: Cow<[u8]> = match (&json.buffer_view, &json.uri) {
                 (Some(view), _) => {
@@ -964,7 +976,7 @@ impl<'a> Builder<'a> {
             let at = format!("cameras[{}]", camera.index());
             // The raw JSON: the crate's `projection()` unwraps the object `type` names, which
             // validation does not guarantee is there.
-            let json = &self.doc.expect("set by parse").as_json().cameras[camera.index()];
+            let json = &self.doc.as_json().cameras[camera.index()];
             let p = match (&json.type_, &json.perspective) {
                 (json::validation::Checked::Valid(json::camera::Type::Perspective), Some(p)) => p,
                 (json::validation::Checked::Valid(json::camera::Type::Perspective), None) => {
