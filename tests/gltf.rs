@@ -423,9 +423,17 @@ fn non_finite_numbers() {
 #[test]
 fn wrong_accessor_types() {
     let doc = with(triangle(), |d| d["accessors"][0]["componentType"] = json!(5123));
-    refused("position_type.gltf", &doc, &["accessors[0]", "POSITION", "expected Vec3 of F32"]);
+    refused(
+        "position_type.gltf",
+        &doc,
+        &["accessors[0]", "POSITION", "is VEC3 of UNSIGNED_SHORT; expected VEC3 of FLOAT"],
+    );
     let doc = with(triangle(), |d| d["accessors"][1]["componentType"] = json!(5126));
-    refused("index_type.gltf", &doc, &["accessors[1]", "indices", "Scalar"]);
+    refused(
+        "index_type.gltf",
+        &doc,
+        &["accessors[1]", "indices", "expected SCALAR of UNSIGNED_BYTE or UNSIGNED_SHORT or UNSIGNED_INT"],
+    );
     let doc = with(triangle(), |d| d["accessors"][1]["count"] = json!(2));
     refused("whole.gltf", &doc, &["meshes[0].primitives[0]", "whole triangles"]);
 }

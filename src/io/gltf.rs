@@ -348,15 +348,52 @@ fn expect(a: &Accessor, use_: &str, dims: Dimensions, types: &[DataType], normal
     if ok && int_ok {
         return Ok(());
     }
-    let names: Vec<String> = types.iter().map(|t| format!("{t:?}")).collect();
+    let names: Vec<&str> = types.iter().map(|&t| component_name(t)).collect();
     Err(format!(
-        "{} ({use_}) is {:?} of {:?}{}; expected {dims:?} of {}",
+        "{} ({use_}) is {} of {}{}; expected {} of {}",
         accessor_name(a),
-        a.dimensions(),
-        a.data_type(),
+        type_name(a.dimensions()),
+        component_name(a.data_type()),
         if a.normalized() { " (normalized)" } else { "" },
+        type_name(dims),
         names.join(" or ")
     ))
+}
+
+/// glTF's names for accessor types and component types, as the file spells them.
+fn type_name(d: Dimensions) -> &'static str {
+    match d {
+        Dimensions::Scalar => "SCALAR",
+        Dimensions::Vec2 => "VEC2",
+        Dimensions::Vec3 => "VEC3",
+        Dimensions::Vec4 => "VEC4",
+        Dimensions::Mat2 => "MAT2",
+        Dimensions::Mat3 => "MAT3",
+        Dimensions::Mat4 => "MAT4",
+    }
+}
+
+fn component_name(t: DataType) -> &'static str {
+    match t {
+        DataType::I8 => "BYTE",
+        DataType::U8 => "UNSIGNED_BYTE",
+        DataType::I16 => "SHORT",
+        DataType::U16 => "UNSIGNED_SHORT",
+        DataType::U32 => "UNSIGNED_INT",
+        DataType::F32 => "FLOAT",
+    }
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Points => "POINTS",
+        Mode::Lines => "LINES",
+        Mode::LineLoop => "LINE_LOOP",
+        Mode::LineStrip => "LINE_STRIP",
+        Mode::Triangles => "TRIANGLES",
+        Mode::TriangleStrip => "TRIANGLE_STRIP",
+        Mode::TriangleFan => "TRIANGLE_FAN",
+    }
 }
 
 fn f32_at(bytes: &[u8], k: usize) -> f32 {
@@ -738,7 +775,7 @@ impl<'a> Builder<'a> {
                 let at = format!("meshes[{}].primitives[{}]", mesh.index(), primitive.index());
                 let mode = primitive.mode();
                 if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
-                    self.warn(format!("{at}: mode {mode:?} has no surface to ray trace; skipped"));
+                    self.warn(format!("{at}: mode {} has no surface to ray trace; skipped", mode_name(mode)));
                     continue;
                 }
                 let Some(positions) = primitive.get(&Semantic::Positions) else {
