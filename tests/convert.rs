@@ -1,6 +1,8 @@
 //! `irt convert` and the TOML writer: every scene irt can load, written as TOML, loads back as
 //! the same scene bit for bit (compared through `{:?}`, which tells -0.0 from 0.0 and prints
 //! each f64 with the digits that identify it).
+mod common;
+
 use glam::DVec3;
 use irt::io::toml::parse_str;
 use irt::io::toml_write::to_toml;
@@ -41,7 +43,7 @@ fn every_scene_file_round_trips() {
 #[test]
 fn every_gltf_sample_round_trips() {
     for name in ["Box.gltf", "BoxTextured.gltf", "Duck.gltf", "Duck.glb"] {
-        let path = PathBuf::from("/work/shared/scenes/gltf").join(name);
+        let path = common::shared_scene("gltf").join(name);
         round_trip(name, &irt::io::load(&path).unwrap_or_else(|e| panic!("{e}")));
     }
 }
@@ -222,7 +224,7 @@ fn tmp(name: &str) -> PathBuf {
 
 #[test]
 fn convert_writes_a_toml_that_loads_as_the_same_scene() {
-    let input = PathBuf::from("/work/shared/scenes/gltf/Duck.glb");
+    let input = common::shared_scene("gltf/Duck.glb");
     let out = tmp("duck.toml");
     let _ = std::fs::remove_file(&out);
     let run = irt(&["convert", input.to_str().unwrap(), out.to_str().unwrap()]);

@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
 fn sample(name: &str) -> PathBuf {
-    PathBuf::from("/work/shared/scenes/gltf").join(name)
+    common::shared_scene("gltf").join(name)
 }
 
 fn load_sample(name: &str) -> Scene {
