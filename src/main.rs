@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
     about = "Interactive ray tracer on Vulkan compute (Parker et al., I3D 1999)",
     long_about = "irt traces scenes with WGSL compute shaders on any Vulkan device — by default \
 Mesa's lavapipe, which runs Vulkan on the CPU. Without a SCENE it draws the built-in default \
-scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt bench\n  irt info"
+scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -33,6 +33,16 @@ enum Command {
     Tradeoff(TradeoffArgs),
     /// Measure the GPU's error against the f64 reference as the scene moves away from the origin.
     Stability(StabilityArgs),
+    /// Write any scene irt can load (TOML, glTF) as a native TOML scene, losslessly.
+    Convert(ConvertArgs),
+}
+
+#[derive(Args)]
+struct ConvertArgs {
+    /// Scene to read (.toml, .gltf, .glb).
+    input: PathBuf,
+    /// TOML file to write (atomically); loading it gives back exactly the scene irt read.
+    output: PathBuf,
 }
 
 #[derive(Args)]
@@ -45,7 +55,7 @@ struct DeviceArgs {
 
 #[derive(Args)]
 struct SceneArgs {
-    /// Scene file (.toml); the built-in default scene when omitted.
+    /// Scene file (.toml, .gltf, .glb); the built-in default scene when omitted.
     scene: Option<PathBuf>,
     /// Image width in pixels (overrides the scene's camera).
     #[arg(long, allow_negative_numbers = true)]
@@ -133,6 +143,7 @@ fn main() {
         Command::Bench(a) => bench(a),
         Command::Tradeoff(a) => tradeoff(a),
         Command::Stability(a) => stability(a),
+        Command::Convert(a) => convert(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -218,6 +229,33 @@ fn render(args: RenderArgs) -> Result<()> {
             irt::gpu::layout::LAVAPIPE_LOOP_LIMIT
         );
     }
+    Ok(())
+}
+
+fn convert(args: ConvertArgs) -> Result<()> {
+    if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
+        bail!("output '{}' must be a .toml file: irt writes its native TOML format", args.output.display());
+    }
+    check_output_path(&args.output)?;
+    let scene = irt::io::load(&args.input)?;
+    let text = irt::io::toml_write::to_toml(&scene);
+    if text.len() as u64 > irt::io::MAX_SCENE_FILE_BYTES {
+        bail!(
+            "the TOML would be {} bytes, above the {}-byte limit irt loads; keep the scene in its own format",
+            text.len(),
+            irt::io::MAX_SCENE_FILE_BYTES
+        );
+    }
+    irt::image::write_atomic(&args.output, text.as_bytes())
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    eprintln!(
+        "wrote {} ({} materials, {} spheres, {} triangles, {} lights)",
+        args.output.display(),
+        scene.materials.len(),
+        scene.spheres.len(),
+        scene.triangle_count(),
+        scene.lights.len()
+    );
     Ok(())
 }
 

@@ -1,10 +1,13 @@
-//! Scene files → [`crate::scene::Scene`]. Errors name the file, line and column.
+//! Scene files → [`crate::scene::Scene`]. Errors name the file and the place in it (line and
+//! column; for glTF, the JSON object).
 //!
-//! [`load`] picks a parser by file extension from [`FORMATS`]; each parser turns text into a
+//! [`load`] picks a parser by file extension from [`FORMATS`]; each parser turns the file into a
 //! validated [`Scene`] and reports problems as a [`LoadError`] pointing at the offending value.
 
+pub mod gltf;
 pub mod shapes;
 pub mod toml;
+pub mod toml_write;
 
 use crate::scene::Scene;
 use std::io::Read;
@@ -67,7 +70,8 @@ pub fn line_column(src: &str, offset: usize) -> (usize, usize) {
     (before.matches('\n').count() + 1, before[line_start..].chars().count() + 1)
 }
 
-/// A scene file format: the extensions it claims and its parser (`bytes`, `origin` for messages).
+/// A scene file format: the extensions it claims and its parser (`bytes`, `origin` for messages;
+/// `origin` is the file's path, and glTF finds external buffers relative to it).
 pub struct Format {
     pub name: &'static str,
     pub extensions: &'static [&'static str],
@@ -75,7 +79,10 @@ pub struct Format {
 }
 
 /// Every format [`load`] understands, tried in order by extension.
-pub const FORMATS: &[Format] = &[Format { name: "TOML", extensions: &["toml"], parse: parse_toml }];
+pub const FORMATS: &[Format] = &[
+    Format { name: "TOML", extensions: &["toml"], parse: parse_toml },
+    Format { name: "glTF 2.0", extensions: &["gltf", "glb"], parse: gltf::parse },
+];
 
 fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     toml::parse_str(utf8(bytes, origin)?, origin)
@@ -104,7 +111,7 @@ pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<Scene, LoadError> 
             .collect();
         LoadError::new(&origin, format!("unknown scene file extension; supported: {}", supported.join(", ")))
     })?;
-    let bytes = read_limited(path, max_bytes).map_err(|m| LoadError::new(&origin, m))?;
+    let bytes = read_limited(path, max_bytes, "scene file").map_err(|m| LoadError::new(&origin, m))?;
     (format.parse)(&bytes, &origin)
 }
 
@@ -113,11 +120,12 @@ fn format_of(path: &Path) -> Option<&'static Format> {
     FORMATS.iter().find(|f| f.extensions.iter().any(|e| e.eq_ignore_ascii_case(ext)))
 }
 
-/// Reads at most `max_bytes`. The metadata check refuses big files without touching them; the
-/// bounded read also catches files whose size is not known up front (pipes, `/dev/zero`).
-fn read_limited(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
-    let too_big = |size: &str| format!("file is {size} bytes; scene files are limited to {max_bytes} bytes");
-    let cannot = |e: std::io::Error| format!("cannot read the scene file: {e}");
+/// Reads at most `max_bytes` of a `what` (a "scene file", a glTF buffer "file"). The metadata
+/// check refuses big files without touching them; the bounded read also catches files whose size
+/// is not known up front (pipes, `/dev/zero`).
+pub(crate) fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>, String> {
+    let too_big = |size: &str| format!("{what} is {size} bytes; {what}s are limited to {max_bytes} bytes");
+    let cannot = |e: std::io::Error| format!("cannot read the {what}: {e}");
     let file = std::fs::File::open(path).map_err(cannot)?;
     let size = file.metadata().map_err(cannot)?.len();
     if size > max_bytes {

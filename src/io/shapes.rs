@@ -21,8 +21,12 @@ pub struct Geometry {
 
 impl Geometry {
     /// Scales each axis by `scale` (about the origin), then moves by `translate`. Normals follow
-    /// the inverse scale so that they stay perpendicular to the surface.
+    /// the inverse scale so that they stay perpendicular to the surface. The identity changes
+    /// nothing, not even the sign of a zero, so a written scene loads back bit for bit.
     pub fn transform(&mut self, scale: DVec3, translate: DVec3) {
+        if scale == DVec3::ONE && translate == DVec3::ZERO {
+            return;
+        }
         for p in &mut self.positions {
             *p = *p * scale + translate;
         }

@@ -480,7 +480,9 @@ fn triangle(t: &Spanned<Vec<i64>>, vertex_count: usize) -> Res<[u32; 3]> {
     Ok([index(corners[0])?, index(corners[1])?, index(corners[2])?])
 }
 
-/// One normal per vertex, made unit length (the scene model's contract).
+/// One normal per vertex, made unit length (the scene model's contract). A normal that already
+/// is, to rounding, is kept as written: normalising again could change its last bits, and a
+/// scene written by `irt convert` must load back bit for bit.
 fn normals(n: &Spanned<Vec<Numbers>>, vertex_count: usize) -> Res<Vec<DVec3>> {
     if n.get_ref().len() != vertex_count {
         let count = n.get_ref().len();
@@ -490,7 +492,11 @@ fn normals(n: &Spanned<Vec<Numbers>>, vertex_count: usize) -> Res<Vec<DVec3>> {
         );
     }
     let unit = |v: &Numbers| {
-        vec3(v, "normals")?.try_normalize().ok_or_else(|| located(v.span(), "a normal must not be zero"))
+        let n = vec3(v, "normals")?;
+        if (n.length_squared() - 1.0).abs() <= 1e-14 {
+            return Ok(n);
+        }
+        n.try_normalize().ok_or_else(|| located(v.span(), "a normal must not be zero"))
     };
     n.get_ref().iter().map(unit).collect()
 }

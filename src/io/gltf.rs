@@ -1,0 +1,1247 @@
+//! glTF 2.0 scenes (`.gltf` with embedded or external buffers, `.glb`) → [`Scene`].
+//!
+//! docs/gltf.md says what is read and how it maps onto the paper's materials and lights. The
+//! `gltf` crate parses the JSON (or splits the GLB container) and checks that every index
+//! refers to an object that exists; this module reads the binary data itself, so that every
+//! count, offset and size is checked against its buffer before anything is allocated, and every
+//! problem names the JSON object it comes from (`accessors[3]`, `meshes[0].primitives[1]`).
+
+use super::toml::{DEFAULT_FOV_DEG, DEFAULT_HEIGHT, DEFAULT_WIDTH};
+use super::{read_limited, LoadError, MAX_MATERIALS, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
+use crate::scene::{Ambient, Camera, Light, Material, MaterialKind, Mesh, Scene, TraceSettings, MAX_LIGHTS};
+use ::gltf::accessor::{DataType, Dimensions};
+use ::gltf::json;
+use ::gltf::khr_lights_punctual::Kind as LightKind;
+use ::gltf::mesh::Mode;
+use ::gltf::scene::Transform;
+use ::gltf::texture::WrappingMode;
+use ::gltf::{Accessor, Document, Semantic};
+use glam::{DMat3, DMat4, DQuat, DVec3};
+use std::borrow::Cow;
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+
+/// Extensions irt reads (docs/gltf.md); a file that *requires* any other is refused, since it
+/// could not be shown as meant. Extensions that are only used are ignored.
+pub const SUPPORTED_EXTENSIONS: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_clearcoat"];
+/// All buffers of one file together; external buffer files are limited like scene files.
+pub const MAX_BUFFER_BYTES: u64 = MAX_SCENE_FILE_BYTES;
+/// Textures are decoded only to average their colour (docs/gltf.md): 4096² is plenty for that
+/// and costs 48 MiB decoded; larger images are refused before decoding.
+pub const MAX_TEXTURE_PIXELS: u64 = 1 << 24;
+/// A metal rougher than this reflects a blur that looks matte, not the paper's mirror, so it
+/// becomes diffuse in its base colour.
+pub const METAL_MAX_ROUGHNESS: f64 = 0.5;
+/// Range of the Blinn–Phong exponent made from a roughness ([`blinn_exponent`]).
+pub const MIN_EXPONENT: f64 = 1.0;
+pub const MAX_EXPONENT: f64 = 10_000.0;
+/// What irt adds because glTF has no such thing (docs/gltf.md).
+pub const DEFAULT_AMBIENT_SKY: DVec3 = DVec3::new(0.16, 0.17, 0.2);
+pub const DEFAULT_AMBIENT_GROUND: DVec3 = DVec3::new(0.06, 0.055, 0.05);
+pub const DEFAULT_BACKGROUND: DVec3 = DVec3::new(0.32, 0.36, 0.42);
+
+type Res<T> = Result<T, String>;
+
+/// Parses and validates a glTF or GLB file. `origin` is its path: external buffers and images
+/// are found relative to it, and it names the file in error messages.
+pub fn parse(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
+    let fail = |message: String| LoadError::new(origin, message);
+    let (doc, blob) = open(bytes, origin)?;
+    let base = Path::new(origin).parent();
+    let buffers = load_buffers(&doc, blob, base).map_err(fail)?;
+    let scene = Builder::new(&doc, &buffers, base, origin).build().map_err(fail)?;
+    // Everything is checked on the way in; this is the scene model's own guard.
+    scene.validate().map_err(|e| fail(e.0))?;
+    Ok(scene)
+}
+
+// ---- The container and the JSON ------------------------------------------------------------
+
+/// The validated document and the GLB's binary chunk, if any.
+fn open<'a>(bytes: &'a [u8], origin: &str) -> Result<(Document, Option<&'a [u8]>), LoadError> {
+    let fail = |message: String| LoadError::new(origin, message);
+    let glb = bytes.starts_with(b"glTF");
+    let (text, blob): (Cow<[u8]>, Option<&[u8]>) = if glb {
+        check_glb_header(bytes).map_err(fail)?;
+        let glb = ::gltf::Glb::from_slice(bytes).map_err(|e| fail(format!("not a valid GLB file: {e}")))?;
+        let bin = match glb.bin {
+            Some(Cow::Borrowed(bin)) => Some(bin),
+            // from_slice borrows; anything else would be a change in the crate.
+            Some(Cow::Owned(_)) | None => None,
+        };
+        (glb.json, bin)
+    } else {
+        (Cow::Borrowed(bytes), None)
+    };
+    let mut root: json::Root =
+        serde_json::from_slice(&text).map_err(|e| json_error(&e, &text, glb, origin))?;
+    check_version(&root.asset.version).map_err(fail)?;
+    for (i, ext) in root.extensions_required.iter().enumerate() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
+            return Err(fail(format!(
+                "extensionsRequired[{i}] is '{ext}', which irt does not support (it reads {})",
+                SUPPORTED_EXTENSIONS.join(", ")
+            )));
+        }
+    }
+    // Checked just above. The crate would refuse KHR_materials_clearcoat, which it has no
+    // type for; irt reads that one from the raw JSON.
+    root.extensions_required.clear();
+    let doc = Document::from_json(root).map_err(|e| fail(validation_message(e)))?;
+    Ok((doc, blob))
+}
+
+/// The GLB header fields the crate trusts (it subtracts from the declared length).
+fn check_glb_header(bytes: &[u8]) -> Res<()> {
+    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap()));
+    let (Some(version), Some(length)) = (word(4), word(8)) else {
+        return Err(format!("a GLB file needs a 12-byte header; this one has {} bytes", bytes.len()));
+    };
+    if version != 2 {
+        return Err(format!("GLB version {version}; irt reads version 2"));
+    }
+    if length < 20 || length as usize > bytes.len() {
+        return Err(format!(
+            "the GLB header declares {length} bytes, but the file has {} (and a GLB needs at least 20)",
+            bytes.len()
+        ));
+    }
+    Ok(())
+}
+
+fn check_version(version: &str) -> Res<()> {
+    match version.split('.').next() {
+        Some("2") => Ok(()),
+        _ => Err(format!("asset.version is '{version}'; irt reads glTF 2.0")),
+    }
+}
+
+/// A JSON error at its line and column. glTF 1.0 files fail here too, so a file that says it is
+/// not 2.0 is told so instead of the first field that differs.
+fn json_error(e: &serde_json::Error, text: &[u8], glb: bool, origin: &str) -> LoadError {
+    #[derive(serde::Deserialize)]
+    struct VersionOnly {
+        asset: AssetVersion,
+    }
+    #[derive(serde::Deserialize)]
+    struct AssetVersion {
+        version: String,
+    }
+    if let Ok(v) = serde_json::from_slice::<VersionOnly>(text) {
+        if let Err(m) = check_version(&v.asset.version) {
+            return LoadError::new(origin, m);
+        }
+    }
+    let full = e.to_string();
+    let message = full.rsplit_once(" at line ").map_or(full.as_str(), |(m, _)| m);
+    if e.line() == 0 {
+        return LoadError::new(origin, format!("invalid glTF JSON: {message}"));
+    }
+    if glb {
+        let at = format!("line {} column {}", e.line(), e.column());
+        return LoadError::new(origin, format!("invalid JSON in the GLB's JSON chunk at {at}: {message}"));
+    }
+    // serde_json counts columns in bytes; LoadError counts characters.
+    match std::str::from_utf8(text) {
+        Ok(src) => {
+            let line_start: usize = src.split_inclusive('\n').take(e.line() - 1).map(str::len).sum::<usize>();
+            LoadError::at(
+                origin,
+                src,
+                line_start + e.column().saturating_sub(1),
+                format!("invalid glTF JSON: {message}"),
+            )
+        }
+        Err(_) => LoadError::new(origin, format!("invalid glTF JSON: {full}")),
+    }
+}
+
+/// The crate's validation errors, with the JSON path of each (at most a few).
+fn validation_message(e: ::gltf::Error) -> String {
+    use json::validation::Error as V;
+    let ::gltf::Error::Validation(errors) = e else { return format!("invalid glTF: {e}") };
+    const SHOWN: usize = 3;
+    let mut parts: Vec<String> = errors
+        .iter()
+        .take(SHOWN)
+        .map(|(path, error)| {
+            let what = match error {
+                V::IndexOutOfBounds => "refers to an object that does not exist (index out of range)",
+                V::Invalid => "has an invalid value",
+                V::Missing => "is required but missing",
+                V::Oversize => "is too large",
+                V::Unsupported => "names an unsupported extension",
+            };
+            format!("{path} {what}")
+        })
+        .collect();
+    if errors.len() > SHOWN {
+        parts.push(format!("and {} more problems", errors.len() - SHOWN));
+    }
+    format!("invalid glTF: {}", parts.join("; "))
+}
+
+// ---- Buffers -------------------------------------------------------------------------------
+
+/// The bytes of every buffer: the GLB's binary chunk, a base64 data URI or an external file.
+fn load_buffers<'a>(doc: &Document, blob: Option<&'a [u8]>, base: Option<&Path>) -> Res<Vec<Cow<'a, [u8]>>> {
+    let mut total = 0u64;
+    let mut out = Vec::with_capacity(doc.buffers().len());
+    for b in doc.buffers() {
+        let what = format!("buffers[{}]", b.index());
+        let declared = b.length();
+        total = total.saturating_add(declared as u64);
+        if total > MAX_BUFFER_BYTES {
+            return Err(format!(
+                "{what}: the buffers declare more than {MAX_BUFFER_BYTES} bytes in all; irt's limit is that"
+            ));
+        }
+        let data = match b.source() {
+            ::gltf::buffer::Source::Bin => Cow::Borrowed(blob.ok_or_else(|| {
+                format!("{what} has no uri, so it is the GLB binary chunk, but the file has none")
+            })?),
+            ::gltf::buffer::Source::Uri(uri) => Cow::Owned(read_uri(uri, base, &what)?),
+        };
+        if data.len() < declared {
+            return Err(format!("{what} declares byteLength {declared} but holds {} bytes", data.len()));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// A data URI's bytes or an external file's, relative to the glTF file.
+fn read_uri(uri: &str, base: Option<&Path>, what: &str) -> Res<Vec<u8>> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let Some((header, payload)) = rest.split_once(',') else {
+            return Err(format!("{what}: the data URI has no ',' before its data"));
+        };
+        if !header.ends_with(";base64") {
+            return Err(format!("{what}: only base64 data URIs are supported (found 'data:{header}')"));
+        }
+        return base64_decode(payload).map_err(|e| format!("{what}: the data URI is not valid base64: {e}"));
+    }
+    let scheme = uri.split_once(':').is_some_and(|(s, _)| !s.is_empty() && !s.contains(['/', '\\']));
+    if scheme || uri.starts_with('/') {
+        return Err(format!("{what}: '{uri}' is neither a relative file path nor a data URI"));
+    }
+    let relative = percent_decode(uri).ok_or_else(|| format!("{what}: '{uri}' has an invalid %-escape"))?;
+    let path = base.unwrap_or(Path::new(".")).join(relative);
+    read_limited(&path, MAX_SCENE_FILE_BYTES, "file")
+        .map_err(|m| format!("{what} ('{}'): {m}", path.display()))
+}
+
+/// Standard base64 (RFC 4648; `=` padding optional), as data URIs use.
+fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
+    let body = text.trim_end_matches('=');
+    if body.len() % 4 == 1 {
+        return Err(format!("{} characters cannot encode whole bytes", body.len()));
+    }
+    let mut out = Vec::with_capacity(body.len() / 4 * 3 + 2);
+    let (mut acc, mut bits) = (0u32, 0u32);
+    for (i, c) in body.bytes().enumerate() {
+        let v = match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' => 62,
+            b'/' => 63,
+            _ => return Err(format!("byte {i} (0x{c:02x}) is not a base64 character")),
+        };
+        acc = (acc << 6) | v as u32;
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Ok(out)
+}
+
+/// `%XX` escapes in a relative URI; `None` for a broken escape or a result that is not UTF-8.
+fn percent_decode(uri: &str) -> Option<String> {
+    let mut out = Vec::with_capacity(uri.len());
+    let mut bytes = uri.bytes();
+    while let Some(b) = bytes.next() {
+        if b == b'%' {
+            let hex = [bytes.next()?, bytes.next()?];
+            out.push(u8::from_str_radix(std::str::from_utf8(&hex).ok()?, 16).ok()?);
+        } else {
+            out.push(b);
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+// ---- Accessors -----------------------------------------------------------------------------
+
+/// The bytes of an accessor's elements, checked to lie inside its buffer view and buffer.
+struct Elements<'b> {
+    data: &'b [u8],
+    stride: usize,
+    size: usize,
+    count: usize,
+}
+
+impl<'b> Elements<'b> {
+    fn get(&self, i: usize) -> &'b [u8] {
+        &self.data[i * self.stride..i * self.stride + self.size]
+    }
+}
+
+fn accessor_name(a: &Accessor) -> String {
+    format!("accessors[{}]", a.index())
+}
+
+fn elements<'b>(a: &Accessor, buffers: &'b [Cow<[u8]>]) -> Res<Elements<'b>> {
+    let what = accessor_name(a);
+    if a.sparse().is_some() {
+        return Err(format!("{what} is sparse; irt does not read sparse accessors"));
+    }
+    let Some(view) = a.view() else {
+        return Err(format!("{what} has no bufferView"));
+    };
+    let size = a.size();
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "{what}: bufferViews[{}] has byteStride {stride}, less than the {size}-byte element",
+            view.index()
+        ));
+    }
+    let count = a.count();
+    let needed = match count {
+        0 => Some(0),
+        n => (n - 1).checked_mul(stride).and_then(|x| x.checked_add(size)),
+    };
+    let end = needed.and_then(|n| n.checked_add(a.offset()));
+    if end.is_none_or(|end| end > view.length()) {
+        return Err(format!(
+            "{what}: {count} elements of {size} bytes (stride {stride}) from byteOffset {} do not fit in \
+             bufferViews[{}] ({} bytes)",
+            a.offset(),
+            view.index(),
+            view.length()
+        ));
+    }
+    let buffer = view.buffer();
+    let data = &buffers[buffer.index()];
+    let start = view.offset();
+    let view_end = start.checked_add(view.length()).filter(|&e| e <= data.len()).ok_or_else(|| {
+        format!(
+            "bufferViews[{}] (byteOffset {start}, byteLength {}) runs past the end of buffers[{}] ({} bytes)",
+            view.index(),
+            view.length(),
+            buffer.index(),
+            data.len()
+        )
+    })?;
+    Ok(Elements { data: &data[start + a.offset()..view_end], stride, size, count })
+}
+
+/// Checks an accessor's element type against what its use allows.
+fn expect(a: &Accessor, use_: &str, dims: Dimensions, types: &[DataType], normalized: bool) -> Res<()> {
+    let ok = a.dimensions() == dims && types.contains(&a.data_type());
+    let int_ok = a.data_type() == DataType::F32 || a.normalized() == normalized;
+    if ok && int_ok {
+        return Ok(());
+    }
+    let names: Vec<&str> = types.iter().map(|&t| component_name(t)).collect();
+    Err(format!(
+        "{} ({use_}) is {} of {}{}; expected {} of {}",
+        accessor_name(a),
+        type_name(a.dimensions()),
+        component_name(a.data_type()),
+        if a.normalized() { " (normalized)" } else { "" },
+        type_name(dims),
+        names.join(" or ")
+    ))
+}
+
+/// glTF's names for accessor types and component types, as the file spells them.
+fn type_name(d: Dimensions) -> &'static str {
+    match d {
+        Dimensions::Scalar => "SCALAR",
+        Dimensions::Vec2 => "VEC2",
+        Dimensions::Vec3 => "VEC3",
+        Dimensions::Vec4 => "VEC4",
+        Dimensions::Mat2 => "MAT2",
+        Dimensions::Mat3 => "MAT3",
+        Dimensions::Mat4 => "MAT4",
+    }
+}
+
+fn component_name(t: DataType) -> &'static str {
+    match t {
+        DataType::I8 => "BYTE",
+        DataType::U8 => "UNSIGNED_BYTE",
+        DataType::I16 => "SHORT",
+        DataType::U16 => "UNSIGNED_SHORT",
+        DataType::U32 => "UNSIGNED_INT",
+        DataType::F32 => "FLOAT",
+    }
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Points => "POINTS",
+        Mode::Lines => "LINES",
+        Mode::LineLoop => "LINE_LOOP",
+        Mode::LineStrip => "LINE_STRIP",
+        Mode::Triangles => "TRIANGLES",
+        Mode::TriangleStrip => "TRIANGLE_STRIP",
+        Mode::TriangleFan => "TRIANGLE_FAN",
+    }
+}
+
+fn f32_at(bytes: &[u8], k: usize) -> f32 {
+    f32::from_le_bytes(bytes[4 * k..4 * k + 4].try_into().unwrap())
+}
+
+/// VEC3 of FLOAT, every number finite.
+fn read_vec3(a: &Accessor, use_: &str, buffers: &[Cow<[u8]>]) -> Res<Vec<DVec3>> {
+    expect(a, use_, Dimensions::Vec3, &[DataType::F32], false)?;
+    let e = elements(a, buffers)?;
+    let mut out = Vec::with_capacity(e.count);
+    for i in 0..e.count {
+        let b = e.get(i);
+        let v = DVec3::new(f32_at(b, 0) as f64, f32_at(b, 1) as f64, f32_at(b, 2) as f64);
+        if !v.is_finite() {
+            return Err(format!(
+                "{} ({use_}) element {i} is ({}, {}, {}); numbers must be finite",
+                accessor_name(a),
+                v.x,
+                v.y,
+                v.z
+            ));
+        }
+        out.push(v);
+    }
+    Ok(out)
+}
+
+/// Texture coordinates: VEC2 of FLOAT, or normalized UNSIGNED_BYTE / UNSIGNED_SHORT.
+fn read_uv(a: &Accessor, use_: &str, buffers: &[Cow<[u8]>]) -> Res<Vec<[f64; 2]>> {
+    expect(a, use_, Dimensions::Vec2, &[DataType::F32, DataType::U8, DataType::U16], true)?;
+    let e = elements(a, buffers)?;
+    let mut out = Vec::with_capacity(e.count);
+    for i in 0..e.count {
+        let b = e.get(i);
+        let uv = match a.data_type() {
+            DataType::U8 => [b[0] as f64 / 255.0, b[1] as f64 / 255.0],
+            DataType::U16 => [0, 2].map(|k| u16::from_le_bytes([b[k], b[k + 1]]) as f64 / 65535.0),
+            _ => [f32_at(b, 0) as f64, f32_at(b, 1) as f64],
+        };
+        if !uv.iter().all(|x| x.is_finite()) {
+            return Err(format!("{} ({use_}) element {i} is not finite", accessor_name(a)));
+        }
+        out.push(uv);
+    }
+    Ok(out)
+}
+
+/// Vertex indices (SCALAR of UNSIGNED_BYTE/SHORT/INT), each below `vertex_count`.
+fn read_indices(a: &Accessor, vertex_count: usize, buffers: &[Cow<[u8]>]) -> Res<Vec<u32>> {
+    expect(a, "indices", Dimensions::Scalar, &[DataType::U8, DataType::U16, DataType::U32], false)?;
+    let e = elements(a, buffers)?;
+    let mut out = Vec::with_capacity(e.count);
+    for i in 0..e.count {
+        let b = e.get(i);
+        let k = match a.data_type() {
+            DataType::U8 => b[0] as u32,
+            DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as u32,
+            _ => u32::from_le_bytes(b[..4].try_into().unwrap()),
+        };
+        if k as usize >= vertex_count {
+            return Err(format!(
+                "{} (indices) element {i} is vertex {k}, but POSITION has {vertex_count} vertices",
+                accessor_name(a)
+            ));
+        }
+        out.push(k);
+    }
+    Ok(out)
+}
+
+/// Triangles from the index list of a primitive in `mode` (TRIANGLES, _STRIP or _FAN), wound
+/// counter-clockwise as glTF's front faces are.
+fn triangulate(corners: &[u32], mode: Mode) -> Vec<[u32; 3]> {
+    let n = corners.len();
+    match mode {
+        Mode::TriangleStrip => (0..n.saturating_sub(2))
+            .map(|i| {
+                // Every other triangle of a strip runs the other way round (glTF 3.7.2.1).
+                if i % 2 == 0 {
+                    [corners[i], corners[i + 1], corners[i + 2]]
+                } else {
+                    [corners[i + 1], corners[i], corners[i + 2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => {
+            (0..n.saturating_sub(2)).map(|i| [corners[i + 1], corners[i + 2], corners[0]]).collect()
+        }
+        _ => corners.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+    }
+}
+
+// ---- Nodes ---------------------------------------------------------------------------------
+
+/// A node's transform in f64; non-finite numbers and zero quaternions are errors here, where the
+/// node can still be named.
+fn local_transform(node: &::gltf::Node) -> Res<DMat4> {
+    let what = format!("nodes[{}]", node.index());
+    let finite = |key: &str, v: &[f32]| match v.iter().find(|x| !x.is_finite()) {
+        Some(x) => Err(format!("{what}.{key} contains {x}; numbers must be finite")),
+        None => Ok(()),
+    };
+    Ok(match node.transform() {
+        Transform::Matrix { matrix } => {
+            finite("matrix", matrix.as_flattened())?;
+            DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from)))
+        }
+        Transform::Decomposed { translation, rotation, scale } => {
+            finite("translation", &translation)?;
+            finite("rotation", &rotation)?;
+            finite("scale", &scale)?;
+            let q = DQuat::from_array(rotation.map(f64::from));
+            if q.length() == 0.0 {
+                return Err(format!("{what}.rotation is the zero quaternion"));
+            }
+            let (s, t) =
+                (DVec3::from_array(scale.map(f64::from)), DVec3::from_array(translation.map(f64::from)));
+            DMat4::from_scale_rotation_translation(s, q.normalize(), t)
+        }
+    })
+}
+
+/// The nodes of the scene to show, depth first, each with its world transform.
+fn walk(doc: &Document) -> Res<Vec<(::gltf::Node<'_>, DMat4)>> {
+    let roots: Vec<::gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        // No scene: every node that is nobody's child.
+        None => {
+            let children: HashSet<usize> =
+                doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+            doc.nodes().filter(|n| !children.contains(&n.index())).collect()
+        }
+    };
+    let mut seen = vec![false; doc.nodes().len()];
+    let mut stack: Vec<(::gltf::Node, DMat4)> =
+        roots.into_iter().rev().map(|n| (n, DMat4::IDENTITY)).collect();
+    let mut out = Vec::new();
+    // An explicit stack: a hierarchy may be deeper than the thread's stack.
+    while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(format!(
+                "nodes[{}] is reached twice: the node hierarchy must be a tree (a node with two parents, or a cycle)",
+                node.index()
+            ));
+        }
+        let world = parent * local_transform(&node)?;
+        let children: Vec<::gltf::Node> = node.children().collect();
+        stack.extend(children.into_iter().rev().map(|c| (c, world)));
+        out.push((node, world));
+    }
+    Ok(out)
+}
+
+// ---- Materials -----------------------------------------------------------------------------
+
+/// The Blinn–Phong exponent of a GGX roughness: α = roughness², N = 2/α² − 2 (Walter et al.
+/// 2007, the exponent whose lobe matches GGX's near its peak), clamped between [`MIN_EXPONENT`]
+/// and [`MAX_EXPONENT`].
+pub fn blinn_exponent(roughness: f64) -> f64 {
+    let alpha = roughness * roughness;
+    (2.0 / (alpha * alpha) - 2.0).clamp(MIN_EXPONENT, MAX_EXPONENT)
+}
+
+/// A factor in [0, 1] (metallic, roughness, transmission, clearcoat).
+fn unit(x: f64, what: &str) -> Res<f64> {
+    if x.is_finite() && (0.0..=1.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!("{what} is {x}; it must be in [0, 1]"))
+    }
+}
+
+/// A number in an extension object that the crate does not type (KHR_materials_clearcoat).
+fn extension_number(ext: Option<&json::Value>, key: &str, default: f64, what: &str) -> Res<f64> {
+    match ext.and_then(|e| e.get(key)) {
+        None => Ok(default),
+        Some(v) => v.as_f64().ok_or_else(|| format!("{what}.{key} must be a number, not {v}")),
+    }
+}
+
+/// The paper's material for a glTF material (docs/gltf.md has the table).
+fn material_kind(m: &::gltf::Material) -> Res<MaterialKind> {
+    let at = m.index().map_or("the default material".into(), |i| format!("materials[{i}]"));
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, _alpha] = pbr.base_color_factor().map(f64::from);
+    let color = DVec3::new(r, g, b);
+    if !(color.is_finite() && color.min_element() >= 0.0 && color.max_element() <= 1.0) {
+        return Err(format!(
+            "{at}.pbrMetallicRoughness.baseColorFactor ({r}, {g}, {b}) must be in [0, 1] per channel"
+        ));
+    }
+    let metallic = unit(pbr.metallic_factor() as f64, &format!("{at}.pbrMetallicRoughness.metallicFactor"))?;
+    let roughness =
+        unit(pbr.roughness_factor() as f64, &format!("{at}.pbrMetallicRoughness.roughnessFactor"))?;
+    let transmission = match m.transmission() {
+        Some(t) => unit(
+            t.transmission_factor() as f64,
+            &format!("{at}.KHR_materials_transmission.transmissionFactor"),
+        )?,
+        None => 0.0,
+    };
+    let eta = m.ior().map_or(1.5, f64::from);
+    if !(eta.is_finite() && eta >= 1.0) {
+        return Err(format!("{at}.KHR_materials_ior.ior is {eta}; irt needs a finite index of at least 1"));
+    }
+    let coat_at = format!("{at}.KHR_materials_clearcoat");
+    let coat = m.extension_value("KHR_materials_clearcoat");
+    let coat_factor = unit(
+        extension_number(coat, "clearcoatFactor", 0.0, &coat_at)?,
+        &format!("{coat_at}.clearcoatFactor"),
+    )?;
+    let coat_roughness = unit(
+        extension_number(coat, "clearcoatRoughness", 0.0, &coat_at)?,
+        &format!("{coat_at}.clearcoatRoughness"),
+    )?;
+    // The strongest lobe decides: each factor blends two models in glTF, irt picks one.
+    Ok(if transmission >= 0.5 {
+        MaterialKind::Dielectric { eta, exponent: blinn_exponent(roughness) }
+    } else if metallic >= 0.5 && roughness <= METAL_MAX_ROUGHNESS {
+        MaterialKind::Metal { color, exponent: blinn_exponent(roughness) }
+    } else if coat_factor >= 0.5 {
+        MaterialKind::Polished { color, eta, exponent: blinn_exponent(coat_roughness) }
+    } else {
+        MaterialKind::Diffuse { color }
+    })
+}
+
+/// A base-colour texture decoded to 8-bit sRGB, only to average it (docs/gltf.md).
+struct Texture {
+    width: usize,
+    height: usize,
+    rgb: Vec<u8>,
+    wrap: [WrappingMode; 2],
+}
+
+impl Texture {
+    /// Linear colour of the texel under `uv` (nearest, the sampler's wrap modes).
+    fn sample(&self, uv: [f64; 2], lut: &[f64; 256]) -> DVec3 {
+        let texel = |t: f64, wrap: WrappingMode, n: usize| {
+            let t = match wrap {
+                WrappingMode::ClampToEdge => t.clamp(0.0, 1.0),
+                WrappingMode::MirroredRepeat => {
+                    let t = t.rem_euclid(2.0);
+                    if t > 1.0 {
+                        2.0 - t
+                    } else {
+                        t
+                    }
+                }
+                WrappingMode::Repeat => t.rem_euclid(1.0),
+            };
+            ((t * n as f64) as usize).min(n - 1)
+        };
+        let (x, y) = (texel(uv[0], self.wrap[0], self.width), texel(uv[1], self.wrap[1], self.height));
+        let p = &self.rgb[3 * (y * self.width + x)..][..3];
+        DVec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize])
+    }
+
+    fn mean(&self, lut: &[f64; 256]) -> DVec3 {
+        let sum: DVec3 = self
+            .rgb
+            .chunks_exact(3)
+            .map(|p| DVec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
+            .sum();
+        sum / (self.width * self.height).max(1) as f64
+    }
+}
+
+/// sRGB 8-bit → linear.
+fn srgb_lut() -> [f64; 256] {
+    std::array::from_fn(|i| {
+        let c = i as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    })
+}
+
+// ---- Building the scene --------------------------------------------------------------------
+
+/// One primitive of one mesh instance, sized before anything is read.
+struct Draw<'a> {
+    primitive: ::gltf::Primitive<'a>,
+    world: DMat4,
+    at: String,
+}
+
+/// Surface-weighted sum of a material's base-colour texture over the triangles that use it.
+#[derive(Default)]
+struct TextureSum {
+    color: DVec3,
+    area: f64,
+}
+
+struct Builder<'a> {
+    doc: &'a Document,
+    buffers: &'a [Cow<'a, [u8]>],
+    base: Option<&'a Path>,
+    origin: &'a str,
+    materials: Vec<Material>,
+    /// glTF material index (None: the default material) → scene material.
+    slots: HashMap<Option<usize>, u32>,
+    names: HashSet<String>,
+    textures: HashMap<usize, Option<Texture>>,
+    sums: HashMap<u32, (usize, TextureSum)>,
+    warned: HashSet<String>,
+}
+
+impl<'a> Builder<'a> {
+    fn new(doc: &'a Document, buffers: &'a [Cow<'a, [u8]>], base: Option<&'a Path>, origin: &'a str) -> Self {
+        Builder {
+            doc,
+            buffers,
+            base,
+            origin,
+            materials: Vec::new(),
+            slots: HashMap::new(),
+            names: HashSet::new(),
+            textures: HashMap::new(),
+            sums: HashMap::new(),
+            warned: HashSet::new(),
+        }
+    }
+
+    fn warn(&mut self, message: String) {
+        if self.warned.insert(message.clone()) {
+            log::warn!("{}: {message}", self.origin);
+        }
+    }
+
+    fn build(mut self) -> Res<Scene> {
+        let nodes = walk(self.doc)?;
+        let draws = self.plan(&nodes)?;
+        let mut meshes = Vec::with_capacity(draws.len());
+        for d in &draws {
+            if let Some(mesh) = self.mesh(d)? {
+                meshes.push(mesh);
+            }
+        }
+        if meshes.is_empty() {
+            return Err("the scene has no triangles to render".into());
+        }
+        self.apply_texture_colors();
+        let (center, radius) = bounds(&meshes);
+        let camera = self.camera(&nodes, center, radius)?;
+        let mut lights = self.lights(&nodes, center, radius)?;
+        if lights.is_empty() {
+            lights.push(headlight(&camera, center, radius));
+        }
+        Ok(Scene {
+            camera,
+            lights,
+            ambient: Ambient { sky: DEFAULT_AMBIENT_SKY, ground: DEFAULT_AMBIENT_GROUND, up: DVec3::Y },
+            background: DEFAULT_BACKGROUND,
+            materials: self.materials,
+            spheres: vec![],
+            meshes,
+            trace: TraceSettings::default(),
+        })
+    }
+
+    /// The primitives to draw, with their vertex and triangle counts checked against the
+    /// limits from the accessors' declared counts, before any data is read.
+    fn plan<'d>(&mut self, nodes: &[(::gltf::Node<'d>, DMat4)]) -> Res<Vec<Draw<'d>>> {
+        let (mut vertices, mut triangles) = (0usize, 0usize);
+        let mut draws = Vec::new();
+        for (node, world) in nodes {
+            let Some(mesh) = node.mesh() else { continue };
+            if node.skin().is_some() || mesh.weights().is_some() {
+                self.warn(format!(
+                    "nodes[{}]: skins and morph targets are ignored (rest pose)",
+                    node.index()
+                ));
+            }
+            for primitive in mesh.primitives() {
+                let at = format!("meshes[{}].primitives[{}]", mesh.index(), primitive.index());
+                let mode = primitive.mode();
+                if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+                    self.warn(format!("{at}: mode {} has no surface to ray trace; skipped", mode_name(mode)));
+                    continue;
+                }
+                let Some(positions) = primitive.get(&Semantic::Positions) else {
+                    self.warn(format!("{at} has no POSITION attribute; skipped"));
+                    continue;
+                };
+                let n = positions.count();
+                if n > MAX_VERTICES {
+                    return Err(format!(
+                        "{} (POSITION of {at}) declares {n} vertices; irt's limit is {MAX_VERTICES}",
+                        accessor_name(&positions)
+                    ));
+                }
+                let corners = primitive.indices().map_or(n, |i| i.count());
+                if corners > 3 * MAX_TRIANGLES {
+                    return Err(format!(
+                        "{at} declares {corners} indices; irt's limit is {MAX_TRIANGLES} triangles"
+                    ));
+                }
+                let count = match mode {
+                    Mode::Triangles if corners % 3 != 0 => {
+                        return Err(format!(
+                            "{at}: {corners} vertices do not make whole triangles (mode TRIANGLES needs a multiple of 3)"
+                        ))
+                    }
+                    Mode::Triangles => corners / 3,
+                    _ => corners.saturating_sub(2),
+                };
+                vertices += n;
+                triangles += count;
+                if vertices > MAX_VERTICES || triangles > MAX_TRIANGLES {
+                    return Err(format!(
+                        "the scene has more than {MAX_TRIANGLES} triangles or {MAX_VERTICES} vertices \
+                         (counting every instance of every mesh); irt's limit is that"
+                    ));
+                }
+                draws.push(Draw { primitive, world: *world, at });
+            }
+        }
+        Ok(draws)
+    }
+
+    /// One primitive instance in world space, or None when it has no triangles.
+    fn mesh(&mut self, d: &Draw) -> Res<Option<Mesh>> {
+        let p = &d.primitive;
+        let pos_accessor = p.get(&Semantic::Positions).expect("planned");
+        let local = read_vec3(&pos_accessor, &format!("POSITION of {}", d.at), self.buffers)?;
+        let corners = match p.indices() {
+            Some(a) => read_indices(&a, local.len(), self.buffers)?,
+            None => (0..local.len() as u32).collect(),
+        };
+        let mut indices = triangulate(&corners, p.mode());
+        if indices.is_empty() {
+            return Ok(None);
+        }
+        let linear = DMat3::from_mat4(d.world);
+        // Normals go through the inverse transpose; the cofactor matrix is that times the
+        // determinant, so it exists for every matrix and only its sign needs fixing.
+        let det = linear.determinant();
+        let cofactor = DMat3::from_cols(
+            linear.y_axis.cross(linear.z_axis),
+            linear.z_axis.cross(linear.x_axis),
+            linear.x_axis.cross(linear.y_axis),
+        );
+        let normal_matrix = if det < 0.0 { -cofactor } else { cofactor };
+        let positions: Vec<DVec3> = local.iter().map(|&v| d.world.transform_point3(v)).collect();
+        let normals = match p.get(&Semantic::Normals) {
+            None => None,
+            Some(a) => {
+                let n = read_vec3(&a, &format!("NORMAL of {}", d.at), self.buffers)?;
+                if n.len() != positions.len() {
+                    return Err(format!(
+                        "{} (NORMAL of {}) has {} elements but POSITION has {}",
+                        accessor_name(&a),
+                        d.at,
+                        n.len(),
+                        positions.len()
+                    ));
+                }
+                let world: Option<Vec<DVec3>> =
+                    n.iter().map(|&v| (normal_matrix * v).try_normalize()).collect();
+                if world.is_none() {
+                    self.warn(format!("{}: a normal is zero (after the node transform); flat shading", d.at));
+                }
+                world
+            }
+        };
+        // A mirroring transform turns the winding, and with it the outside, inside out (glTF
+        // 3.7.4); swapping two corners turns it back.
+        if det < 0.0 {
+            indices.iter_mut().for_each(|t| t.swap(1, 2));
+        }
+        let material = self.material(&p.material())?;
+        self.add_texture_sample(p, material, &positions, &indices, d)?;
+        Ok(Some(Mesh { positions, normals, indices, material }))
+    }
+
+    /// The scene material for a glTF material, made on first use.
+    fn material(&mut self, m: &::gltf::Material) -> Res<u32> {
+        if let Some(&slot) = self.slots.get(&m.index()) {
+            return Ok(slot);
+        }
+        if self.materials.len() >= MAX_MATERIALS {
+            return Err(format!("more than {MAX_MATERIALS} materials; irt's limit is that"));
+        }
+        let kind = material_kind(m)?;
+        let base = match (m.name(), m.index()) {
+            (Some(name), _) if !name.is_empty() => name.to_string(),
+            (_, Some(i)) => format!("material{i}"),
+            (_, None) => "default".to_string(),
+        };
+        let mut name = base.clone();
+        let mut k = 2;
+        while self.names.contains(&name) {
+            name = format!("{base} ({k})");
+            k += 1;
+        }
+        self.names.insert(name.clone());
+        let slot = self.materials.len() as u32;
+        self.materials.push(Material { name, kind });
+        self.slots.insert(m.index(), slot);
+        Ok(slot)
+    }
+
+    /// Adds the texture colour under the primitive's triangles to its material's average.
+    fn add_texture_sample(
+        &mut self,
+        p: &::gltf::Primitive,
+        material: u32,
+        positions: &[DVec3],
+        triangles: &[[u32; 3]],
+        d: &Draw,
+    ) -> Res<()> {
+        let Some(info) = p.material().pbr_metallic_roughness().base_color_texture() else { return Ok(()) };
+        let image = info.texture().source().index();
+        self.sums.entry(material).or_insert_with(|| (image, TextureSum::default()));
+        if self.texture(&info.texture())?.is_none() {
+            return Ok(());
+        }
+        let Some(uv_accessor) = p.get(&Semantic::TexCoords(info.tex_coord())) else { return Ok(()) };
+        let uv = read_uv(&uv_accessor, &format!("TEXCOORD_{} of {}", info.tex_coord(), d.at), self.buffers)?;
+        if uv.len() != positions.len() {
+            return Err(format!(
+                "{} (TEXCOORD_{} of {}) has {} elements but POSITION has {}",
+                accessor_name(&uv_accessor),
+                info.tex_coord(),
+                d.at,
+                uv.len(),
+                positions.len()
+            ));
+        }
+        let lut = srgb_lut();
+        let texture = self.textures[&image].as_ref().expect("decoded above");
+        let mut sum = TextureSum::default();
+        // Four points per triangle (its centroid and one towards each corner), weighted by area.
+        const POINTS: [[f64; 3]; 4] = [
+            [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+            [4.0 / 6.0, 1.0 / 6.0, 1.0 / 6.0],
+            [1.0 / 6.0, 4.0 / 6.0, 1.0 / 6.0],
+            [1.0 / 6.0, 1.0 / 6.0, 4.0 / 6.0],
+        ];
+        for t in triangles {
+            let [a, b, c] = t.map(|i| i as usize);
+            let area = 0.5 * (positions[b] - positions[a]).cross(positions[c] - positions[a]).length();
+            for w in POINTS {
+                let at = |k: usize| w[0] * uv[a][k] + w[1] * uv[b][k] + w[2] * uv[c][k];
+                sum.color += texture.sample([at(0), at(1)], &lut) * (area / 4.0);
+            }
+            sum.area += area;
+        }
+        let entry = &mut self.sums.get_mut(&material).expect("inserted above").1;
+        entry.color += sum.color;
+        entry.area += sum.area;
+        Ok(())
+    }
+
+    /// Decodes a texture's image once; None (with a warning) for formats irt cannot decode.
+    fn texture(&mut self, texture: &::gltf::Texture) -> Res<Option<&Texture>> {
+        let image = texture.source();
+        let index = image.index();
+        if !self.textures.contains_key(&index) {
+            let what = format!("images[{index}]");
+            // The raw JSON: the crate's `source()` unwraps a `mimeType` or `uri` that validation
+            // does not guarantee is there.
+            let doc = self.doc;
+            let json = &doc.as_json().images[index];
+            let bytes: Cow<[u8]> = match (&json.buffer_view, &json.uri) {
+                (Some(view), _) => {
+                    let view = doc.views().nth(view.value()).expect("validated index");
+                    let data = &self.buffers[view.buffer().index()];
+                    let range = view.offset()..view.offset().saturating_add(view.length());
+                    Cow::Borrowed(data.get(range).ok_or_else(|| {
+                        format!("{what}: bufferViews[{}] runs past the end of its buffer", view.index())
+                    })?)
+                }
+                (None, Some(uri)) => Cow::Owned(read_uri(uri, self.base, &what)?),
+                (None, None) => return Err(format!("{what} has neither a uri nor a bufferView")),
+            };
+            let sampler = texture.sampler();
+            let decoded = decode_png(&bytes, &what, [sampler.wrap_s(), sampler.wrap_t()]);
+            let decoded = match decoded {
+                Ok(t) => Some(t),
+                Err(Unusable::Refused(m)) => return Err(m),
+                Err(Unusable::NotPng(m)) => {
+                    self.warn(m);
+                    None
+                }
+            };
+            self.textures.insert(index, decoded);
+        }
+        Ok(self.textures[&index].as_ref())
+    }
+
+    /// Multiplies each textured material's colour by its texture's surface average (the mean
+    /// of the whole image when no triangle has texture coordinates).
+    fn apply_texture_colors(&mut self) {
+        let lut = srgb_lut();
+        for (&slot, (image, sum)) in &self.sums {
+            let Some(texture) = self.textures.get(image).and_then(Option::as_ref) else { continue };
+            let mean = if sum.area > 0.0 { sum.color / sum.area } else { texture.mean(&lut) };
+            let mean = mean.clamp(DVec3::ZERO, DVec3::ONE);
+            match &mut self.materials[slot as usize].kind {
+                MaterialKind::Diffuse { color }
+                | MaterialKind::Metal { color, .. }
+                | MaterialKind::Polished { color, .. } => *color *= mean,
+                MaterialKind::Dielectric { .. } => {}
+            }
+        }
+    }
+
+    /// The first perspective camera in the scene, or one that frames the whole scene.
+    fn camera(&mut self, nodes: &[(::gltf::Node, DMat4)], center: DVec3, radius: f64) -> Res<Camera> {
+        for (node, world) in nodes {
+            let Some(camera) = node.camera() else { continue };
+            let at = format!("cameras[{}]", camera.index());
+            // The raw JSON: the crate's `projection()` unwraps the object `type` names, which
+            // validation does not guarantee is there.
+            let json = &self.doc.as_json().cameras[camera.index()];
+            let p = match (&json.type_, &json.perspective) {
+                (json::validation::Checked::Valid(json::camera::Type::Perspective), Some(p)) => p,
+                (json::validation::Checked::Valid(json::camera::Type::Perspective), None) => {
+                    return Err(format!("{at} is of type perspective but has no `perspective` object"));
+                }
+                _ => {
+                    self.warn(format!(
+                        "{at} is orthographic; irt frames the scene with a perspective camera instead"
+                    ));
+                    continue;
+                }
+            };
+            let vfov = p.yfov as f64;
+            if !(vfov.is_finite() && vfov > 0.0 && vfov < std::f64::consts::PI) {
+                return Err(format!("{at}.perspective.yfov is {vfov}; it must be between 0 and π radians"));
+            }
+            let (width, height) = match p.aspect_ratio.map(f64::from) {
+                None => (DEFAULT_WIDTH, DEFAULT_HEIGHT),
+                Some(a) if a.is_finite() && a > 0.0 => {
+                    let h =
+                        (DEFAULT_WIDTH as f64 / a).round().clamp(1.0, crate::scene::MAX_IMAGE_SIDE as f64);
+                    (DEFAULT_WIDTH, h as u32)
+                }
+                Some(a) => {
+                    return Err(format!("{at}.perspective.aspectRatio is {a}; it must be greater than 0"))
+                }
+            };
+            // A glTF camera looks down its local -z with +y up.
+            let eye = world.transform_point3(DVec3::ZERO);
+            let forward = world.transform_vector3(-DVec3::Z).normalize_or_zero();
+            let up = world.transform_vector3(DVec3::Y).normalize_or_zero();
+            if !(eye.is_finite() && forward != DVec3::ZERO && forward.cross(up).length() > 1e-9) {
+                return Err(format!(
+                    "nodes[{}] places {at} with a degenerate transform (no view or up direction)",
+                    node.index()
+                ));
+            }
+            return Ok(Camera {
+                eye,
+                look_at: eye + forward,
+                up,
+                vfov_deg: vfov.to_degrees(),
+                width,
+                height,
+            });
+        }
+        Ok(framing_camera(center, radius))
+    }
+
+    /// KHR_lights_punctual lights as irt's point lights (docs/gltf.md).
+    fn lights(&mut self, nodes: &[(::gltf::Node, DMat4)], center: DVec3, radius: f64) -> Res<Vec<Light>> {
+        // (position, colour × illuminance at the scene's centre)
+        let mut found: Vec<(DVec3, DVec3)> = Vec::new();
+        for (node, world) in nodes {
+            let Some(light) = node.light() else { continue };
+            let at = format!("KHR_lights_punctual.lights[{}]", light.index());
+            if found.len() == MAX_LIGHTS {
+                self.warn(format!(
+                    "{at} and any later lights are dropped: irt shades with at most {MAX_LIGHTS}"
+                ));
+                break;
+            }
+            let color = DVec3::from_array(light.color().map(f64::from));
+            let intensity = light.intensity() as f64;
+            if !(color.is_finite() && color.min_element() >= 0.0) {
+                return Err(format!(
+                    "{at}.color ({}, {}, {}) must be finite and not negative",
+                    color.x, color.y, color.z
+                ));
+            }
+            if !(intensity.is_finite() && intensity >= 0.0) {
+                return Err(format!("{at}.intensity is {intensity}; it must be finite and not negative"));
+            }
+            let position = world.transform_point3(DVec3::ZERO);
+            let direction = world.transform_vector3(-DVec3::Z).normalize_or_zero();
+            let (position, illuminance) = match light.kind() {
+                LightKind::Directional => {
+                    if direction == DVec3::ZERO {
+                        return Err(format!("nodes[{}] gives {at} no direction", node.index()));
+                    }
+                    // Far enough that its rays are parallel across the scene; irt's lights do
+                    // not fall off, so only the direction matters.
+                    (center - direction * (1000.0 * radius), intensity)
+                }
+                kind => {
+                    if matches!(kind, LightKind::Spot { .. }) {
+                        self.warn(format!(
+                            "{at} is a spot light; irt lights every direction (the cone is ignored)"
+                        ));
+                    }
+                    let d2 = (position - center).length_squared().max((0.01 * radius).powi(2));
+                    (position, intensity / d2)
+                }
+            };
+            if !position.is_finite() {
+                return Err(format!("{at} is placed at a position that is not finite"));
+            }
+            found.push((position, color * illuminance));
+        }
+        // Physical units (candela, lux) with an unknown exposure: keep the lights' ratios at the
+        // scene's centre and make the strongest one 1.
+        let strongest = found.iter().map(|(_, c)| c.max_element()).fold(0.0, f64::max);
+        let scale = if strongest > 0.0 { 1.0 / strongest } else { 0.0 };
+        Ok(found
+            .into_iter()
+            .map(|(position, c)| Light { position, color: (c * scale).min(DVec3::ONE), radius: 0.0 })
+            .collect())
+    }
+}
+
+enum Unusable {
+    /// Bad input: an error.
+    Refused(String),
+    /// A format irt does not decode: a warning.
+    NotPng(String),
+}
+
+/// Decodes a PNG after checking its size in the header (the first chunk, IHDR, PNG §11.2.2).
+fn decode_png(bytes: &[u8], what: &str, wrap: [WrappingMode; 2]) -> Result<Texture, Unusable> {
+    use image::{ImageFormat, ImageReader, Limits};
+    use std::io::Cursor;
+    if !bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        return Err(Unusable::NotPng(format!(
+            "{what} is not a PNG; irt decodes PNG textures only, so its colour is not used"
+        )));
+    }
+    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes(b.try_into().unwrap()));
+    let (Some(w), Some(h), Some(b"IHDR")) = (word(16), word(20), bytes.get(12..16)) else {
+        return Err(Unusable::Refused(format!("{what}: the PNG does not start with its IHDR header")));
+    };
+    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
+        return Err(Unusable::Refused(format!(
+            "{what} is {w}x{h} pixels; irt reads textures of 1 to {MAX_TEXTURE_PIXELS} pixels"
+        )));
+    }
+    let mut reader = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png);
+    let mut limits = Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    limits.max_alloc = Some(MAX_TEXTURE_PIXELS * 16);
+    reader.limits(limits);
+    let image =
+        reader.decode().map_err(|e| Unusable::Refused(format!("{what}: cannot decode the PNG: {e}")))?;
+    Ok(Texture { width: w as usize, height: h as usize, rgb: image.to_rgb8().into_raw(), wrap })
+}
+
+/// Centre and radius of the bounding box of every vertex (radius 1 for a single point).
+fn bounds(meshes: &[Mesh]) -> (DVec3, f64) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in meshes.iter().flat_map(|m| &m.positions) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let radius = 0.5 * (hi - lo).length();
+    (0.5 * (lo + hi), if radius > 0.0 && radius.is_finite() { radius } else { 1.0 })
+}
+
+/// Direction from the scene's centre to the eye of the framing camera: in front (+z, glTF's
+/// front), a little to the right and above.
+pub const FRAMING_DIRECTION: DVec3 = DVec3::new(0.5, 0.45, 1.0);
+
+/// A camera that sees the scene's whole bounding sphere, from [`FRAMING_DIRECTION`].
+fn framing_camera(center: DVec3, radius: f64) -> Camera {
+    let vfov = DEFAULT_FOV_DEG;
+    // The sphere fits the vertical field of view (the horizontal one is wider) with a margin.
+    let distance = 1.1 * radius / (vfov.to_radians() * 0.5).sin();
+    Camera {
+        eye: center + FRAMING_DIRECTION.normalize() * distance,
+        look_at: center,
+        up: DVec3::Y,
+        vfov_deg: vfov,
+        width: DEFAULT_WIDTH,
+        height: DEFAULT_HEIGHT,
+    }
+}
+
+/// The light added to a scene without lights: white, above and to the right of the eye, so
+/// that what the camera sees is lit and shadows fall behind and below it.
+fn headlight(camera: &Camera, center: DVec3, radius: f64) -> Light {
+    let b = camera.basis();
+    let reach = (center - camera.eye).length().max(radius);
+    let offset = (b.u.normalize() + b.v.normalize()) * (0.5 * reach);
+    Light { position: camera.eye + offset, color: DVec3::ONE, radius: 0.05 * radius }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_decodes_every_padding_and_refuses_junk() {
+        assert_eq!(base64_decode("").unwrap(), b"");
+        assert_eq!(base64_decode("TQ==").unwrap(), b"M");
+        assert_eq!(base64_decode("TWE=").unwrap(), b"Ma");
+        assert_eq!(base64_decode("TWFu").unwrap(), b"Man");
+        assert_eq!(base64_decode("TWFuTQ").unwrap(), b"ManM");
+        assert_eq!(base64_decode("+/+/").unwrap(), [0xfb, 0xff, 0xbf]);
+        assert!(base64_decode("TW-u").unwrap_err().contains("byte 2"));
+        assert!(base64_decode("TWFuT").is_err());
+    }
+
+    #[test]
+    fn percent_escapes_decode() {
+        assert_eq!(percent_decode("a%20b.bin").unwrap(), "a b.bin");
+        assert!(percent_decode("a%2").is_none());
+        assert!(percent_decode("a%zz").is_none());
+    }
+
+    #[test]
+    fn strips_and_fans_keep_the_winding() {
+        // A quad (0,1,2,3 counter-clockwise) as a strip 0,1,3,2 and as a fan 0,1,2,3.
+        assert_eq!(triangulate(&[0, 1, 3, 2], Mode::TriangleStrip), vec![[0, 1, 3], [3, 1, 2]]);
+        assert_eq!(triangulate(&[0, 1, 2, 3], Mode::TriangleFan), vec![[1, 2, 0], [2, 3, 0]]);
+        assert!(triangulate(&[0, 1], Mode::TriangleStrip).is_empty());
+        assert_eq!(triangulate(&[0, 1, 2, 3, 4, 5, 6], Mode::Triangles).len(), 2);
+    }
+
+    #[test]
+    fn blinn_exponent_is_monotonic_and_clamped() {
+        assert_eq!(blinn_exponent(0.0), MAX_EXPONENT);
+        assert_eq!(blinn_exponent(1.0), MIN_EXPONENT);
+        assert!((blinn_exponent(0.5) - 30.0).abs() < 1e-12);
+        let mut last = f64::INFINITY;
+        for i in 0..=100 {
+            let n = blinn_exponent(i as f64 / 100.0);
+            assert!(n <= last);
+            last = n;
+        }
+    }
+}
