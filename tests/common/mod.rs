@@ -162,17 +162,13 @@ pub fn assert_matches_reference(name: &str, gpu: &irt::image::Image, reference: 
     panic!("{name}: GPU differs from the reference: {diff}\n(images in {})", dir.display());
 }
 
-/// A file under the project's shared `scenes/` folder (the glTF and SPD samples), which lies
-/// beside the repository: found in the nearest ancestor of the crate that has `shared/scenes`
-/// (a worktree sits deeper than a clone), or under `$IRT_SHARED_DIR`.
+/// A file of the real scenes made by others (Khronos glTF samples, Haines' SPD scenes as NFF),
+/// vendored under tests/data/scenes with their licences so that a fresh clone tests them too;
+/// `$IRT_SHARED_DIR/scenes` overrides.
 pub fn shared_scene(relative: &str) -> std::path::PathBuf {
     let scenes = match std::env::var_os("IRT_SHARED_DIR") {
         Some(dir) => std::path::PathBuf::from(dir).join("scenes"),
-        None => std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .ancestors()
-            .map(|a| a.join("shared/scenes"))
-            .find(|p| p.is_dir())
-            .expect("no shared/scenes beside the repository (set IRT_SHARED_DIR)"),
+        None => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scenes"),
     };
     scenes.join(relative)
 }
