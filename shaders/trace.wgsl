@@ -25,6 +25,11 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
         ng = normalize(p - s.xyz);
         n = ng;
         material = sphere_material(i);
+    } else if HAS_CONES && prim_kind(h.prim) == PRIM_CONE {
+        let c = load_cone(i);
+        ng = cone_normal(p, c.base, c.r0, c.axis, c.r1);
+        n = ng;
+        material = cone_material(i);
     } else {
         let tri = load_triangle(i);
         ng = normalize(cross(tri.p1 - tri.p0, tri.p2 - tri.p0));

@@ -53,6 +53,11 @@ fn triangle_meshes() {
 }
 
 #[test]
+fn cones() {
+    check("cones", scene_file("cones.toml"));
+}
+
+#[test]
 fn default_scene() {
     let mut scene = irt::scene::default_scene();
     // Half resolution keeps the brute-force reference to a few seconds.

@@ -19,6 +19,7 @@ pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
 pub const MAX_SPHERES: usize = 1 << 22;
 pub const MAX_TRIANGLES: usize = 1 << 22;
 pub const MAX_VERTICES: usize = 1 << 22;
+pub const MAX_CONES: usize = 1 << 22;
 pub const MAX_MATERIALS: usize = 1 << 16;
 
 /// Why a scene could not be loaded, with the position in the file when one is known.

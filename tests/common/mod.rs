@@ -90,6 +90,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
         materials: vec![material("grey", MaterialKind::Diffuse { color: DVec3::splat(0.5) })],
         spheres,
         meshes,
+        cones: vec![],
         trace: TraceSettings::default(),
     }
 }
