@@ -1,8 +1,10 @@
-// Entry point: one invocation per pixel; eye ray, shading, hard shadows, and the reflection /
+// Entry point: one invocation per eye ray; eye ray, shading, hard shadows, and the reflection /
 // refraction tree walked depth-first with a fixed stack.
 
 // Rays traced by this invocation, by kind: eye, reflection, refraction, shadow.
 var<private> ray_counts: vec4u;
+// 1 if this invocation's eye ray hit something (written as the output's alpha), else 0.
+var<private> eye_hit: f32;
 
 struct Surface {
     p: vec3f,
@@ -99,6 +101,9 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
     let cutoff = params.trace.x;
     loop {
         let h = trace_closest(ray.o, ray.d, 0.0, BIG);
+        if ray.depth == 1u && h.prim != NO_HIT {
+            eye_hit = 1.0;
+        }
         if h.prim == NO_HIT {
             total += ray.w * params.background.rgb;
         } else {
@@ -150,9 +155,12 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     let x = tile.rect.x + gid.x;
     let y = tile.rect.y + gid.y;
     ray_counts = vec4u(1u, 0u, 0u, 0u);
-    pixel_id = y * params.image.x + x;
-    let c = radiance(params.eye.xyz, eye_direction(f32(x) + 0.5, f32(y) + 0.5));
-    out_buf[y * params.image.x + x] = vec4f(c, 1.0);
+    eye_hit = 0.0;
+    // One invocation per eye ray: at pixel centres, or at pixel corners (SPD's rule).
+    pixel_id = y * params.eye_grid.x + x;
+    let offset = select(0.5, 0.0, params.eye_grid.z != 0u);
+    let c = radiance(params.eye.xyz, eye_direction(f32(x) + offset, f32(y) + offset));
+    out_buf[pixel_id] = vec4f(c, eye_hit);
     if COUNT_RAYS {
         atomicAdd(&stats[0], ray_counts.x);
         atomicAdd(&stats[1], ray_counts.y);

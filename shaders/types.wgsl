@@ -24,6 +24,7 @@ struct Params {
     cone_base: vec4u,
     grid_base: vec4u,
     image: vec4u,
+    eye_grid: vec4u,
     trace: vec4f,
     shadow: vec4u,
     lights: array<Light, MAX_LIGHTS>,

@@ -78,6 +78,9 @@ pub struct Params {
     pub grid_base: [u32; 4],
     /// width, height, max_depth, light count.
     pub image: [u32; 4],
+    /// The eye rays: columns, rows, 1 if they pass through pixel corners (SPD's rule, a
+    /// (width+1)x(height+1) grid) else 0 (pixel centres, width x height); unused. See [`eye_grid`].
+    pub eye_grid: [u32; 4],
     /// weight_cutoff, ray offset (relative), unused, unused.
     pub trace: [f32; 4],
     /// Shadow mode (docs/shadows.md): kind (`ShadowMode::kind_index`), bundle size, rotate
@@ -243,6 +246,7 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene) -> Params {
         cone_base: [packed.cone_base, 0, 0, 0],
         grid_base: packed.grid_base,
         image: [cam.width, cam.height, scene.trace.max_depth, scene.lights.len() as u32],
+        eye_grid: eye_grid(cam.width, cam.height, false),
         trace: [scene.trace.weight_cutoff as f32, RAY_OFFSET_REL, 0.0, 0.0],
         shadow: match scene.trace.shadows {
             ShadowMode::Hard => [0; 4],
@@ -251,6 +255,13 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene) -> Params {
         },
         lights,
     }
+}
+
+/// `Params::eye_grid` for an image of `width` x `height` pixels: rays through the pixel centres,
+/// or through the pixel corners (one more column and row: the image's edges are sampled too).
+pub fn eye_grid(width: u32, height: u32, corners: bool) -> [u32; 4] {
+    let extra = corners as u32;
+    [width + extra, height + extra, extra, 0]
 }
 
 /// WGSL `const` declarations for every number the shaders share with this file, so each lives
