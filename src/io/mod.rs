@@ -3,6 +3,7 @@
 //! [`load`] picks a parser by file extension from [`FORMATS`]; each parser turns text into a
 //! validated [`Scene`] and reports problems as a [`LoadError`] pointing at the offending value.
 
+pub mod nff;
 pub mod shapes;
 pub mod toml;
 
@@ -76,10 +77,17 @@ pub struct Format {
 }
 
 /// Every format [`load`] understands, tried in order by extension.
-pub const FORMATS: &[Format] = &[Format { name: "TOML", extensions: &["toml"], parse: parse_toml }];
+pub const FORMATS: &[Format] = &[
+    Format { name: "TOML", extensions: &["toml"], parse: parse_toml },
+    Format { name: "NFF", extensions: &["nff"], parse: parse_nff },
+];
 
 fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     toml::parse_str(utf8(bytes, origin)?, origin)
+}
+
+fn parse_nff(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
+    nff::parse_str(utf8(bytes, origin)?, origin)
 }
 
 /// The text of a text format, or an error at the first byte that is not UTF-8.
