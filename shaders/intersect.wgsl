@@ -92,6 +92,67 @@ fn intersect_triangle(o: vec3f, d: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, t_min
     return vec3f(MISS, 0.0, 0.0);
 }
 
+// Nearest t in (t_min, t_max) where o + t d meets the open cone (no caps) from `base` (radius r0)
+// to `base + axis` (radius r1), or MISS. `d` must be unit length. The method of the f64 twin:
+// the origin first moved to the ray's closest approach to the axis midpoint (small coefficients
+// for distant origins), the discriminant by Lagrange's identity |r q_d - k (d·a) q_o|² -
+// |q_o × q_d|² (no difference of large products), both roots without cancellation, nearer
+// first, each kept only where its axial position lies on the cone. A vanishing quadratic term
+// (ray parallel to a cylinder's axis or to a cone's generating line) leaves the linear root.
+fn intersect_cone(o: vec3f, d: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32, t_min: f32, t_max: f32) -> f32 {
+    let h = length(axis);
+    let a = axis / h;
+    let k = (r1 - r0) / h;
+    let tc = dot(base + 0.5 * axis - o, d);
+    let co = o + tc * d - base;
+    let s0 = dot(co, a);
+    let da = dot(d, a);
+    let qo = co - s0 * a;
+    let qd = d - da * a;
+    let ro = r0 + k * s0;
+    let qa = dot(qd, qd) - k * k * da * da;
+    let qb = dot(qo, qd) - k * ro * da;
+    let qc = dot(qo, qo) - ro * ro;
+    let w = ro * qd - k * da * qo;
+    let x = cross(qo, qd);
+    let disc = dot(w, w) - dot(x, x);
+    if disc < 0.0 {
+        return MISS;
+    }
+    let q = -(qb + select(-1.0, 1.0, qb >= 0.0) * sqrt(disc));
+    var lo = 0.0;
+    var hi = 0.0;
+    if q != 0.0 {
+        let ra = qc / q;
+        let rb = select(ra, q / qa, qa != 0.0);
+        lo = min(ra, rb);
+        hi = max(ra, rb);
+    } else if qa == 0.0 {
+        return MISS;
+    }
+    let s_lo = s0 + lo * da;
+    if s_lo >= 0.0 && s_lo <= h && tc + lo > t_min && tc + lo < t_max {
+        return tc + lo;
+    }
+    let s_hi = s0 + hi * da;
+    if s_hi >= 0.0 && s_hi <= h && tc + hi > t_min && tc + hi < t_max {
+        return tc + hi;
+    }
+    return MISS;
+}
+
+// Unit outward normal of that cone at the surface point p: away from the axis, tilted by the
+// radius's slope; along the axis at a pointed tip.
+fn cone_normal(p: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32) -> vec3f {
+    let h = length(axis);
+    let a = axis / h;
+    let v = p - base;
+    let away = v - dot(v, a) * a;
+    let len = length(away);
+    let u = select(vec3f(0.0), away / len, len > 0.0);
+    return normalize(u - ((r1 - r0) / h) * a);
+}
+
 // Primitive reference `r` (kind in the top bits): (t, b1, b2) or t = MISS.
 fn intersect_prim(r: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
     let i = prim_index(r);
@@ -102,6 +163,10 @@ fn intersect_prim(r: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
     if HAS_TRIANGLES && prim_kind(r) == PRIM_TRIANGLE {
         let tri = load_triangle(i);
         return intersect_triangle(o, d, tri.p0, tri.p1, tri.p2, t_min, t_max);
+    }
+    if HAS_CONES && prim_kind(r) == PRIM_CONE {
+        let c = load_cone(i);
+        return vec3f(intersect_cone(o, d, c.base, c.r0, c.axis, c.r1, t_min, t_max), 0.0, 0.0);
     }
     return vec3f(MISS, 0.0, 0.0);
 }

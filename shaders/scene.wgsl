@@ -70,6 +70,25 @@ fn load_material(m: u32) -> Material {
     return Material(bitcast<vec3f>(a.xyz), a.w, b.x, b.y);
 }
 
+// Cone `i`: from `base` (radius r0) to `base + axis` (radius r1).
+struct Cone {
+    base: vec3f,
+    r0: f32,
+    axis: vec3f,
+    r1: f32,
+}
+
+fn load_cone(i: u32) -> Cone {
+    let base = params.cone_base.x + i * CONE_TEXELS;
+    let a = ftexel(base);
+    let b = ftexel(base + 1u);
+    return Cone(a.xyz, a.w, b.xyz, b.w);
+}
+
+fn cone_material(i: u32) -> u32 {
+    return texel(params.cone_base.x + i * CONE_TEXELS + 2u).x;
+}
+
 // (start, count) of grid cell `c`'s primitive references.
 fn cell_range(c: u32) -> vec2u {
     let t = texel(params.grid_base.x + c / 2u);

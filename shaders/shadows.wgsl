@@ -102,11 +102,37 @@ fn triangle_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, p0: vec3f
     return vec2f(falloff(f, best.x / b), t);
 }
 
+// Transparency of a cone's shell and the t of closest approach to its axis segment. The gap is
+// the distance from that ray point to the cone's solid cross-section disc at the axis point
+// nearest to it: d - r(s) beside the cone, the distance to the end disc past its ends.
+fn cone_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, base: vec3f, r0: f32, axis: vec3f, r1: f32) -> vec2f {
+    let t = segment_distance(o, l, dist, base, base + axis).y;
+    if t <= 0.0 || t >= dist {
+        return vec2f(1.0, t);
+    }
+    let b = light_r * t / dist;
+    let x = o + t * l;
+    let s = clamp(dot(x - base, axis) / dot(axis, axis), 0.0, 1.0);
+    let v = x - (base + s * axis);
+    let along = dot(v, normalize(axis));
+    let across = sqrt(max(0.0, dot(v, v) - along * along));
+    let out = max(0.0, across - mix(r0, r1, s));
+    let gap = sqrt(along * along + out * out);
+    if b <= 0.0 || gap >= b {
+        return vec2f(1.0, t);
+    }
+    return vec2f(falloff(f, gap / b), t);
+}
+
 fn prim_shell(r: u32, f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32) -> vec2f {
     let i = prim_index(r);
     if HAS_SPHERES && prim_kind(r) == PRIM_SPHERE {
         let s = load_sphere(i);
         return sphere_shell(f, o, l, dist, light_r, s.xyz, s.w);
+    }
+    if HAS_CONES && prim_kind(r) == PRIM_CONE {
+        let c = load_cone(i);
+        return cone_shell(f, o, l, dist, light_r, c.base, c.r0, c.axis, c.r1);
     }
     let tri = load_triangle(i);
     return triangle_shell(f, o, l, dist, light_r, tri.p0, tri.p1, tri.p2);

@@ -33,6 +33,23 @@ fn k_triangle(@builtin(global_invocation_id) gid: vec3u) {
     out_buf[i] = vec4f(r, 0.0);
 }
 
+// in: (o, t_min), (d, t_max), (base, r0), (axis, r1) -> (t, cone_normal at o + t d)
+@compute @workgroup_size(8, 8, 1)
+fn k_cone(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[4u * i];
+    let b = test_in[4u * i + 1u];
+    let c = test_in[4u * i + 2u];
+    let e = test_in[4u * i + 3u];
+    let t = intersect_cone(a.xyz, b.xyz, c.xyz, c.w, e.xyz, e.w, a.w, b.w);
+    var n = vec3f(0.0);
+    if t != MISS {
+        n = cone_normal(a.xyz + t * b.xyz, c.xyz, c.w, e.xyz, e.w);
+    }
+    out_buf[i] = vec4f(t, n);
+}
+
 // in: (cos, r0, eta, inside) -> (schlick, dielectric_reflectance, 0, 0)
 @compute @workgroup_size(8, 8, 1)
 fn k_fresnel(@builtin(global_invocation_id) gid: vec3u) {
@@ -169,4 +186,17 @@ fn k_acne(@builtin(global_invocation_id) gid: vec3u) {
     let l = normalize(light.position_radius.xyz - sf.p);
     let s = light_visibility(offset_origin(sf, l), l, light);
     out_buf[i] = vec4f(1.0, dot(sf.ng, l), s, 0.0);
+}
+
+// in: (o, dist), (l, light_r), (base, r0), (axis, r1), (falloff, _, _, _) -> (σ, t, 0, 0) of cone_shell
+@compute @workgroup_size(8, 8, 1)
+fn k_cone_shell(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let o = test_in[5u * i];
+    let l = test_in[5u * i + 1u];
+    let c = test_in[5u * i + 2u];
+    let e = test_in[5u * i + 3u];
+    let f = u32(test_in[5u * i + 4u].x);
+    out_buf[i] = vec4f(cone_shell(f, o.xyz, l.xyz, o.w, l.w, c.xyz, c.w, e.xyz, e.w), 0.0, 0.0);
 }

@@ -1,10 +1,12 @@
-// Entry point: one invocation per pixel; eye ray, shading, hard shadows, and the reflection /
+// Entry point: one invocation per eye ray; eye ray, shading, hard shadows, and the reflection /
 // refraction tree walked depth-first with a fixed stack.
 
 // Rays traced by this invocation, by kind: eye, reflection, refraction, shadow.
 var<private> ray_counts: vec4u;
 // Loop iterations run by this invocation (see `LAVAPIPE_LOOP_LIMIT` in src/gpu/layout.rs).
 var<private> loop_iters: u32;
+// 1 if this invocation's eye ray hit something (written as the output's alpha), else 0.
+var<private> eye_hit: f32;
 
 struct Surface {
     p: vec3f,
@@ -61,6 +63,13 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
             scale = ray_scale;
         }
         material = sphere_material(i);
+    } else if HAS_CONES && prim_kind(h.prim) == PRIM_CONE {
+        let c = load_cone(i);
+        ng = unit_or(cone_normal(p, c.base, c.r0, c.axis, c.r1), -d);
+        n = ng;
+        // p stays the ray's: its error is relative to the ray's numbers.
+        scale = vmax(abs(o)) + h.t;
+        material = cone_material(i);
     } else {
         let tri = load_triangle(i);
         p = tri.p0 + h.b1 * (tri.p1 - tri.p0) + h.b2 * (tri.p2 - tri.p0);
@@ -145,6 +154,9 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
     loop {
         let h = trace_closest(ray.o, ray.d, 0.0, BIG);
         loop_iters += 1u;
+        if ray.depth == 1u && h.prim != NO_HIT {
+            eye_hit = 1.0;
+        }
         if h.prim == NO_HIT {
             if tile.pass_range.z != 0u {
                 total += ray.w * params.background.rgb;
@@ -198,16 +210,20 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     let x = tile.rect.x + gid.x;
     let y = tile.rect.y + gid.y;
     ray_counts = vec4u(1u, 0u, 0u, 0u);
-    pixel_id = y * params.image.x + x;
+    eye_hit = 0.0;
     loop_iters = 0u;
-    let c = radiance(params.eye.xyz, eye_direction(f32(x) + 0.5, f32(y) + 0.5));
-    let out = y * params.image.x + x;
-    // Alpha carries the loop iterations (the most of any pass), checked by the renderer.
+    // One invocation per eye ray: at pixel centres, or at pixel corners (SPD's rule).
+    pixel_id = y * params.eye_grid.x + x;
+    let offset = select(0.5, 0.0, params.eye_grid.z != 0u);
+    let c = radiance(params.eye.xyz, eye_direction(f32(x) + offset, f32(y) + offset));
+    // Alpha carries 2 × the loop iterations (the most of any pass) + whether the eye ray hit;
+    // the renderer checks the first against lavapipe's limit and counts the second for SPD.
+    let meter = f32(2u * loop_iters + u32(eye_hit));
     if tile.pass_range.z != 0u {
-        out_buf[out] = vec4f(c, f32(loop_iters));
+        out_buf[pixel_id] = vec4f(c, meter);
     } else {
-        let prev = out_buf[out];
-        out_buf[out] = vec4f(prev.rgb + c, max(prev.a, f32(loop_iters)));
+        let prev = out_buf[pixel_id];
+        out_buf[pixel_id] = vec4f(prev.rgb + c, max(prev.a, meter));
         ray_counts = vec4u(0u, 0u, 0u, ray_counts.w);
     }
     if COUNT_RAYS {

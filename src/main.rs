@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
     about = "Interactive ray tracer on Vulkan compute (Parker et al., I3D 1999)",
     long_about = "irt traces scenes with WGSL compute shaders on any Vulkan device — by default \
 Mesa's lavapipe, which runs Vulkan on the CPU. Without a SCENE it draws the built-in default \
-scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
+scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -55,7 +55,7 @@ struct DeviceArgs {
 
 #[derive(Args)]
 struct SceneArgs {
-    /// Scene file (.toml, .gltf, .glb); the built-in default scene when omitted.
+    /// Scene file (.toml, .gltf, .glb, .nff); the built-in default scene when omitted.
     scene: Option<PathBuf>,
     /// Image width in pixels (overrides the scene's camera).
     #[arg(long, allow_negative_numbers = true)]
@@ -81,9 +81,14 @@ struct RenderArgs {
     /// Output PNG (8-bit sRGB), written atomically.
     #[arg(long, short, default_value = "irt.png")]
     out: PathBuf,
-    /// Print rays traced by kind (eye, reflection, refraction, shadow).
+    /// Print rays traced by kind (eye, reflection, refraction, shadow) and the eye rays that hit.
     #[arg(long)]
     stats: bool,
+    /// SPD's testing rules, to compare --stats with the published ray counts: eye rays through
+    /// the pixel corners ((W+1)x(H+1) rays, each pixel the mean of its corners), depth at most 5,
+    /// a reflection ray at every reflective hit, hard shadows. See docs/nff.md.
+    #[arg(long, conflicts_with = "shadows")]
+    spd_rules: bool,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -181,13 +186,15 @@ fn open_device(args: &DeviceArgs) -> Result<GpuContext> {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    let scene = load_scene(&args.scene)?;
+    let mut scene = load_scene(&args.scene)?;
+    if args.spd_rules {
+        irt::io::nff::apply_spd_rules(&mut scene);
+    }
     check_output_path(&args.out)?;
     let ctx = open_device(&args.device)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let renderer =
-        Renderer::new(&ctx, &scene, RenderOptions { count_rays: args.stats, ..Default::default() })
-            .map_err(anyhow::Error::msg)?;
+    let opts = RenderOptions { count_rays: args.stats, corner_rays: args.spd_rules, ..Default::default() };
+    let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
     let bar = indicatif::ProgressBar::new(h as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -216,8 +223,9 @@ fn render(args: RenderArgs) -> Result<()> {
     if args.stats {
         let r = frame.rays;
         println!(
-            "rays: eye {}  reflection {}  refraction {}  shadow {}  total {}",
+            "rays: eye {} ({} hit)  reflection {}  refraction {}  shadow {}  total {}",
             r.eye,
+            frame.eye_hits,
             r.reflection,
             r.refraction,
             r.shadow,

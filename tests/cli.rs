@@ -117,3 +117,38 @@ fn info_names_the_device() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stdout).contains("irt uses:"));
 }
+
+#[test]
+fn spd_rules_trace_the_pixel_corners() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/spd/balls_s1.nff");
+    let out_path = tmp("balls.png");
+    let out = irt(&[
+        "render",
+        scene,
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--stats",
+        "--spd-rules",
+        "--out",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // 17x17 corner rays, every one of them hits (the floor fills the view).
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("eye 289 (289 hit)"), "{stdout}");
+    let img = image::open(&out_path).expect("a readable PNG").to_rgb8();
+    assert_eq!(img.dimensions(), (16, 16));
+    // The rules fix the shadow mode.
+    fails_with(&irt(&["render", scene, "--spd-rules", "--shadows", "shell"]), &["--shadows"]);
+}
+
+#[test]
+fn nff_errors_name_the_place() {
+    let path = tmp("bad.nff");
+    std::fs::write(&path, "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 8 8\nq 1 2\n")
+        .unwrap();
+    let out = irt(&["render", path.to_str().unwrap(), "--out", tmp("bad.png").to_str().unwrap()]);
+    fails_with(&out, &["bad.nff:8:1:", "unknown command `q`"]);
+}

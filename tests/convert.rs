@@ -30,13 +30,16 @@ fn repo(path: &str) -> PathBuf {
 #[test]
 fn every_scene_file_round_trips() {
     let mut count = 0;
-    for entry in std::fs::read_dir(repo("scenes")).unwrap() {
-        let path = entry.unwrap().path();
+    let files = |dir: &str| std::fs::read_dir(repo(dir)).unwrap().map(|e| e.unwrap().path());
+    for path in files("scenes")
+        .chain(files("scenes/spd"))
+        .filter(|p| p.is_file() && p.extension().is_some_and(|e| e != "md"))
+    {
         let scene = irt::io::load(&path).unwrap_or_else(|e| panic!("{e}"));
         round_trip(&path.display().to_string(), &scene);
         count += 1;
     }
-    assert!(count >= 8, "only {count} scenes");
+    assert!(count >= 20, "only {count} scenes");
     round_trip("the built-in default scene", &default_scene());
 }
 
@@ -169,6 +172,15 @@ fn scene() -> impl Strategy<Value = Scene> {
             .prop_map(|(sky, ground, up)| Ambient { sky, ground, up });
         let sphere = (any_vec3(), prop::num::f64::POSITIVE, 0..materials)
             .prop_map(|(center, radius, m)| Sphere { center, radius, material: m as u32 });
+        let cone = (any_vec3(), prop::num::f64::POSITIVE, any_vec3(), 0.0..1e3f64, 0..materials).prop_map(
+            |(base, base_radius, apex, apex_radius, m)| Cone {
+                base,
+                base_radius,
+                apex,
+                apex_radius,
+                material: m as u32,
+            },
+        );
         let shadows = prop_oneof![
             Just(ShadowMode::Hard),
             (1..=MAX_BUNDLE, any::<bool>())
@@ -191,11 +203,22 @@ fn scene() -> impl Strategy<Value = Scene> {
             all_materials,
             prop::collection::vec(sphere, 1..3),
             prop::collection::vec(mesh(materials), 0..3),
+            prop::collection::vec(cone, 0..3),
             trace,
         )
-            .prop_map(|(camera, lights, ambient, background, materials, spheres, meshes, trace)| {
-                Scene { camera, lights, ambient, background, materials, spheres, meshes, trace }
-            })
+            .prop_map(
+                |(camera, lights, ambient, background, materials, spheres, meshes, cones, trace)| Scene {
+                    camera,
+                    lights,
+                    ambient,
+                    background,
+                    materials,
+                    spheres,
+                    meshes,
+                    cones,
+                    trace,
+                },
+            )
     })
 }
 

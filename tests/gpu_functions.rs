@@ -154,6 +154,115 @@ fn ray_triangle() {
     assert!(checked > N * 3 / 4, "only {checked} unambiguous cases");
 }
 
+/// A generated cone: cylinders, pointed and truncated cones, near-cylinders, thin needles and
+/// nearly flat rings, anywhere in a 20-unit box. Returned as the GPU sees it (f32 base, axis and
+/// radii) with the f64 apex `base + axis`.
+fn random_cone(rng: &mut Rng, i: usize) -> (DVec3, f64, DVec3, f64) {
+    let base = f32_round(rng.vec(-10.0, 10.0));
+    let r = rng.range(0.05, 3.0);
+    let h = match i % 7 {
+        5 => r * rng.range(0.01, 0.1),   // nearly flat: a wide ring
+        6 => r * rng.range(20.0, 100.0), // a needle
+        _ => rng.range(0.1, 8.0),
+    };
+    let axis = f32_round(rng.unit() * h);
+    let (r0, r1) = match i % 5 {
+        0 => (r, r),
+        1 => (r, 0.0),
+        2 => (0.0, r),
+        3 => (r, r * (1.0 + 1e-5)),
+        _ => (r, rng.range(0.0, 3.0)),
+    };
+    (base, r0 as f32 as f64, base + axis, r1 as f32 as f64)
+}
+
+#[test]
+fn ray_cone() {
+    let h = Harness::new();
+    let mut rng = Rng::new(7);
+    let mut cases = Vec::new();
+    for i in 0..N {
+        let (base, r0, apex, r1) = random_cone(&mut rng, i);
+        let axis = apex - base;
+        let (u, w) = axis.normalize().any_orthonormal_pair();
+        // Aim at a point near the surface, a little past the ends too; a third of the rays start
+        // inside the cone's hull, some run parallel to the axis or to a generating line.
+        let s = rng.range(-0.2, 1.2);
+        let phi = rng.range(0.0, std::f64::consts::TAU);
+        let radial = phi.cos() * u + phi.sin() * w;
+        let r = r0 + s.clamp(0.0, 1.0) * (r1 - r0);
+        let target = base + s * axis + radial * r * rng.range(0.0, 1.5);
+        let o = match i % 3 {
+            0 => f32_round(base + rng.f() * axis + radial * r * rng.f() * 0.9),
+            _ => f32_round(target + rng.unit() * rng.range(1.0, 20.0)),
+        };
+        let mut d = (target - o).normalize();
+        if i % 31 == 0 {
+            d = axis.normalize();
+        } else if i % 31 == 1 {
+            d = (axis + (r0 - r1) * radial).normalize();
+        }
+        let d = f32_round(d);
+        let (t_min, t_max) =
+            if i % 5 == 0 { (rng.range(0.0, 2.0), rng.range(2.0, 30.0)) } else { (0.0, 1e30) };
+        cases.push((o, d, base, r0, apex, r1, t_min as f32 as f64, t_max as f32 as f64));
+    }
+    let inputs: Vec<[f32; 4]> = cases
+        .iter()
+        .flat_map(|&(o, d, b, r0, a, r1, t0, t1)| [v4(o, t0), v4(d, t1), v4(b, r0), v4(a - b, r1)])
+        .collect();
+    let out = h.run("k_cone", &inputs, N, 1);
+    let (mut checked, mut hits, mut worst) = (0, 0, 0.0f64);
+    for (k, &(o, d, b, r0, a, r1, t0, t1)) in cases.iter().enumerate() {
+        let want = cpu::intersect_cone(o, d, b, r0, a, r1, t0, t1);
+        let got = out[k][0] as f64;
+        // f32 cannot tell apart cones that differ by a few ulps of the scene's scale, so a case
+        // is ambiguous when the f64 answer changes between the cone grown and shrunk by
+        // 1e-4 of that scale (radii and ends): grazing rays, rays past a rim or along a
+        // generating line. Elsewhere the same perturbation bounds the sensitivity of t.
+        let scale = (o - (a + b) * 0.5).length() + (a - b).length() + r0.max(r1);
+        let delta = 1e-4 * scale;
+        let e = (a - b).normalize() * delta;
+        let grown = cpu::intersect_cone(o, d, b - e, r0 + delta, a + e, r1 + delta, t0, t1);
+        let shrunk =
+            cpu::intersect_cone(o, d, b + e, (r0 - delta).max(0.0), a - e, (r1 - delta).max(0.0), t0, t1);
+        let near_limit = want.is_some_and(|t| (t - t0).abs() < 1e-4 * scale || (t - t1).abs() < 1e-4 * scale);
+        let (Some(tg), Some(ts)) = (grown, shrunk) else {
+            if grown.is_some() != shrunk.is_some() || near_limit || (a - b).length() < 2.0 * delta {
+                continue;
+            }
+            checked += 1;
+            assert_eq!(got, -1.0, "case {k}: GPU hit at {got}, reference misses");
+            continue;
+        };
+        if near_limit {
+            continue;
+        }
+        checked += 1;
+        let Some(t) = want else {
+            // Hit by both neighbours but not by the cone itself: it lies between them.
+            continue;
+        };
+        hits += 1;
+        let tol = 1e-5 * scale + (tg - ts).abs();
+        worst = worst.max((got - t).abs() / scale);
+        assert!((got - t).abs() <= tol, "case {k}: GPU t {got}, reference {t} (tolerance {tol})");
+        // The normal there: f32 error of the hit point over the local radius moves it.
+        let p = o + t * d;
+        let n = cpu::cone_normal(p, b, r0, a, r1);
+        let sp = ((p - b).dot(a - b) / (a - b).length_squared()).clamp(0.0, 1.0);
+        let local_r = r0 + sp * (r1 - r0);
+        if local_r > 1e-2 * scale {
+            let tol = 1e-3 + 1e-5 * scale / local_r;
+            let got_n = DVec3::new(out[k][1] as f64, out[k][2] as f64, out[k][3] as f64);
+            assert!((got_n - n).length() < tol, "case {k}: normal {got_n} vs {n}");
+        }
+    }
+    println!("ray_cone: {checked} unambiguous cases, {hits} hits, worst t error {worst:e} of the scale");
+    assert!(checked > N * 4 / 5, "only {checked} unambiguous cases");
+    assert!(hits > N / 4, "only {hits} hits");
+}
+
 #[test]
 fn schlick_and_dielectric_reflectance() {
     let h = Harness::new();

@@ -2,7 +2,8 @@
 //! - the DDA visits exactly the cells a ray crosses, in order (oracle: slab-test every cell of
 //!   the grid and sort by entry);
 //! - the nearest hit through the grid is the brute-force nearest hit (property test over random
-//!   scenes, with rays starting outside and inside the grid and axis-parallel rays, ±0 included).
+//!   scenes of spheres, triangles and cones, with rays starting outside and inside the grid and
+//!   axis-parallel rays, ±0 included).
 mod common;
 
 use common::{f32_round, gpu, plane_barycentrics, scene_of, v4, Rng};
@@ -11,24 +12,38 @@ use irt::accel::{Grid, PrimKind};
 use irt::gpu::readback::run_kernel;
 use irt::gpu::{GpuContext, GpuScene};
 use irt::reference as cpu;
-use irt::scene::{Scene, Sphere};
+use irt::scene::{Cone, Scene, Sphere};
 use proptest::prelude::*;
 
-/// Random spheres and triangles in a box of half-size `extent`, with clustered sizes so the
-/// grid has both empty and crowded cells.
+/// Random spheres, triangles and cones (cylinders, pointed and truncated) in a box of half-size
+/// `extent`, with clustered sizes so the grid has both empty and crowded cells.
 fn random_scene(rng: &mut Rng, n: usize, extent: f64) -> Scene {
     let mut spheres = Vec::new();
     let mut tris = Vec::new();
+    let mut cones = Vec::new();
     for i in 0..n {
         let c = rng.vec(-extent, extent);
         let size = extent * 0.02 * (1.0 + 8.0 * rng.f() * rng.f());
-        if i % 2 == 0 {
-            spheres.push(Sphere { center: c, radius: size, material: 0 });
-        } else {
-            tris.push([c + rng.unit() * size, c + rng.unit() * size, c + rng.unit() * size]);
+        match i % 3 {
+            0 => spheres.push(Sphere { center: c, radius: size, material: 0 }),
+            1 => tris.push([c + rng.unit() * size, c + rng.unit() * size, c + rng.unit() * size]),
+            _ => {
+                let axis = rng.unit() * size * 1.5;
+                let r0 = size * rng.range(0.1, 0.5);
+                let r1 = [r0, 0.0, size * rng.range(0.0, 0.5)][i % 9 / 3];
+                cones.push(Cone {
+                    base: c - axis,
+                    base_radius: r0,
+                    apex: c + axis,
+                    apex_radius: r1,
+                    material: 0,
+                });
+            }
         }
     }
-    scene_of(spheres, tris)
+    let mut s = scene_of(spheres, tris);
+    s.cones = cones;
+    s
 }
 
 /// A ray of one of the awkward families: from outside the grid, from inside it, axis-parallel
@@ -181,6 +196,12 @@ fn brute_force(scene: &Scene, o: DVec3, d: DVec3) -> Option<(f64, PrimKind, u32)
             best = Some((t, PrimKind::Triangle, i as u32));
         }
     }
+    for (i, c) in scene.cones.iter().enumerate() {
+        let t_max = best.map_or(f64::INFINITY, |b| b.0);
+        if let Some(t) = cpu::intersect_cone(o, d, c.base, c.base_radius, c.apex, c.apex_radius, 0.0, t_max) {
+            best = Some((t, PrimKind::Cone, i as u32));
+        }
+    }
     best
 }
 
@@ -202,6 +223,23 @@ fn grazing(scene: &Scene, kind: PrimKind, idx: u32, o: DVec3, d: DVec3) -> bool 
             let (u, v) = plane_barycentrics(o, d, t);
             u.abs() < 1e-4 || v.abs() < 1e-4 || (1.0 - u - v).abs() < 1e-4
         }
+        // The f64 answer changes when the cone grows or shrinks by 1e-4 (relative): the ray
+        // grazes its side or passes its rim (tests/gpu_functions.rs, ray_cone).
+        PrimKind::Cone => {
+            let c = &scene.cones[idx as usize];
+            let scale = (o - c.base).length() + c.base.distance(c.apex) + c.base_radius.max(c.apex_radius);
+            let e = (c.apex - c.base).normalize() * 1e-4 * scale;
+            let hit = |sign: f64| {
+                let grow = |r: f64| (r + sign * 1e-4 * scale).max(0.0);
+                let (b, a) = (c.base - sign * e, c.apex + sign * e);
+                cpu::intersect_cone(o, d, b, grow(c.base_radius), a, grow(c.apex_radius), 0.0, f64::INFINITY)
+            };
+            match (hit(1.0), hit(-1.0)) {
+                // Both hit, but t swings by far more than the perturbation: a grazing ray.
+                (Some(a), Some(b)) => (a - b).abs() > 1e-2 * scale,
+                (a, b) => a.is_some() != b.is_some(),
+            }
+        }
     }
 }
 
@@ -215,6 +253,16 @@ fn surface_distance(scene: &Scene, kind: PrimKind, idx: u32, p: DVec3) -> f64 {
         PrimKind::Triangle => {
             let t = scene.triangles().nth(idx as usize).expect("triangle exists").p;
             (p - t[0]).dot((t[1] - t[0]).cross(t[2] - t[0]).normalize()).abs()
+        }
+        // Distance from the side's line through p's axial position, measured across it.
+        PrimKind::Cone => {
+            let c = &scene.cones[idx as usize];
+            let axis = c.apex - c.base;
+            let (h, a) = (axis.length(), axis.normalize());
+            let s = (p - c.base).dot(a);
+            let across = ((p - c.base) - s * a).length();
+            let k = (c.apex_radius - c.base_radius) / h;
+            (across - (c.base_radius + k * s)).abs() / (1.0 + k * k).sqrt()
         }
     }
 }

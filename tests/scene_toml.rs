@@ -675,3 +675,28 @@ proptest! {
         check_no_panic(&src);
     }
 }
+
+#[test]
+fn cones_reach_the_scene_and_bad_cones_point_at_their_value() {
+    let s = parse(&with(
+        "[[cone]]\nbase = [0, 0, 0]\napex = [0, 2, 0]\nradius = 0.5\nmaterial = \"white\"\n\
+         [[cone]]\nbase = [1, 0, 0]\napex = [1, 1, 0]\nbase_radius = 0.5\napex_radius = 0\nmaterial = \"white\"",
+    ))
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.cones.len(), 2);
+    assert_eq!(
+        (s.cones[0].base_radius, s.cones[0].apex_radius, s.cones[0].apex),
+        (0.5, 0.5, DVec3::new(0.0, 2.0, 0.0))
+    );
+    assert_eq!((s.cones[1].base_radius, s.cones[1].apex_radius), (0.5, 0.0));
+    assert_eq!(s.primitive_count(), 3);
+
+    let cone = "[[cone]]\nbase = [0, 0, 0]\napex = [0, 1, 0]\nmaterial = \"white\"\n";
+    fails_at(&with(&format!("{cone}radius = -1")), "-1", &["radius", "at least 0"]);
+    fails_at(&with(&format!("{cone}radius = 1\nbase_radius = 2")), "1\nbase", &["either `radius`"]);
+    fails_at(&with(&format!("{cone}base_radius = 2")), "[[cone]]", &["needs `radius`"]);
+    fails_at(&with(&format!("{cone}radius = 0")), "[[cone]]", &["cone 0 radii", "not both 0"]);
+    let flat = cone.replace("[0, 1, 0]", "[0, 0, 0]");
+    fails_at(&with(&format!("{flat}radius = 1")), "[[cone]]", &["cone 0", "same point"]);
+    fails_at(&with(&format!("{cone}radius = 1\nheight = 2")), "height", &["unknown field"]);
+}

@@ -15,10 +15,12 @@ use std::fmt;
 pub enum PrimKind {
     Sphere = 0,
     Triangle = 1,
+    Cone = 2,
 }
 
 /// A primitive reference as stored in the grid: kind in bits 30..32, [`PrimRef::SHELL_ONLY`] in
-/// bit 29, index into that kind's array (`Scene::spheres`, `Scene::triangles()`) in bits 0..29.
+/// bit 29, index into that kind's array (`Scene::spheres`, `Scene::triangles()`, `Scene::cones`)
+/// in bits 0..29.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(transparent)]
 pub struct PrimRef(pub u32);
@@ -38,7 +40,8 @@ impl PrimRef {
     pub fn kind(self) -> PrimKind {
         match self.0 >> Self::KIND_SHIFT {
             0 => PrimKind::Sphere,
-            _ => PrimKind::Triangle,
+            1 => PrimKind::Triangle,
+            _ => PrimKind::Cone,
         }
     }
     pub fn index(self) -> u32 {
@@ -80,7 +83,8 @@ pub struct Grid {
     pub cell_size: DVec3,
     /// `cell_count + 1` entries, CSR offsets into `prim_refs`.
     pub cell_start: Vec<u32>,
-    /// Per cell, in increasing primitive order (spheres first): the build is deterministic.
+    /// Per cell, in increasing primitive order (spheres, triangles, cones): the build is
+    /// deterministic.
     pub prim_refs: Vec<PrimRef>,
     /// Fine cells per macro-cell side.
     pub macro_factor: u32,
@@ -115,6 +119,7 @@ impl Aabb {
 enum Shape {
     Sphere { center: DVec3, radius: f64 },
     Triangle([DVec3; 3]),
+    Cone { base: DVec3, r0: f64, apex: DVec3, r1: f64 },
 }
 
 impl Shape {
@@ -122,6 +127,13 @@ impl Shape {
         match *self {
             Shape::Sphere { center, radius } => Aabb { lo: center - radius, hi: center + radius },
             Shape::Triangle(p) => Aabb::of_points(&p),
+            Shape::Cone { base, r0, apex, r1 } => {
+                // Each end disc reaches r sqrt(1 - a_i²) along axis i.
+                let a = (apex - base).normalize();
+                let reach = (DVec3::ONE - a * a).max(DVec3::ZERO).map(f64::sqrt);
+                Aabb { lo: base - reach * r0, hi: base + reach * r0 }
+                    .union(Aabb { lo: apex - reach * r1, hi: apex + reach * r1 })
+            }
         }
     }
 
@@ -134,8 +146,43 @@ impl Shape {
                 center.clamp(b.lo, b.hi).distance_squared(center) <= (radius + grow) * (radius + grow)
             }
             Shape::Triangle(p) => triangle_overlaps_box(p, &Aabb { lo: b.lo - grow, hi: b.hi + grow }),
+            Shape::Cone { base, r0, apex, r1 } => {
+                cone_overlaps_box(base, r0, apex, r1, &Aabb { lo: b.lo - grow, hi: b.hi + grow })
+            }
         }
     }
+}
+
+/// Conservative separating-axis test of the solid truncated cone (the convex hull of its two end
+/// discs, so a superset of the open surface) against a box. Axes tried: the box's three face
+/// normals (the cone's tight bounds), the cone's axis, and the axis crossed with the box's edge
+/// directions and diagonals (seven directions around the axis). A body with a curved side can
+/// also be separated along other axes, so this may list a cone in a cell it misses near a
+/// corner of the cell (never farther than √3 times its larger radius from the axis), never the
+/// other way round.
+fn cone_overlaps_box(base: DVec3, r0: f64, apex: DVec3, r1: f64, b: &Aabb) -> bool {
+    let c = (b.lo + b.hi) * 0.5;
+    let h = (b.hi - b.lo) * 0.5;
+    let a = (apex - base).normalize();
+    let separated = |u: DVec3| {
+        // Support of a disc (centre e, radius r, normal a) along u: e·u ± r |u - (u·a) a|.
+        let spread = (u - u.dot(a) * a).length();
+        let (e0, e1) = ((base - c).dot(u), (apex - c).dot(u));
+        let lo = (e0 - r0 * spread).min(e1 - r1 * spread);
+        let hi = (e0 + r0 * spread).max(e1 + r1 * spread);
+        let r = h.dot(u.abs());
+        lo > r || hi < -r
+    };
+    let axes = [DVec3::X, DVec3::Y, DVec3::Z];
+    let diagonals = [
+        DVec3::new(1.0, 1.0, 1.0),
+        DVec3::new(-1.0, 1.0, 1.0),
+        DVec3::new(1.0, -1.0, 1.0),
+        DVec3::new(1.0, 1.0, -1.0),
+    ];
+    !(axes.into_iter().any(separated)
+        || separated(a)
+        || axes.into_iter().chain(diagonals).any(|e| separated(a.cross(e))))
 }
 
 /// Separating-axis test of a triangle against a box (Akenine-Möller 2001): the box's three
@@ -198,7 +245,7 @@ impl fmt::Display for GridStats {
 }
 
 impl Grid {
-    /// Builds the grid for every sphere and mesh triangle of `scene` (which must be valid).
+    /// Builds the grid for every sphere, mesh triangle and cone of `scene` (which must be valid).
     /// In `shell` shadow mode every primitive is inserted grown by the largest light radius,
     /// so that shadow rays find the shells around it (docs/shadows.md).
     pub fn build(scene: &Scene) -> Grid {
@@ -222,6 +269,10 @@ impl Grid {
                     .enumerate()
                     .map(|(i, t)| (PrimRef::new(PrimKind::Triangle, i as u32), Shape::Triangle(t.p))),
             )
+            .chain(scene.cones.iter().enumerate().map(|(i, c)| {
+                let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
+                (PrimRef::new(PrimKind::Cone, i as u32), shape)
+            }))
             .collect();
         let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| {
             let sb = s.bounds();
@@ -370,7 +421,7 @@ fn resolution(extent: DVec3, n: usize) -> [u32; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Ambient, Camera, Material, MaterialKind, Mesh, Sphere, TraceSettings};
+    use crate::scene::{Ambient, Camera, Cone, Material, MaterialKind, Mesh, Sphere, TraceSettings};
 
     struct Rng(u64);
     impl Rng {
@@ -406,23 +457,72 @@ mod tests {
                 indices: (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
                 material: 0,
             }],
+            cones: vec![],
             trace: TraceSettings::default(),
         }
     }
 
     fn random_scene(seed: u64, n: usize, extent: f64, offset: DVec3) -> Scene {
         let mut rng = Rng(seed.wrapping_mul(0x9E3779B97F4A7C15) | 1);
-        let (mut spheres, mut tris) = (vec![], vec![]);
+        let (mut spheres, mut tris, mut cones) = (vec![], vec![], vec![]);
         for i in 0..n {
             let c = offset + rng.vec(-extent, extent);
             let size = extent * 0.05 * (0.1 + 4.0 * rng.f() * rng.f());
             if i % 3 == 0 {
                 spheres.push(Sphere { center: c, radius: size, material: 0 });
+            } else if i % 6 == 1 {
+                cones.push(random_cone(&mut rng, c, size));
             } else {
                 tris.push([c + rng.vec(-size, size), c + rng.vec(-size, size), c + rng.vec(-size, size)]);
             }
         }
-        scene(spheres, tris)
+        let mut s = scene(spheres, tris);
+        s.cones = cones;
+        s
+    }
+
+    /// A cone around `c` of about `size`: cylinders, truncated and pointed cones, thin and fat.
+    fn random_cone(rng: &mut Rng, c: DVec3, size: f64) -> Cone {
+        let axis = rng.vec(-size, size) * 2.0;
+        let (r0, r1) = match rng.f() {
+            x if x < 0.3 => (size * 0.3, size * 0.3),
+            x if x < 0.6 => (size * 0.5 * rng.f(), 0.0),
+            _ => (size * 0.5 * rng.f(), size * 0.5 * rng.f()),
+        };
+        Cone {
+            base: c - axis * 0.5,
+            base_radius: r0.max(1e-3 * size),
+            apex: c + axis * 0.5,
+            apex_radius: r1,
+            material: 0,
+        }
+    }
+
+    /// A point of the cone's surface: fraction `s` along the axis, angle `phi` around it.
+    fn cone_point(c: &Cone, s: f64, phi: f64) -> DVec3 {
+        let axis = c.apex - c.base;
+        let (u, w) = axis.normalize().any_orthonormal_pair();
+        let r = c.base_radius + s * (c.apex_radius - c.base_radius);
+        c.base + s * axis + r * (phi.cos() * u + phi.sin() * w)
+    }
+
+    /// Distance from the segment `a b` to the box (convex in the segment parameter: ternary
+    /// search, to 1e-12 of the segment).
+    fn segment_box_distance(a: DVec3, b: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+        let f = |s: f64| {
+            let p = a + s * (b - a);
+            p.clamp(lo, hi).distance(p)
+        };
+        let (mut x, mut y) = (0.0, 1.0);
+        for _ in 0..100 {
+            let (m1, m2) = (x + (y - x) / 3.0, y - (y - x) / 3.0);
+            if f(m1) <= f(m2) {
+                y = m2;
+            } else {
+                x = m1;
+            }
+        }
+        f(0.5 * (x + y))
     }
 
     fn cell_containing(g: &Grid, p: DVec3) -> [u32; 3] {
@@ -453,6 +553,11 @@ mod tests {
                 }
                 let p = t.p[0] + u * (t.p[1] - t.p[0]) + v * (t.p[2] - t.p[0]);
                 check(PrimRef::new(PrimKind::Triangle, i as u32), p);
+            }
+        }
+        for (i, c) in s.cones.iter().enumerate() {
+            for _ in 0..200 {
+                check(PrimRef::new(PrimKind::Cone, i as u32), cone_point(c, rng.f(), rng.f() * 7.0));
             }
         }
     }
@@ -495,6 +600,12 @@ mod tests {
                             }
                             PrimKind::Triangle => {
                                 !clip(tris[r.index() as usize].p.to_vec(), lo, hi).is_empty()
+                            }
+                            // Conservative, so only bounded (see `cone_overlaps_box`).
+                            PrimKind::Cone => {
+                                let c = &s.cones[r.index() as usize];
+                                segment_box_distance(c.base, c.apex, lo, hi)
+                                    <= 3f64.sqrt() * c.base_radius.max(c.apex_radius)
                             }
                         };
                         assert!(touches, "{r:?} listed in cell {x},{y},{z} it does not touch");
@@ -634,6 +745,43 @@ mod tests {
         assert!(g.min.cmplt(p).all() && g.max.cmpgt(p).all());
         let [x, y, z] = cell_containing(&g, p);
         assert_eq!(g.cell(x, y, z), [PrimRef::new(PrimKind::Triangle, 0)]);
+    }
+
+    /// The cone–box test never misses a box that holds a point of the solid cone, never claims a
+    /// box farther than √3 times the larger radius from the axis, and is tighter than the bounds.
+    #[test]
+    fn cone_box_test_is_conservative_and_tight() {
+        let mut rng = Rng(33);
+        let (lo, hi) = (DVec3::ZERO, DVec3::ONE);
+        let (mut overlaps, mut in_bounds, mut loose) = (0, 0, 0);
+        for _ in 0..20_000 {
+            let (centre, size) = (rng.vec(-0.5, 1.5), rng.f() * 0.8 + 0.05);
+            let c = random_cone(&mut rng, centre, size);
+            let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
+            let hit = shape.overlaps(&Aabb { lo, hi }, 0.0);
+            let solid = (0..200).any(|_| {
+                let p = cone_point(&c, rng.f(), rng.f() * 7.0);
+                let axis_point =
+                    c.base + (p - c.base).dot((c.apex - c.base).normalize()) * (c.apex - c.base).normalize();
+                let q = axis_point + (p - axis_point) * rng.f();
+                q.cmpge(lo).all() && q.cmple(hi).all()
+            });
+            assert!(hit || !solid, "{c:?} has points in the box but the test says no");
+            let reach = 3f64.sqrt() * c.base_radius.max(c.apex_radius);
+            if segment_box_distance(c.base, c.apex, lo, hi) > reach + 1e-9 {
+                assert!(!hit, "{c:?} is far from the box but the test says yes");
+            }
+            // Boxes the test lists though 200 samples of the solid miss them (the sampling misses
+            // some real overlaps too, so this over-counts the looseness).
+            if hit && !solid {
+                loose += 1;
+            }
+            let b = shape.bounds();
+            in_bounds += (b.lo.cmple(hi).all() && b.hi.cmpge(lo).all()) as usize;
+            overlaps += hit as usize;
+        }
+        println!("{overlaps} overlaps ({loose} without a sampled point), {in_bounds} in bounds");
+        assert!(overlaps > 2000 && overlaps < in_bounds && loose * 5 < overlaps);
     }
 
     #[test]

@@ -21,6 +21,7 @@ pub const SPHERE_TEXELS: u32 = 2;
 pub const TRIANGLE_TEXELS: u32 = 3;
 pub const NORMAL_TEXELS: u32 = 3;
 pub const MATERIAL_TEXELS: u32 = 2;
+pub const CONE_TEXELS: u32 = 3;
 /// Cells per texel: (start, count) pairs.
 pub const CELLS_PER_TEXEL: u32 = 2;
 pub const REFS_PER_TEXEL: u32 = 4;
@@ -70,11 +71,16 @@ pub struct Params {
     pub macro_res: [u32; 4],
     /// First texel of the sphere, triangle, vertex-normal and material records.
     pub prim_base: [u32; 4],
+    /// First texel of the cone records; yzw unused.
+    pub cone_base: [u32; 4],
     /// First texel of the cell ranges, primitive references, macro-cell bits and shadow-bundle
     /// points.
     pub grid_base: [u32; 4],
     /// width, height, max_depth, light count.
     pub image: [u32; 4],
+    /// The eye rays: columns, rows, 1 if they pass through pixel corners (SPD's rule, a
+    /// (width+1)x(height+1) grid) else 0 (pixel centres, width x height); unused. See [`eye_grid`].
+    pub eye_grid: [u32; 4],
     /// weight_cutoff, ray offset (relative), unused, unused.
     pub trace: [f32; 4],
     /// Shadow mode (docs/shadows.md): kind (`ShadowMode::kind_index`), bundle size, rotate
@@ -128,6 +134,7 @@ fn f4(v: DVec3, w: u32) -> [u32; 4] {
 pub struct PackedScene {
     pub texels: Vec<[u32; 4]>,
     pub prim_base: [u32; 4],
+    pub cone_base: u32,
     pub grid_base: [u32; 4],
 }
 
@@ -145,12 +152,15 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 }
 
 /// Positions are stored relative to `origin` (see `GpuScene::upload_at`).
-/// Lays out, in order: spheres, triangles, vertex normals, materials, cell ranges, references,
-/// macro-cell bits. Record formats (the shader's `scene.wgsl` decodes the same):
+/// Lays out, in order: spheres, triangles, vertex normals, materials, cones, cell ranges,
+/// references, macro-cell bits. Record formats (the shader's `scene.wgsl` decodes the same):
 /// - sphere: `[c.xyz, r]`, `[material, anchor.xyz]` (`sphere_anchor`)
 /// - triangle: `[p0.xyz, material]`, `[p1.xyz, normal_record or NO_NORMALS]`, `[p2.xyz, 0]`
 /// - vertex normals: `[n0.xyz, 0]`, `[n1.xyz, 0]`, `[n2.xyz, 0]`
 /// - material: `[colour.rgb, kind]`, `[eta, exponent, 0, 0]`
+/// - cone: `[base.xyz, base_radius]`, `[axis.xyz, apex_radius]`, `[material, 0, 0, 0]`, where
+///   `axis = apex - base` is formed in f64: rounding it, rather than the apex, keeps a short
+///   cone's axis accurate far from the origin.
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
 pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
@@ -190,6 +200,12 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         t.push(f4(colour, code));
         t.push([(eta as f32).to_bits(), (exponent as f32).to_bits(), 0, 0]);
     }
+    let cone_base = t.len() as u32;
+    for c in &scene.cones {
+        t.push(f4(c.base - origin, (c.base_radius as f32).to_bits()));
+        t.push(f4(c.apex - c.base, (c.apex_radius as f32).to_bits()));
+        t.push([c.material, 0, 0, 0]);
+    }
     let cell_base = t.len() as u32;
     let cells = grid.cell_start.len() - 1;
     for pair in (0..cells).collect::<Vec<_>>().chunks(CELLS_PER_TEXEL as usize) {
@@ -225,6 +241,7 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     PackedScene {
         texels: t,
         prim_base: [sphere_base, triangle_base, normal_base, material_base],
+        cone_base,
         grid_base: [cell_base, ref_base, macro_base, bundle_base],
     }
 }
@@ -256,8 +273,10 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -
         grid_res: [res[0], res[1], res[2], grid.macro_factor],
         macro_res: [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], 0],
         prim_base: packed.prim_base,
+        cone_base: [packed.cone_base, 0, 0, 0],
         grid_base: packed.grid_base,
         image: [cam.width, cam.height, scene.trace.max_depth, scene.lights.len() as u32],
+        eye_grid: eye_grid(cam.width, cam.height, false),
         trace: [scene.trace.weight_cutoff as f32, RAY_OFFSET_REL, 0.0, 0.0],
         shadow: match scene.trace.shadows {
             ShadowMode::Hard => [0; 4],
@@ -266,6 +285,13 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -
         },
         lights,
     }
+}
+
+/// `Params::eye_grid` for an image of `width` x `height` pixels: rays through the pixel centres,
+/// or through the pixel corners (one more column and row: the image's edges are sampled too).
+pub fn eye_grid(width: u32, height: u32, corners: bool) -> [u32; 4] {
+    let extra = corners as u32;
+    [width + extra, height + extra, extra, 0]
 }
 
 /// WGSL `const` declarations for every number the shaders share with this file, so each lives
@@ -278,6 +304,7 @@ pub fn wgsl_constants() -> String {
     s += &c("TRIANGLE_TEXELS", TRIANGLE_TEXELS);
     s += &c("NORMAL_TEXELS", NORMAL_TEXELS);
     s += &c("MATERIAL_TEXELS", MATERIAL_TEXELS);
+    s += &c("CONE_TEXELS", CONE_TEXELS);
     s += &c("NO_NORMALS", NO_NORMALS);
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
@@ -286,6 +313,7 @@ pub fn wgsl_constants() -> String {
     s += &c("PRIM_SHELL_ONLY", PrimRef::SHELL_ONLY);
     s += &c("PRIM_SPHERE", PrimKind::Sphere as u32);
     s += &c("PRIM_TRIANGLE", PrimKind::Triangle as u32);
+    s += &c("PRIM_CONE", PrimKind::Cone as u32);
     for (name, kind) in [
         ("MAT_DIFFUSE", MaterialKind::Diffuse { color: DVec3::ZERO }),
         ("MAT_METAL", MaterialKind::Metal { color: DVec3::ZERO, exponent: 0.0 }),

@@ -1,7 +1,7 @@
 //! Headless rendering: a scene in, a linear radiance image (and ray counts) out.
 
 use super::dispatch::{Dispatcher, GpuScene, RayCounts};
-use super::layout::{Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
+use super::layout::{self, Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
 use super::shaders::{Kernel, Variant};
 use super::GpuContext;
 use crate::accel::Grid;
@@ -19,6 +19,9 @@ pub struct RenderOptions {
     pub count_rays: bool,
     /// Compile the full uber-shader instead of the variant specialised to the scene.
     pub uber_shader: bool,
+    /// Trace eye rays through the pixel corners, a (width+1)x(height+1) grid, as SPD's testing
+    /// rules ask, instead of through the centres; each pixel is the mean of its four corners.
+    pub corner_rays: bool,
 }
 
 /// How long each stage of setting up took.
@@ -37,6 +40,8 @@ pub struct Renderer {
     dispatcher: Dispatcher,
     width: u32,
     height: u32,
+    /// Eye rays per row and column (one more than the pixels with `corner_rays`).
+    grid_size: [u32; 2],
     pub variant: Variant,
     pub timings: SetupTimings,
     /// The `Tile::pass` of each pass over the image (one unless a bundle is split).
@@ -49,6 +54,8 @@ pub struct Frame {
     pub rays: RayCounts,
     /// The most shader loop iterations any pixel needed in one pass (see `LAVAPIPE_LOOP_LIMIT`).
     pub max_loop_iterations: u32,
+    /// Eye rays that hit something (SPD reports these); always counted, from the output's alpha.
+    pub eye_hits: u64,
 }
 
 impl Renderer {
@@ -56,7 +63,13 @@ impl Renderer {
         let t0 = Instant::now();
         let grid = Grid::build(scene);
         let t1 = Instant::now();
-        let gpu_scene = GpuScene::upload_at(ctx, scene, &grid, scene.camera.eye)?;
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        // Positions relative to the eye: f32 precision follows distance from the viewer.
+        let packed = layout::pack_scene(scene, &grid, scene.camera.eye);
+        let mut params = layout::params(scene, &grid, &packed, scene.camera.eye);
+        params.eye_grid = layout::eye_grid(width, height, opts.corner_rays);
+        let rays = [params.eye_grid[0], params.eye_grid[1]];
+        let gpu_scene = GpuScene::upload_packed(ctx, &packed, params)?;
         ctx.wait();
         let t2 = Instant::now();
         let variant = if opts.uber_shader {
@@ -64,8 +77,7 @@ impl Renderer {
         } else {
             Variant::for_scene(scene, opts.count_rays)
         };
-        let (width, height) = (scene.camera.width, scene.camera.height);
-        let out_len = width as u64 * height as u64;
+        let out_len = rays[0] as u64 * rays[1] as u64;
         let dispatcher = Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", out_len, &[]);
         let timings = SetupTimings { grid_build: t1 - t0, upload: t2 - t1, pipeline: t2.elapsed() };
         let passes = match scene.trace.shadows {
@@ -75,30 +87,52 @@ impl Renderer {
                 .collect(),
             _ => vec![Tile::whole([0; 4]).pass_range],
         };
-        Ok(Renderer { grid, gpu_scene, dispatcher, width, height, variant, timings, passes })
+        Ok(Renderer { grid, gpu_scene, dispatcher, width, height, grid_size: rays, variant, timings, passes })
     }
 
-    /// Traces every pixel, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after each.
+    /// Traces every eye ray, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after
+    /// each.
     pub fn render(&self, ctx: &GpuContext, progress: &mut dyn FnMut(u32, u32)) -> Frame {
         self.dispatcher.reset_counts(ctx);
+        let [cols, rows] = self.grid_size;
         let mut y = 0;
-        while y < self.height {
-            let rows = BAND_ROWS.min(self.height - y);
+        while y < rows {
+            let band = BAND_ROWS.min(rows - y);
             for &pass in &self.passes {
-                self.dispatcher.dispatch_tile(ctx, Tile { rect: [0, y, self.width, rows], pass_range: pass });
+                self.dispatcher.dispatch_tile(ctx, Tile { rect: [0, y, cols, band], pass_range: pass });
             }
-            y += rows;
-            progress(y, self.height);
+            y += band;
+            progress(y, rows);
         }
         let (out, rays) = self.dispatcher.read(ctx);
-        let pixels = out.iter().map(|p| [p[0], p[1], p[2]]).collect();
-        let max_loop_iterations = out.iter().map(|p| p[3] as u32).max().unwrap_or(0);
+        // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
+        let meter = |p: &[f32; 4]| p[3] as u32;
+        let eye_hits = out.iter().filter(|p| meter(p) & 1 == 1).count() as u64;
+        let max_loop_iterations = out.iter().map(|p| meter(p) >> 1).max().unwrap_or(0);
         if max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
             log::warn!(
                 "a pixel ran {max_loop_iterations} shader loop iterations; lavapipe stops loops after \
                  {LAVAPIPE_LOOP_LIMIT} per invocation group, so parts of this image may be wrong"
             );
         }
-        Frame { image: Image { width: self.width, height: self.height, pixels }, rays, max_loop_iterations }
+        let (w, h) = (self.width as usize, self.height as usize);
+        let pixels = if cols as usize == w {
+            out.iter().map(|p| [p[0], p[1], p[2]]).collect()
+        } else {
+            let at = |x: usize, y: usize| out[y * cols as usize + x];
+            (0..w * h)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    let c = [at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1)];
+                    [0, 1, 2].map(|k| c.iter().map(|p| p[k]).sum::<f32>() * 0.25)
+                })
+                .collect()
+        };
+        Frame {
+            image: Image { width: self.width, height: self.height, pixels },
+            rays,
+            max_loop_iterations,
+            eye_hits,
+        }
     }
 }

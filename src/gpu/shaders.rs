@@ -30,6 +30,7 @@ const TESTS: &str = include_str!("../../shaders/tests.wgsl");
 pub struct Variant {
     pub spheres: bool,
     pub triangles: bool,
+    pub cones: bool,
     /// Count rays by kind into the stats buffer (costs four atomics per pixel).
     pub count_rays: bool,
     /// The shadow mode compiled in (`ShadowMode::kind_index`), or [`SHADOWS_ANY`]: chosen at run
@@ -43,12 +44,13 @@ pub const SHADOWS_ANY: u32 = 3;
 impl Variant {
     /// Everything on: the uber-shader.
     pub const FULL: Variant =
-        Variant { spheres: true, triangles: true, count_rays: true, shadows: SHADOWS_ANY };
+        Variant { spheres: true, triangles: true, cones: true, count_rays: true, shadows: SHADOWS_ANY };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
         Variant {
             spheres: !scene.spheres.is_empty(),
             triangles: scene.triangle_count() > 0,
+            cones: !scene.cones.is_empty(),
             count_rays,
             shadows: scene.trace.shadows.kind_index(),
         }
@@ -57,11 +59,12 @@ impl Variant {
     /// Every variant that can be built (validated by a test).
     pub fn all() -> Vec<Variant> {
         let mut v = Vec::new();
-        for bits in 0..8u32 {
+        for bits in 0..16u32 {
             for shadows in 0..=SHADOWS_ANY {
                 v.push(Variant {
                     spheres: bits & 1 != 0,
                     triangles: bits & 2 != 0,
+                    cones: bits & 8 != 0,
                     count_rays: bits & 4 != 0,
                     shadows,
                 });
@@ -76,6 +79,7 @@ impl Variant {
         s += &layout::wgsl_constants();
         s += &b("HAS_SPHERES", self.spheres);
         s += &b("HAS_TRIANGLES", self.triangles);
+        s += &b("HAS_CONES", self.cones);
         s += &b("COUNT_RAYS", self.count_rays);
         s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);
         s

@@ -753,6 +753,7 @@ impl<'a> Builder<'a> {
             background: DEFAULT_BACKGROUND,
             materials: self.materials,
             spheres: vec![],
+            cones: vec![],
             meshes,
             trace: TraceSettings::default(),
         })

@@ -5,6 +5,7 @@
 //! validated [`Scene`] and reports problems as a [`LoadError`] pointing at the offending value.
 
 pub mod gltf;
+pub mod nff;
 pub mod shapes;
 pub mod toml;
 pub mod toml_write;
@@ -22,6 +23,7 @@ pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
 pub const MAX_SPHERES: usize = 1 << 22;
 pub const MAX_TRIANGLES: usize = 1 << 22;
 pub const MAX_VERTICES: usize = 1 << 22;
+pub const MAX_CONES: usize = 1 << 22;
 pub const MAX_MATERIALS: usize = 1 << 16;
 
 /// Why a scene could not be loaded, with the position in the file when one is known.
@@ -82,10 +84,15 @@ pub struct Format {
 pub const FORMATS: &[Format] = &[
     Format { name: "TOML", extensions: &["toml"], parse: parse_toml },
     Format { name: "glTF 2.0", extensions: &["gltf", "glb"], parse: gltf::parse },
+    Format { name: "NFF", extensions: &["nff"], parse: parse_nff },
 ];
 
 fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     toml::parse_str(utf8(bytes, origin)?, origin)
+}
+
+fn parse_nff(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
+    nff::parse_str(utf8(bytes, origin)?, origin)
 }
 
 /// The text of a text format, or an error at the first byte that is not UTF-8.

@@ -8,9 +8,9 @@
 //! is about.
 
 use super::shapes::{self, Geometry, MAX_ICOSPHERE_SUBDIVISIONS};
-use super::{line_column, LoadError, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES};
+use super::{line_column, LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES};
 use crate::scene::{
-    Ambient, Camera, Light, Material, MaterialKind, Mesh, Scene, Sphere, TraceSettings, MAX_LIGHTS,
+    Ambient, Camera, Cone, Light, Material, MaterialKind, Mesh, Scene, Sphere, TraceSettings, MAX_LIGHTS,
 };
 use ::toml::Spanned;
 use glam::DVec3;
@@ -28,7 +28,7 @@ pub const DEFAULT_COAT_EXPONENT: f64 = 128.0;
 pub const DEFAULT_DIFFUSE_COLOR: f64 = 0.8;
 pub const DEFAULT_METAL_COLOR: f64 = 0.9;
 pub const DEFAULT_ICOSPHERE_SUBDIVISIONS: u32 = 2;
-pub const EMPTY_SCENE: &str = "scene has nothing to render: add a [[sphere]] or [[mesh]]";
+pub const EMPTY_SCENE: &str = "scene has nothing to render: add a [[sphere]], [[mesh]] or [[cone]]";
 
 /// Parses and validates a scene; `origin` names the source in error messages.
 pub fn parse_str(src: &str, origin: &str) -> Result<Scene, LoadError> {
@@ -68,6 +68,8 @@ struct Doc {
     sphere: Vec<Spanned<SphereDoc>>,
     #[serde(default)]
     mesh: Vec<Spanned<MeshDoc>>,
+    #[serde(default)]
+    cone: Vec<Spanned<ConeDoc>>,
 }
 
 #[derive(Deserialize)]
@@ -131,6 +133,18 @@ enum MaterialType {
 struct SphereDoc {
     center: Numbers,
     radius: Number,
+    material: Spanned<String>,
+}
+
+/// An open cone or cylinder: `radius` for a cylinder, or `base_radius` and `apex_radius`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ConeDoc {
+    base: Numbers,
+    apex: Numbers,
+    radius: Option<Number>,
+    base_radius: Option<Number>,
+    apex_radius: Option<Number>,
     material: Spanned<String>,
 }
 
@@ -270,6 +284,7 @@ fn build(doc: &Doc, src: &str) -> Res<Scene> {
         background: vec3_or(&doc.background, "background", DVec3::ZERO)?,
         spheres: spheres(&doc.sphere, &names)?,
         meshes: meshes(&doc.mesh, &names)?,
+        cones: cones(&doc.cone, &names)?,
         materials,
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
     })
@@ -406,6 +421,44 @@ fn spheres(docs: &[Spanned<SphereDoc>], names: &Names) -> Res<Vec<Sphere>> {
         })
     };
     docs.iter().map(|s| sphere(s.get_ref())).collect()
+}
+
+fn cones(docs: &[Spanned<ConeDoc>], names: &Names) -> Res<Vec<Cone>> {
+    at_most(docs, MAX_CONES, "[[cone]] tables")?;
+    let cone = |c: &ConeDoc, table: &Span| {
+        let radius = |v: &Number, key| {
+            let r = number(v, key)?;
+            if r >= 0.0 {
+                Ok(r)
+            } else {
+                err(v.span(), format!("`{key}` must be at least 0, not {r}"))
+            }
+        };
+        let (base_radius, apex_radius) = match (&c.radius, &c.base_radius, &c.apex_radius) {
+            (Some(r), None, None) => (radius(r, "radius")?, radius(r, "radius")?),
+            (None, Some(b), Some(a)) => (radius(b, "base_radius")?, radius(a, "apex_radius")?),
+            (Some(r), _, _) => {
+                return err(
+                    r.span(),
+                    "a cone takes either `radius` (a cylinder) or `base_radius` and `apex_radius`",
+                )
+            }
+            _ => {
+                return err(
+                    table.clone(),
+                    "a cone needs `radius` (a cylinder) or `base_radius` and `apex_radius`",
+                )
+            }
+        };
+        Ok(Cone {
+            base: vec3(&c.base, "base")?,
+            base_radius,
+            apex: vec3(&c.apex, "apex")?,
+            apex_radius,
+            material: names.resolve(&c.material)?,
+        })
+    };
+    docs.iter().map(|c| cone(c.get_ref(), &c.span())).collect()
 }
 
 fn meshes(docs: &[Spanned<MeshDoc>], names: &Names) -> Res<Vec<Mesh>> {
@@ -574,6 +627,7 @@ fn blame(doc: &Doc, message: &str) -> Option<Span> {
         "light" => nth_span(&doc.light, words.next()),
         "sphere" => nth_span(&doc.sphere, words.next()),
         "mesh" => nth_span(&doc.mesh, words.next()),
+        "cone" => nth_span(&doc.cone, words.next()),
         _ => None,
     }
 }

@@ -96,6 +96,16 @@ pub fn to_toml(scene: &Scene) -> String {
             ("material", material(s.material)),
         ]);
     }
+    for c in &scene.cones {
+        #[rustfmt::skip]
+        table(&mut out, "[[cone]]", &[
+            ("base", Value::Vec3(c.base)),
+            ("base_radius", Value::Float(c.base_radius)),
+            ("apex", Value::Vec3(c.apex)),
+            ("apex_radius", Value::Float(c.apex_radius)),
+            ("material", material(c.material)),
+        ]);
+    }
     for m in &scene.meshes {
         let mut e = vec![
             ("material", material(m.material)),

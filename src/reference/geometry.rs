@@ -89,6 +89,92 @@ pub fn triangle_normal(p0: DVec3, p1: DVec3, p2: DVec3) -> DVec3 {
     (p1 - p0).cross(p2 - p0).normalize()
 }
 
+/// Nearest `t` with `t_min < t < t_max` where `o + t d` meets the open cone (no caps) between
+/// the disc of radius `base_radius` around `base` and the disc of radius `apex_radius` around
+/// `apex` (a cylinder when the radii are equal). `t` is in units of `d`.
+///
+/// With `a` the unit axis, `k` the radius's slope along it and `q(t)` the ray's offset from the
+/// axis, the surface is `|q(t)|² = r(s(t))²`, a quadratic in `t`. Both roots are tried, nearer
+/// first, and a root counts only where its axial position `s` lies on the cone (`0 <= s <= h`,
+/// inclusive), so a ray entering through an open end hits the inside. Precision:
+/// - the ray is first moved to its closest approach to the axis midpoint, so the coefficients
+///   stay small when it starts far away (as for spheres);
+/// - the discriminant is formed as `|r₀ q_d − k (d·a) q_o|² − |q_o × q_d|²` (Lagrange's
+///   identity), a difference of geometric squares instead of two large products;
+/// - the roots are taken without cancellation, and the quadratic coefficient may vanish (a ray
+///   parallel to a cylinder's axis or to a cone's generating line): then the one linear root is
+///   the answer, or none.
+#[allow(clippy::too_many_arguments)]
+pub fn intersect_cone(
+    o: DVec3,
+    d: DVec3,
+    base: DVec3,
+    base_radius: f64,
+    apex: DVec3,
+    apex_radius: f64,
+    t_min: f64,
+    t_max: f64,
+) -> Option<f64> {
+    let len = d.length();
+    if len <= 0.0 || !len.is_finite() {
+        return None;
+    }
+    let dh = d / len;
+    let axis = apex - base;
+    let h = axis.length();
+    let a = axis / h;
+    let k = (apex_radius - base_radius) / h;
+    let tc = (base + 0.5 * axis - o).dot(dh);
+    let co = o + tc * dh - base;
+    let (s0, da) = (co.dot(a), dh.dot(a));
+    let (qo, qd) = (co - s0 * a, dh - da * a);
+    let ro = base_radius + k * s0;
+    let qa = qd.length_squared() - k * k * da * da;
+    let qb = qo.dot(qd) - k * ro * da;
+    let qc = qo.length_squared() - ro * ro;
+    let disc = (ro * qd - k * da * qo).length_squared() - qo.cross(qd).length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    // Roots of qa s² + 2 qb s + qc = 0 along d̂ from the shifted origin.
+    let q = -(qb + disc.sqrt().copysign(qb));
+    let (r0, r1) = if q != 0.0 {
+        (qc / q, if qa != 0.0 { q / qa } else { f64::NAN })
+    } else if qa != 0.0 {
+        (0.0, 0.0)
+    } else {
+        return None;
+    };
+    let (lo, hi) = if r1.is_nan() { (r0, r0) } else { (r0.min(r1), r0.max(r1)) };
+    [lo, hi].into_iter().find_map(|s| {
+        let along = s0 + s * da;
+        let t = (tc + s) / len;
+        ((0.0..=h).contains(&along) && t > t_min && t < t_max).then_some(t)
+    })
+}
+
+/// Unit outward normal of the cone of [`intersect_cone`] at the surface point `p`: the
+/// direction away from the axis tilted by the radius's slope. At a pointed tip, where the
+/// direction away from the axis is undefined, it is the axis direction out of the tip.
+pub fn cone_normal(p: DVec3, base: DVec3, base_radius: f64, apex: DVec3, apex_radius: f64) -> DVec3 {
+    let axis = apex - base;
+    let h = axis.length();
+    let a = axis / h;
+    let k = (apex_radius - base_radius) / h;
+    let v = p - base;
+    let away = (v - v.dot(a) * a).normalize_or_zero();
+    (away - k * a).normalize()
+}
+
+/// Axis-aligned bounds of the cone: the union of the bounds of its two end discs (a disc of
+/// radius `r` with unit normal `a` reaches `r sqrt(1 - a_i²)` along axis `i`).
+pub fn cone_bounds(base: DVec3, base_radius: f64, apex: DVec3, apex_radius: f64) -> (DVec3, DVec3) {
+    let a = (apex - base).normalize();
+    let reach = (DVec3::ONE - a * a).max(DVec3::ZERO).map(f64::sqrt);
+    let (e0, e1) = (reach * base_radius, reach * apex_radius);
+    ((base - e0).min(apex - e1), (base + e0).max(apex + e1))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,5 +281,74 @@ mod tests {
         // A ray along the degenerate triangle's line misses too.
         assert_eq!(intersect_triangle(v(-1., 0., 0.), v(1., 0., 0.), P0, P1, collinear, 0.0, INF), None);
         assert_eq!(triangle_normal(P0, P1, P2), v(0., 0., 1.));
+    }
+
+    #[test]
+    fn cylinder_hits_outside_and_inside() {
+        let (b, a) = (v(0., 0., -1.), v(0., 0., 1.));
+        // Across the axis: the near wall at x = -1, then from inside the far wall.
+        let t = intersect_cone(v(-5., 0., 0.), v(1., 0., 0.), b, 1.0, a, 1.0, 0.0, INF).unwrap();
+        assert!((t - 4.0).abs() < 1e-14, "{t}");
+        let t = intersect_cone(v(0., 0., 0.), v(1., 0., 0.), b, 1.0, a, 1.0, 0.0, INF).unwrap();
+        assert!((t - 1.0).abs() < 1e-14, "{t}");
+        // Off-centre chord: closest approach 0.6 => half chord 0.8.
+        let t = intersect_cone(v(-5., 0.6, 0.3), v(2., 0., 0.), b, 1.0, a, 1.0, 0.0, INF).unwrap();
+        assert!((t - 4.2 / 2.0).abs() < 1e-14, "{t}");
+        assert_eq!(intersect_cone(v(-5., 1.1, 0.), v(1., 0., 0.), b, 1.0, a, 1.0, 0.0, INF), None);
+        // Open ends: a ray down the axis never meets the wall; one entering the open end at an
+        // angle hits the inside.
+        assert_eq!(intersect_cone(v(0., 0., -5.), v(0., 0., 1.), b, 1.0, a, 1.0, 0.0, INF), None);
+        let d = v(1., 0., 2.);
+        let t = intersect_cone(v(0., 0., -2.), d, b, 1.0, a, 1.0, 0.0, INF).unwrap();
+        assert!((v(0., 0., -2.) + t * d - v(1., 0., 0.)).length() < 1e-14, "{t}");
+        // Past the ends: missed.
+        assert_eq!(intersect_cone(v(-5., 0., 1.5), v(1., 0., 0.), b, 1.0, a, 1.0, 0.0, INF), None);
+        // The far root when t_min is past the near one.
+        let t = intersect_cone(v(-5., 0., 0.), v(1., 0., 0.), b, 1.0, a, 1.0, 4.5, INF).unwrap();
+        assert!((t - 6.0).abs() < 1e-14, "{t}");
+    }
+
+    #[test]
+    fn cone_hits_and_normals() {
+        // Radius 1 at z = 0 narrowing to a point at z = 1: a 45° cone.
+        let (b, a) = (DVec3::ZERO, v(0., 0., 1.));
+        let t = intersect_cone(v(-5., 0., 0.5), v(1., 0., 0.), b, 1.0, a, 0.0, 0.0, INF).unwrap();
+        assert!((t - 4.5).abs() < 1e-14, "{t}");
+        let n = cone_normal(v(-0.5, 0., 0.5), b, 1.0, a, 0.0);
+        assert!((n - v(-1., 0., 1.).normalize()).length() < 1e-14, "{n}");
+        // Truncated: radius 1 to 0.5. Rays parallel to a generating line (quadratic term 0):
+        // one just inside that line never meets the wall; one from the axis meets the
+        // opposite wall at its single (linear) root.
+        let d = v(-0.5, 0., 1.);
+        assert_eq!(intersect_cone(v(0.9, 0., 0.), d, b, 1.0, a, 0.5, 0.0, INF), None);
+        let t = intersect_cone(v(-0.5, 0., 0.), d, b, 1.0, a, 0.5, 0.0, INF).unwrap();
+        assert!((t - 0.5).abs() < 1e-12, "{t}");
+        // The pointed tip's normal is the axis.
+        assert_eq!(cone_normal(a, b, 1.0, a, 0.0), a);
+        // The same cone described from the other end gives the same hits.
+        let (o, d) = (v(0.3, -4., 0.2), v(0., 1., 0.05));
+        let t1 = intersect_cone(o, d, b, 1.0, a, 0.5, 0.0, INF).unwrap();
+        let t2 = intersect_cone(o, d, a, 0.5, b, 1.0, 0.0, INF).unwrap();
+        assert!((t1 - t2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cone_bounds_are_tight() {
+        let (lo, hi) = cone_bounds(v(0., 0., 0.), 1.0, v(0., 0., 2.), 0.5);
+        assert_eq!((lo, hi), (v(-1., -1., 0.), v(1., 1., 2.)));
+        let (b, a) = (v(1., 2., 3.), v(2., 3., 3.5));
+        let (lo, hi) = cone_bounds(b, 0.3, a, 0.2);
+        let ax = (a - b).normalize();
+        let (u, w) = (ax.any_orthonormal_pair().0, ax.any_orthonormal_pair().1);
+        let (mut plo, mut phi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for i in 0..3600 {
+            let phase = i as f64 / 3600.0 * std::f64::consts::TAU;
+            for (c, r) in [(b, 0.3), (a, 0.2)] {
+                let p = c + r * (phase.cos() * u + phase.sin() * w);
+                plo = plo.min(p);
+                phi = phi.max(p);
+            }
+        }
+        assert!((plo - lo).abs().max_element() < 1e-6 && (phi - hi).abs().max_element() < 1e-6);
     }
 }

@@ -10,7 +10,9 @@ mod shading;
 pub mod shadows;
 mod trace;
 
-pub use geometry::{intersect_sphere, intersect_triangle, triangle_normal};
+pub use geometry::{
+    cone_bounds, cone_normal, intersect_cone, intersect_sphere, intersect_triangle, triangle_normal,
+};
 pub use shading::{
     ambient_intensity, dielectric_reflectance, r0_from_eta, reflect, reflectance, refract, schlick,
     shade_ambient, shade_light,

@@ -68,6 +68,48 @@ pub fn triangle_shell(f: Falloff, p: DVec3, l: DVec3, dist: f64, light_r: f64, t
     falloff(f, d / b)
 }
 
+/// Transparency of a cone's shell (docs/shadows.md, Cone). From the closest approach of the
+/// shadow segment to the cone's axis segment (ray point `p + t l`, axis point at fraction `s`),
+/// the gap is the distance from the ray point to the cone's solid cross-section disc at `s`
+/// (radius `r(s)`): `d - r(s)` beside the cone, the distance to the end disc past its ends.
+#[allow(clippy::too_many_arguments)]
+pub fn cone_shell(
+    f: Falloff,
+    p: DVec3,
+    l: DVec3,
+    dist: f64,
+    light_r: f64,
+    base: DVec3,
+    base_radius: f64,
+    apex: DVec3,
+    apex_radius: f64,
+) -> f64 {
+    let (_, t) = segment_distance(p, l, dist, base, apex);
+    if t <= 0.0 || t >= dist {
+        return 1.0;
+    }
+    let b = light_r * t / dist;
+    if b <= 0.0 {
+        return 1.0;
+    }
+    let gap = cone_gap(p + t * l, base, base_radius, apex, apex_radius);
+    if gap >= b {
+        return 1.0;
+    }
+    falloff(f, gap / b)
+}
+
+/// Distance from `x` to the cone's cross-section disc at `x`'s (clamped) axial position.
+fn cone_gap(x: DVec3, base: DVec3, base_radius: f64, apex: DVec3, apex_radius: f64) -> f64 {
+    let axis = apex - base;
+    let s = ((x - base).dot(axis) / axis.length_squared()).clamp(0.0, 1.0);
+    let v = x - (base + s * axis);
+    let along = v.dot(axis.normalize());
+    let across = (v.length_squared() - along * along).max(0.0).sqrt();
+    let r = base_radius + s * (apex_radius - base_radius);
+    (along * along + (across - r).max(0.0).powi(2)).sqrt()
+}
+
 /// Distance between the segment `p + t l`, `t ∈ [0, len]` (`l` unit) and the segment `a b`,
 /// with the `t` of the closest point (Ericson, Real-Time Collision Detection §5.1.9).
 pub fn segment_distance(p: DVec3, l: DVec3, len: f64, a: DVec3, b: DVec3) -> (f64, f64) {

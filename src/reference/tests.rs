@@ -1,7 +1,9 @@
 //! Whole-tracer checks against values worked out by hand.
 
 use super::*;
-use crate::scene::{Ambient, Camera, Light, Material, MaterialKind, Mesh, Scene, Sphere, TraceSettings};
+use crate::scene::{
+    Ambient, Camera, Cone, Light, Material, MaterialKind, Mesh, Scene, Sphere, TraceSettings,
+};
 use glam::DVec3;
 
 fn v(x: f64, y: f64, z: f64) -> DVec3 {
@@ -26,6 +28,7 @@ fn scene(eye: DVec3, look_at: DVec3, materials: Vec<MaterialKind>) -> Scene {
             .collect(),
         spheres: vec![],
         meshes: vec![],
+        cones: vec![],
         trace: TraceSettings::default(),
     }
 }
@@ -213,7 +216,7 @@ impl Rng {
     }
 }
 
-/// Random spheres and triangles plus an axis-aligned floor grid (flat boxes, shared edges).
+/// Random spheres, triangles and cones plus an axis-aligned floor grid (flat boxes, shared edges).
 fn random_scene(rng: &mut Rng) -> Scene {
     let mats = vec![
         MaterialKind::Diffuse { color: v(0.8, 0.5, 0.3) },
@@ -241,6 +244,20 @@ fn random_scene(rng: &mut Rng) -> Scene {
     }
     soup.material = 3;
     s.meshes.push(soup);
+    for i in 0..20 {
+        let c = rng.vec(-4.0, 4.0);
+        let axis = rng.vec(-1.5, 1.5);
+        let r0 = rng.range(0.05, 0.6);
+        // Cylinders, truncated and pointed cones.
+        let r1 = [r0, rng.range(0.05, 0.6), 0.0][i % 3];
+        s.cones.push(Cone {
+            base: c - axis,
+            base_radius: r0,
+            apex: c + axis,
+            apex_radius: r1,
+            material: i as u32 % 4,
+        });
+    }
     let mut floor = Mesh { positions: vec![], normals: None, indices: vec![], material: 0 };
     let n = 8u32;
     for j in 0..=n {

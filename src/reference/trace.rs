@@ -2,9 +2,11 @@
 //! docs/shading.md. Slow by design; it is the oracle, not the renderer.
 
 use super::bvh::{Bvh, PrimId};
-use super::geometry::{intersect_sphere, intersect_triangle, triangle_normal};
+use super::geometry::{
+    cone_bounds, cone_normal, intersect_cone, intersect_sphere, intersect_triangle, triangle_normal,
+};
 use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light};
-use super::shadows::{bundle_point, frame, sphere_shell, stratified_disc, triangle_shell};
+use super::shadows::{bundle_point, cone_shell, frame, sphere_shell, stratified_disc, triangle_shell};
 use crate::scene::{bundle_samples, CameraBasis, Combine, Light, MaterialKind, Scene, ShadowMode, Triangle};
 use glam::DVec3;
 use std::cell::Cell;
@@ -67,6 +69,7 @@ pub struct SurfaceHit {
 enum Prim {
     Sphere(usize),
     Triangle { index: usize, b1: f64, b2: f64 },
+    Cone(usize),
 }
 
 /// A scene prepared for tracing: camera basis, resolved triangles and unit ambient `up`.
@@ -93,7 +96,8 @@ impl<'a> Reference<'a> {
         });
         let tris =
             r.triangles.iter().map(|t| (t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2])));
-        r.bvh = Some(Bvh::build(&spheres.chain(tris).collect::<Vec<_>>()));
+        let cones = scene.cones.iter().map(|c| cone_bounds(c.base, c.base_radius, c.apex, c.apex_radius));
+        r.bvh = Some(Bvh::build(&spheres.chain(tris).chain(cones).collect::<Vec<_>>()));
         r
     }
 
@@ -131,7 +135,8 @@ impl<'a> Reference<'a> {
     }
 
     /// Nearest hit with `0 < t < t_max`; `d` unit. The winner is the smallest `t`, and on an
-    /// exact tie the lowest primitive index (spheres before triangles, each in scene order).
+    /// exact tie the lowest primitive index (spheres, then triangles, then cones, each in scene
+    /// order).
     pub fn intersect(&self, o: DVec3, d: DVec3, t_max: f64) -> Option<SurfaceHit> {
         let best: Cell<Option<(f64, PrimId, Prim)>> = Cell::new(None);
         let consider = |id: PrimId| {
@@ -180,7 +185,7 @@ impl<'a> Reference<'a> {
     }
 
     fn prim_count(&self) -> PrimId {
-        (self.scene.spheres.len() + self.triangles.len()) as PrimId
+        (self.scene.spheres.len() + self.triangles.len() + self.scene.cones.len()) as PrimId
     }
 
     /// Nearest hit of primitive `id` with `t > 0` (no upper bound: the nearest root does not
@@ -191,11 +196,16 @@ impl<'a> Reference<'a> {
         if id < ns {
             let s = &self.scene.spheres[id];
             intersect_sphere(o, d, s.center, s.radius, 0.0, f64::INFINITY).map(|t| (t, Prim::Sphere(id)))
-        } else {
+        } else if id < ns + self.triangles.len() {
             let index = id - ns;
             let [p0, p1, p2] = self.triangles[index].p;
             intersect_triangle(o, d, p0, p1, p2, 0.0, f64::INFINITY)
                 .map(|(t, b1, b2)| (t, Prim::Triangle { index, b1, b2 }))
+        } else {
+            let index = id - ns - self.triangles.len();
+            let c = &self.scene.cones[index];
+            intersect_cone(o, d, c.base, c.base_radius, c.apex, c.apex_radius, 0.0, f64::INFINITY)
+                .map(|t| (t, Prim::Cone(index)))
         }
     }
 
@@ -229,6 +239,11 @@ impl<'a> Reference<'a> {
                 // (docs/shading.md, Notation): turn n_g to their side before the flip below.
                 let n_g = if n.dot(n_g) < 0.0 { -n_g } else { n_g };
                 (n_g, n, tri.material)
+            }
+            Prim::Cone(i) => {
+                let c = &self.scene.cones[i];
+                let n = cone_normal(p, c.base, c.base_radius, c.apex, c.apex_radius);
+                (n, n, c.material)
             }
         };
         // Decision: flip when n_g·d > 0; at exactly 0 (grazing) the normal is kept.
@@ -367,7 +382,10 @@ impl<'a> Reference<'a> {
                     .iter()
                     .map(|s| sphere_shell(falloff, so, l, dist, r, s.center, s.radius));
                 let tris = self.triangles.iter().map(|t| triangle_shell(falloff, so, l, dist, r, t.p));
-                let sigmas = spheres.chain(tris);
+                let cones = self.scene.cones.iter().map(|c| {
+                    cone_shell(falloff, so, l, dist, r, c.base, c.base_radius, c.apex, c.apex_radius)
+                });
+                let sigmas = spheres.chain(tris).chain(cones);
                 match combine {
                     Combine::Min => sigmas.fold(1.0, f64::min),
                     Combine::Product => sigmas.product(),

@@ -30,6 +30,7 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub spheres: Vec<Sphere>,
     pub meshes: Vec<Mesh>,
+    pub cones: Vec<Cone>,
     pub trace: TraceSettings,
 }
 
@@ -118,6 +119,19 @@ pub struct Sphere {
     pub material: u32,
 }
 
+/// An open cone (NFF's `c`): the lateral surface between the disc of `base_radius` around `base`
+/// and the disc of `apex_radius` around `apex`, both perpendicular to the axis `base → apex`, with
+/// no caps. Equal radii make a cylinder, different ones a truncated cone, a zero radius a pointed
+/// cone.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cone {
+    pub base: DVec3,
+    pub base_radius: f64,
+    pub apex: DVec3,
+    pub apex_radius: f64,
+    pub material: u32,
+}
+
 /// Indexed triangle mesh; `normals`, when present, has one unit normal per position and is
 /// interpolated across each triangle for shading.
 #[derive(Clone, Debug, PartialEq)]
@@ -163,7 +177,7 @@ impl Scene {
     }
 
     pub fn primitive_count(&self) -> usize {
-        self.spheres.len() + self.triangle_count()
+        self.spheres.len() + self.triangle_count() + self.cones.len()
     }
 
     /// All mesh triangles in mesh order; triangle `i` here is triangle `i` everywhere.
@@ -195,6 +209,11 @@ impl Scene {
         }
         for m in &mut s.meshes {
             m.positions.iter_mut().for_each(|v| *v = p(*v));
+        }
+        for c in &mut s.cones {
+            (c.base, c.apex) = (p(c.base), p(c.apex));
+            c.base_radius *= scale;
+            c.apex_radius *= scale;
         }
         s
     }
@@ -283,6 +302,22 @@ impl Scene {
                 if let Some(k) = t.iter().find(|&&k| k >= nv) {
                     return bad(format!("mesh {i} triangle {j} refers to vertex {k} but only {nv} exist"));
                 }
+            }
+        }
+        for (i, c) in self.cones.iter().enumerate() {
+            finite3(&format!("cone {i} base"), c.base)?;
+            finite3(&format!("cone {i} apex"), c.apex)?;
+            let (r0, r1) = (c.base_radius, c.apex_radius);
+            if !(r0.is_finite() && r1.is_finite() && r0 >= 0.0 && r1 >= 0.0 && r0.max(r1) > 0.0) {
+                return bad(format!("cone {i} radii {r0} and {r1} must be finite, >= 0 and not both 0"));
+            }
+            // The intersection divides by the height and by nothing else that can vanish.
+            let h = c.apex.distance(c.base);
+            if !(h > 0.0 && ((r1 - r0) / h).is_finite()) {
+                return bad(format!("cone {i} has its base and apex at the same point: no axis"));
+            }
+            if c.material >= nmat {
+                return bad(format!("cone {i} uses material index {} but only {nmat} exist", c.material));
             }
         }
         let t = &self.trace;

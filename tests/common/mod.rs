@@ -90,6 +90,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
         materials: vec![material("grey", MaterialKind::Diffuse { color: DVec3::splat(0.5) })],
         spheres,
         meshes,
+        cones: vec![],
         trace: TraceSettings::default(),
     }
 }
@@ -162,9 +163,9 @@ pub fn assert_matches_reference(name: &str, gpu: &irt::image::Image, reference: 
     panic!("{name}: GPU differs from the reference: {diff}\n(images in {})", dir.display());
 }
 
-/// A file of the real scenes made by others (Khronos glTF samples, Haines' SPD scenes as NFF),
-/// vendored under tests/data/scenes with their licences so that a fresh clone tests them too;
-/// `$IRT_SHARED_DIR/scenes` overrides.
+/// A file of the Khronos glTF samples, vendored under tests/data/scenes with their licences so
+/// that a fresh clone tests them too (the SPD scenes live in scenes/spd); `$IRT_SHARED_DIR/scenes`
+/// overrides.
 pub fn shared_scene(relative: &str) -> std::path::PathBuf {
     let scenes = match std::env::var_os("IRT_SHARED_DIR") {
         Some(dir) => std::path::PathBuf::from(dir).join("scenes"),
