@@ -52,24 +52,26 @@ fn refract_dir(d: vec3f, n: vec3f, eta_ratio: f32) -> vec4f {
     return vec4f(normalize(eta_ratio * d + (eta_ratio * c - sqrt(k)) * n), 1.0);
 }
 
+// Whether `m` is of kind `k` — false for kinds the pipeline was not specialised for
+// (MATERIAL_KINDS in the prelude), so their code folds away.
+fn kind_is(m: Material, k: u32) -> bool {
+    return (MATERIAL_KINDS & (1u << k)) != 0u && m.kind == k;
+}
+
 // The material's Fresnel reflectance F at this point, per channel (docs/shading.md table).
 fn fresnel(m: Material, n: vec3f, e: vec3f, inside: bool) -> vec3f {
     let c = dot(n, e);
-    switch m.kind {
-        case MAT_METAL: {
-            return schlick3(c, m.color);
-        }
-        case MAT_DIELECTRIC: {
-            return vec3f(dielectric_reflectance(c, m.eta, inside));
-        }
-        case MAT_POLISHED: {
-            let r = (m.eta - 1.0) / (m.eta + 1.0);
-            return vec3f(schlick(c, r * r));
-        }
-        default: {
-            return vec3f(0.0);
-        }
+    if kind_is(m, MAT_METAL) {
+        return schlick3(c, m.color);
     }
+    if kind_is(m, MAT_DIELECTRIC) {
+        return vec3f(dielectric_reflectance(c, m.eta, inside));
+    }
+    if kind_is(m, MAT_POLISHED) {
+        let r = (m.eta - 1.0) / (m.eta + 1.0);
+        return vec3f(schlick(c, r * r));
+    }
+    return vec3f(0.0);
 }
 
 // 0^0 = 1, so exponent 0 gives a constant highlight.
@@ -82,17 +84,13 @@ fn highlight(n: vec3f, h: vec3f, exponent: f32) -> f32 {
 }
 
 fn shade_ambient(m: Material, n: vec3f, e: vec3f, ia: vec3f, inside: bool) -> vec3f {
-    switch m.kind {
-        case MAT_DIFFUSE: {
-            return m.color * ia;
-        }
-        case MAT_POLISHED: {
-            return m.color * ia * (1.0 - fresnel(m, n, e, inside).x);
-        }
-        default: {
-            return vec3f(0.0);
-        }
+    if kind_is(m, MAT_DIFFUSE) {
+        return m.color * ia;
     }
+    if kind_is(m, MAT_POLISHED) {
+        return m.color * ia * (1.0 - fresnel(m, n, e, inside).x);
+    }
+    return vec3f(0.0);
 }
 
 // One unshadowed light of intensity l_e in direction l; 0 when the surface faces away from it.
@@ -101,11 +99,11 @@ fn shade_light(m: Material, n: vec3f, e: vec3f, l: vec3f, l_e: vec3f, inside: bo
     if nl <= 0.0 {
         return vec3f(0.0);
     }
-    if m.kind == MAT_DIFFUSE {
+    if kind_is(m, MAT_DIFFUSE) {
         return m.color * l_e * nl;
     }
     let spec = fresnel(m, n, e, inside) * l_e * highlight(n, normalize(l + e), m.exponent);
-    if m.kind == MAT_POLISHED {
+    if kind_is(m, MAT_POLISHED) {
         let ne = clamp(dot(n, e), 0.0, 1.0);
         return m.color * l_e * (1.0 - pow5(1.0 - ne)) * (1.0 - pow5(1.0 - nl)) + spec;
     }
@@ -120,7 +118,7 @@ struct Reflectance {
 
 fn reflectance(m: Material, n: vec3f, e: vec3f, inside: bool) -> Reflectance {
     let f = fresnel(m, n, e, inside);
-    if m.kind == MAT_DIELECTRIC {
+    if kind_is(m, MAT_DIELECTRIC) {
         return Reflectance(f, 1.0 - f.x);
     }
     return Reflectance(f, 0.0);

@@ -135,6 +135,10 @@ struct BenchArgs {
     /// Print one Markdown table row (for the README's performance table).
     #[arg(long)]
     markdown: bool,
+    /// Time the uber-pipeline (every primitive type and shadow mode compiled in) instead of the
+    /// pipeline specialised to the scene.
+    #[arg(long)]
+    uber: bool,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -343,7 +347,8 @@ fn bench(args: BenchArgs) -> Result<()> {
 
     // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
     let t = Instant::now();
-    let renderer = Renderer::new(&ctx, &scene, RenderOptions::default()).map_err(anyhow::Error::msg)?;
+    let opts = RenderOptions { uber_shader: args.uber, ..Default::default() };
+    let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
     let first = renderer.render(&ctx, &mut |_, _| {});
     let first_frame = t.elapsed();
     if first.image.non_finite() > 0 {
@@ -364,7 +369,10 @@ fn bench(args: BenchArgs) -> Result<()> {
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
     let stats = renderer.grid.stats();
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let name = scene_args.scene.as_deref().map_or("default".into(), |p| p.display().to_string());
+    let mut name = scene_args.scene.as_deref().map_or("default".into(), |p| p.display().to_string());
+    if args.uber {
+        name += " (uber)";
+    }
     if args.markdown {
         println!(
             "| {name} | {w}x{h} | {} | {:.1} | {:.0} | {:.0} | {:.2} | {} |",

@@ -36,15 +36,26 @@ pub struct Variant {
     /// The shadow mode compiled in (`ShadowMode::kind_index`), or [`SHADOWS_ANY`]: chosen at run
     /// time from `Params::shadow`.
     pub shadows: u32,
+    /// Material kinds compiled in: bit `layout::material_code(kind)` per kind.
+    pub materials: u32,
 }
+
+/// Every material kind.
+pub const ALL_MATERIALS: u32 = 0b1111;
 
 /// Shadow-mode slot of the uber-shader: every mode compiled in, picked by a uniform.
 pub const SHADOWS_ANY: u32 = 3;
 
 impl Variant {
     /// Everything on: the uber-shader.
-    pub const FULL: Variant =
-        Variant { spheres: true, triangles: true, cones: true, count_rays: true, shadows: SHADOWS_ANY };
+    pub const FULL: Variant = Variant {
+        spheres: true,
+        triangles: true,
+        cones: true,
+        count_rays: true,
+        shadows: SHADOWS_ANY,
+        materials: ALL_MATERIALS,
+    };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
         Variant {
@@ -53,10 +64,13 @@ impl Variant {
             cones: !scene.cones.is_empty(),
             count_rays,
             shadows: scene.trace.shadows.kind_index(),
+            materials: scene.materials.iter().fold(0, |m, mat| m | 1 << layout::material_code(&mat.kind)),
         }
     }
 
-    /// Every variant that can be built (validated by a test).
+    /// Every variant that can be built, as far as validation can tell them apart (validated by
+    /// a test): every primitive/shadow combination with every material kind, and every set of
+    /// material kinds with everything else on.
     pub fn all() -> Vec<Variant> {
         let mut v = Vec::new();
         for bits in 0..16u32 {
@@ -67,9 +81,11 @@ impl Variant {
                     cones: bits & 8 != 0,
                     count_rays: bits & 4 != 0,
                     shadows,
+                    materials: ALL_MATERIALS,
                 });
             }
         }
+        v.extend((0..ALL_MATERIALS).map(|materials| Variant { materials, ..Variant::FULL }));
         v
     }
 
@@ -82,6 +98,7 @@ impl Variant {
         s += &b("HAS_CONES", self.cones);
         s += &b("COUNT_RAYS", self.count_rays);
         s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);
+        s += &format!("const MATERIAL_KINDS: u32 = {}u;\n", self.materials);
         s
     }
 }
