@@ -456,7 +456,7 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
         ctx.info.name,
         args.strata,
         machine_line(),
-        std::env::args().skip(2).map(|a| format!(" {a}")).collect::<String>(),
+        command_args(),
     );
     let table = header + &irt::tradeoff::markdown_table(&rows);
     print!("{table}");
@@ -469,6 +469,11 @@ fn tradeoff(args: TradeoffArgs) -> Result<()> {
     .map_err(anyhow::Error::msg)?;
     eprintln!("wrote {}/table.md, plot.svg, ground-truth.png", args.out_dir.display());
     Ok(())
+}
+
+/// This run's arguments after the subcommand, for tables that state their command.
+fn command_args() -> String {
+    std::env::args().skip(2).map(|a| format!(" {a}")).collect()
 }
 
 /// CPU model and core count, for tables that state the machine.
@@ -518,7 +523,7 @@ fn stability(args: StabilityArgs) -> Result<()> {
         "Scene: {name}, {w}x{h}, moved along (1, 0.8, -0.6); device: {}; {}; command: `irt stability{}`\n\n{}",
         ctx.info.name,
         machine_line(),
-        std::env::args().skip(2).map(|a| format!(" {a}")).collect::<String>(),
+        command_args(),
         irt::stability::markdown_table(&rows)
     );
     print!("{table}");

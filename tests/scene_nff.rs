@@ -1,6 +1,8 @@
 //! The NFF loader (src/io/nff.rs, docs/nff.md): every command reaches the [`Scene`] as
 //! documented, and bad input gives an error with the file, line and column of the offending
 //! token and what was expected — never a panic.
+mod common;
+
 use glam::DVec3;
 use irt::io::nff::parse_str;
 use irt::io::LoadError;
@@ -30,23 +32,9 @@ fn with(extra: &str) -> String {
     format!("{BASE}{extra}\n")
 }
 
-/// 1-based line and column of the last occurrence of `needle` in `src`.
-fn position_of(src: &str, needle: &str) -> (usize, usize) {
-    let at = src.rfind(needle).unwrap_or_else(|| panic!("'{needle}' not in the source"));
-    let line_start = src[..at].rfind('\n').map_or(0, |i| i + 1);
-    (src[..at].matches('\n').count() + 1, src[line_start..at].chars().count() + 1)
-}
-
 /// Asserts that `src` fails at the last `at` with a message containing every one of `words`.
 fn fails_at(src: &str, at: &str, words: &[&str]) -> LoadError {
-    let e = parse(src).expect_err("the scene should be rejected");
-    let (line, column) = position_of(src, at);
-    assert_eq!((e.line, e.column), (Some(line), Some(column)), "wrong position for: {e}");
-    assert!(e.to_string().starts_with(&format!("{ORIGIN}:{line}:{column}: ")), "{e}");
-    for w in words {
-        assert!(e.message.contains(w), "message lacks '{w}': {e}");
-    }
-    e
+    common::assert_fails_at(parse(src), src, ORIGIN, at, words)
 }
 
 /// Asserts that `src` fails at its very end (a command cut short).

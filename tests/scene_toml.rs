@@ -1,6 +1,8 @@
 //! The TOML scene format: every scene file loads, every feature reaches the [`Scene`], and bad
 //! input gives an error that names the file, the line and column of the offending value, and
 //! what is wrong — never a panic.
+mod common;
+
 use glam::DVec3;
 use irt::io::toml::{parse_str, EMPTY_SCENE};
 use irt::io::{load, load_with_limit, LoadError};
@@ -36,25 +38,9 @@ fn with(extra: &str) -> String {
     format!("{BASE}\n{extra}")
 }
 
-/// 1-based line and column of the last occurrence of `needle` in `src` (tests append the bad
-/// value last, so the needle can be as short as the value).
-fn position_of(src: &str, needle: &str) -> (usize, usize) {
-    let at = src.rfind(needle).unwrap_or_else(|| panic!("'{needle}' not in the source"));
-    let line_start = src[..at].rfind('\n').map_or(0, |i| i + 1);
-    (src[..at].matches('\n').count() + 1, src[line_start..at].chars().count() + 1)
-}
-
-/// Asserts that `src` fails at the start of the last `at` with a message containing every one of `words`.
+/// Asserts that `src` fails at the last `at` with a message containing every one of `words`.
 fn fails_at(src: &str, at: &str, words: &[&str]) -> LoadError {
-    let e = parse(src).expect_err("the scene should be rejected");
-    let (line, column) = position_of(src, at);
-    assert_eq!((e.line, e.column), (Some(line), Some(column)), "wrong position for: {e}");
-    assert_eq!(e.path, ORIGIN);
-    assert!(e.to_string().starts_with(&format!("{ORIGIN}:{line}:{column}: ")), "{e}");
-    for w in words {
-        assert!(e.message.contains(w), "message lacks '{w}': {e}");
-    }
-    e
+    common::assert_fails_at(parse(src), src, ORIGIN, at, words)
 }
 
 fn tmp_file(name: &str, contents: &[u8]) -> PathBuf {
@@ -298,7 +284,7 @@ fn syntax_error_has_line_and_column() {
     fails_at(&src, "= 1", &[]);
     let src = with("[[sphere]\n");
     let e = parse(&src).unwrap_err();
-    assert_eq!(e.line, Some(position_of(&src, "[[sphere]\n").0), "{e}");
+    assert_eq!(e.line, Some(common::position_of(&src, "[[sphere]\n").0), "{e}");
 }
 
 #[test]
@@ -373,7 +359,7 @@ fn material_out_of_range_points_at_its_table() {
 #[test]
 fn duplicate_material_name() {
     let src = with("[[material]]\nname = \"white\"\ntype = \"metal\"");
-    let first_line = position_of(BASE, "name = \"white\"").0;
+    let first_line = common::position_of(BASE, "name = \"white\"").0;
     fails_at(
         &src,
         "\"white\"\ntype = \"metal\"",

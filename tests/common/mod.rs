@@ -173,3 +173,31 @@ pub fn shared_scene(relative: &str) -> std::path::PathBuf {
     };
     scenes.join(relative)
 }
+
+/// 1-based line and column of the last occurrence of `needle` in `src` (tests append the bad
+/// value last, so the needle can be as short as the value).
+pub fn position_of(src: &str, needle: &str) -> (usize, usize) {
+    let at = src.rfind(needle).unwrap_or_else(|| panic!("'{needle}' not in the source"));
+    let line_start = src[..at].rfind('\n').map_or(0, |i| i + 1);
+    (src[..at].matches('\n').count() + 1, src[line_start..at].chars().count() + 1)
+}
+
+/// Asserts that parsing `src` (named `origin`) failed at the start of the last `at`, with a
+/// message containing every one of `words`; returns the error.
+pub fn assert_fails_at(
+    result: Result<Scene, irt::io::LoadError>,
+    src: &str,
+    origin: &str,
+    at: &str,
+    words: &[&str],
+) -> irt::io::LoadError {
+    let e = result.expect_err("the scene should be rejected");
+    let (line, column) = position_of(src, at);
+    assert_eq!((e.line, e.column), (Some(line), Some(column)), "wrong position for: {e}");
+    assert_eq!(e.path, origin);
+    assert!(e.to_string().starts_with(&format!("{origin}:{line}:{column}: ")), "{e}");
+    for w in words {
+        assert!(e.message.contains(w), "message lacks '{w}': {e}");
+    }
+    e
+}
