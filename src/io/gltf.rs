@@ -88,8 +88,30 @@ fn open<'a>(bytes: &'a [u8], origin: &str) -> Result<(Document, Option<&'a [u8]>
     // Checked just above. The crate would refuse KHR_materials_clearcoat, which it has no
     // type for; irt reads that one from the raw JSON.
     root.extensions_required.clear();
+    check_position_accessors(&root).map_err(fail)?;
     let doc = Document::from_json(root).map_err(|e| fail(validation_message(e)))?;
     Ok((doc, blob))
+}
+
+/// The crate's validation reads each primitive's POSITION accessor (for its `min`/`max`) before
+/// it checks that the index exists, and panics on one past the end (found by
+/// tests/fuzz_loaders.rs; docs/fuzzing.md); this checks those indices first.
+fn check_position_accessors(root: &json::Root) -> Res<()> {
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position =
+                primitive.attributes.get(&json::validation::Checked::Valid(json::mesh::Semantic::Positions));
+            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
+                return Err(format!(
+                    "invalid glTF: meshes[{m}].primitives[{p}].attributes.POSITION refers to accessor {}, \
+                     but the file has {} accessors",
+                    index.value(),
+                    root.accessors.len()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The GLB header fields the crate trusts (it subtracts from the declared length).
