@@ -3,8 +3,6 @@
 //! The cache only ever speeds things up: a missing, unreadable, corrupt or foreign file is
 //! logged and replaced by an empty cache, and a failed save is logged; neither fails a render.
 
-use std::collections::hash_map::DefaultHasher;
-use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -71,10 +69,39 @@ pub struct DiskCache {
     on_disk: Mutex<Option<u64>>,
 }
 
+/// FNV-1a, 64-bit: stable across builds, enough to notice damage (not an adversary).
 fn hash(bytes: &[u8]) -> u64 {
-    let mut h = DefaultHasher::new();
-    bytes.hash(&mut h);
-    h.finish()
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// File envelope: magic, payload length, payload hash (little-endian u64s), then wgpu's data.
+/// wgpu checks its own header but not the driver's bytes after it, and a driver handed a
+/// damaged cache may misbehave; the hash stops damage before it reaches the driver.
+const MAGIC: &[u8; 8] = b"IRTPCv1\n";
+const ENVELOPE: usize = 24;
+
+fn wrap(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(ENVELOPE + data.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&(data.len() as u64).to_le_bytes());
+    out.extend_from_slice(&hash(data).to_le_bytes());
+    out.extend_from_slice(data);
+    out
+}
+
+fn unwrap(file: &[u8]) -> Result<&[u8], &'static str> {
+    if file.len() < ENVELOPE || &file[..8] != MAGIC {
+        return Err("not an irt pipeline cache file");
+    }
+    let word = |i: usize| u64::from_le_bytes(file[i..i + 8].try_into().expect("8 bytes"));
+    let data = &file[ENVELOPE..];
+    if word(8) != data.len() as u64 {
+        return Err("truncated or extended");
+    }
+    if word(16) != hash(data) {
+        return Err("damaged (checksum mismatch)");
+    }
+    Ok(data)
 }
 
 impl DiskCache {
@@ -113,6 +140,13 @@ impl DiskCache {
                 })
             }
         };
+        let data = data.and_then(|file| match unwrap(&file) {
+            Ok(d) => Some(d.to_vec()),
+            Err(why) => {
+                log::warn!("ignoring pipeline cache {} (it will be rewritten): {why}", path.display());
+                None
+            }
+        });
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let cache = create(data.as_deref());
         let (cache, loaded) = match pollster::block_on(scope.pop()) {
@@ -142,7 +176,7 @@ impl DiskCache {
             .path
             .parent()
             .map_or(Ok(()), std::fs::create_dir_all)
-            .and_then(|()| crate::image::write_atomic(&self.path, &data));
+            .and_then(|()| crate::image::write_atomic(&self.path, &wrap(&data)));
         match result {
             Ok(()) => log::debug!("saved pipeline cache {} ({} bytes)", self.path.display(), data.len()),
             Err(e) => log::warn!("could not save pipeline cache {}: {e}", self.path.display()),
