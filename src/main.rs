@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use irt::gpu::{AdapterChoice, GpuContext, RenderOptions, Renderer};
+use irt::gpu::{AdapterChoice, CacheSetting, GpuContext, RenderOptions, Renderer};
 use irt::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -51,6 +51,10 @@ struct DeviceArgs {
     /// Also read from $IRT_ADAPTER.
     #[arg(long, value_name = "NAME")]
     adapter: Option<String>,
+    /// Do not read or write the on-disk pipeline cache (also: IRT_CACHE_DIR=off). By default
+    /// compiled pipelines are kept in $IRT_CACHE_DIR, else $XDG_CACHE_HOME/irt, else ~/.cache/irt.
+    #[arg(long)]
+    no_cache: bool,
 }
 
 #[derive(Args)]
@@ -129,9 +133,14 @@ struct BenchArgs {
     /// Timed frames after the first (median reported).
     #[arg(long, default_value_t = 5)]
     frames: u32,
-    /// Start with an empty Mesa shader cache, to measure a cold time to first frame.
+    /// Start with an empty Mesa shader cache and an empty irt pipeline cache, to measure a cold
+    /// time to first frame.
     #[arg(long)]
     cold: bool,
+    /// Start with an empty Mesa shader cache but irt's pipeline cache as found: what irt's own
+    /// cache brings on its own.
+    #[arg(long, conflicts_with = "cold")]
+    cold_mesa_only: bool,
     /// Print one Markdown table row (for the README's performance table).
     #[arg(long)]
     markdown: bool,
@@ -186,7 +195,11 @@ fn load_scene(args: &SceneArgs) -> Result<Scene> {
 }
 
 fn open_device(args: &DeviceArgs) -> Result<GpuContext> {
-    Ok(GpuContext::new(&AdapterChoice::from_arg_or_env(args.adapter.as_deref()))?)
+    open_device_with(args, &CacheSetting::from_flag_or_env(args.no_cache))
+}
+
+fn open_device_with(args: &DeviceArgs, cache: &CacheSetting) -> Result<GpuContext> {
+    Ok(GpuContext::with_cache(&AdapterChoice::from_arg_or_env(args.adapter.as_deref()), cache)?)
 }
 
 fn render(args: RenderArgs) -> Result<()> {
@@ -310,6 +323,7 @@ fn info(args: DeviceArgs) -> Result<()> {
         l.max_storage_buffer_binding_size >> 20,
         l.max_compute_workgroups_per_dimension
     );
+    println!("  pipeline cache: {}", ctx.cache_status);
     Ok(())
 }
 
@@ -322,20 +336,25 @@ fn bench(args: BenchArgs) -> Result<()> {
     // Cold: Mesa's on-disk shader cache starts empty (a fresh directory), so the first frame pays
     // the full shader compile and later frames are served from the cache as usual. (Disabling the
     // cache instead makes lavapipe recompile on every dispatch, which measures nothing useful.)
-    let _cold_cache = if args.cold {
+    let _cold_cache = if args.cold || args.cold_mesa_only {
         let dir = std::env::temp_dir().join(format!("irt-cold-cache-{}", std::process::id()));
-        std::fs::create_dir_all(&dir)?;
+        std::fs::create_dir_all(dir.join("mesa"))?;
         // Read by Mesa when the device is created, which happens below.
-        std::env::set_var("MESA_SHADER_CACHE_DIR", &dir);
+        std::env::set_var("MESA_SHADER_CACHE_DIR", dir.join("mesa"));
         Some(TempDir(dir))
     } else {
         None
+    };
+    let cache = match &_cold_cache {
+        // An empty directory: the pipeline cache starts empty and is written there.
+        Some(dir) if args.cold && !args.device.no_cache => CacheSetting::Dir(dir.0.join("irt")),
+        _ => CacheSetting::from_flag_or_env(args.device.no_cache),
     };
     let mut scene_args = args.scene;
     scene_args.width = scene_args.width.or(Some(512));
     scene_args.height = scene_args.height.or(Some(512));
     let scene = load_scene(&scene_args)?;
-    let ctx = open_device(&args.device)?;
+    let ctx = open_device_with(&args.device, &cache)?;
     let builds: Vec<Duration> = (0..5)
         .map(|_| {
             let t = Instant::now();
@@ -391,8 +410,9 @@ fn bench(args: BenchArgs) -> Result<()> {
         println!(
             "first frame      {:.0} ms (pipeline creation + first dispatch; Mesa shader cache {})",
             first_frame.as_secs_f64() * 1e3,
-            if args.cold { "empty at start" } else { "as found" }
+            if args.cold || args.cold_mesa_only { "empty at start" } else { "as found" }
         );
+        println!("pipeline cache   {}", ctx.cache_status);
         println!("frame            {:.1} ms (median of {})", frame.as_secs_f64() * 1e3, args.frames.max(1));
         println!(
             "rays/frame       {} (eye {}, reflection {}, refraction {}, shadow {})",

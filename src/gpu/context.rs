@@ -1,5 +1,6 @@
 //! The wgpu device: Vulkan only, lavapipe unless the user names another adapter.
 
+use super::cache::{CacheSetting, DiskCache};
 use std::fmt;
 
 /// Environment variable that picks an adapter when `--adapter` is not given.
@@ -55,6 +56,10 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub info: wgpu::AdapterInfo,
+    /// Compiled pipelines kept on disk; `None` when off or unsupported (see `cache_status`).
+    pub pipeline_cache: Option<DiskCache>,
+    /// What the pipeline cache is doing, in words (`irt info`).
+    pub cache_status: String,
 }
 
 impl fmt::Debug for GpuContext {
@@ -64,7 +69,15 @@ impl fmt::Debug for GpuContext {
 }
 
 impl GpuContext {
+    /// Opens the device without a disk pipeline cache (what tests and library users get unless
+    /// they ask, so nothing is written outside their control).
     pub fn new(choice: &AdapterChoice) -> Result<Self, ContextError> {
+        Self::with_cache(choice, &CacheSetting::Off("not requested".into()))
+    }
+
+    /// Opens the device with compiled pipelines cached as `cache` says, where the adapter
+    /// supports `Features::PIPELINE_CACHE`; silently without where it does not.
+    pub fn with_cache(choice: &AdapterChoice, cache: &CacheSetting) -> Result<Self, ContextError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::VULKAN;
         let instance = wgpu::Instance::new(desc);
@@ -101,15 +114,45 @@ impl GpuContext {
         let info = adapter.get_info();
         // Ask for what this adapter offers: scenes are sized by its texture and buffer limits.
         let limits = adapter.limits();
+        let supported = adapter.features().contains(wgpu::Features::PIPELINE_CACHE);
+        let cache_dir = match cache {
+            CacheSetting::Dir(dir) if supported => Some(dir),
+            _ => None,
+        };
+        let features =
+            if cache_dir.is_some() { wgpu::Features::PIPELINE_CACHE } else { wgpu::Features::empty() };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("irt"),
-            required_features: wgpu::Features::empty(),
+            required_features: features,
             required_limits: limits,
             memory_hints: wgpu::MemoryHints::Performance,
             ..Default::default()
         }))
         .map_err(|source| ContextError::Device { adapter: info.name.clone(), source })?;
-        Ok(GpuContext { adapter, device, queue, info })
+        let pipeline_cache = cache_dir.map(|dir| DiskCache::open(&device, &info, dir));
+        let cache_status = match (&pipeline_cache, cache) {
+            (Some(c), _) if c.loaded_bytes > 0 => {
+                format!("{} ({} bytes loaded)", c.path.display(), c.loaded_bytes)
+            }
+            (Some(c), _) => format!("{} (empty at start)", c.path.display()),
+            (None, CacheSetting::Off(why)) => format!("off ({why})"),
+            (None, CacheSetting::Dir(_)) => {
+                "off (this adapter lacks PIPELINE_CACHE; the driver's own shader cache still applies)".into()
+            }
+        };
+        Ok(GpuContext { adapter, device, queue, info, pipeline_cache, cache_status })
+    }
+
+    /// The pipeline cache to pass to pipeline descriptors.
+    pub fn wgpu_pipeline_cache(&self) -> Option<&wgpu::PipelineCache> {
+        self.pipeline_cache.as_ref().map(|c| &c.cache)
+    }
+
+    /// Saves the pipeline cache to disk if it changed; never fails (see [`DiskCache::save`]).
+    pub fn save_pipeline_cache(&self) {
+        if let Some(c) = &self.pipeline_cache {
+            c.save();
+        }
     }
 
     /// Blocks until all submitted work is done.

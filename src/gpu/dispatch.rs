@@ -179,7 +179,7 @@ impl Dispatcher {
             module: &module,
             entry_point: Some(entry),
             compilation_options: Default::default(),
-            cache: None,
+            cache: ctx.wgpu_pipeline_cache(),
         });
         let out_bytes = out_len * 16;
         let out_buf = storage(ctx, "out", out_bytes, wgpu::BufferUsages::COPY_SRC);

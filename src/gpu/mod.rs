@@ -1,8 +1,10 @@
 //! wgpu device, GPU layouts, shader composition and dispatch.
+pub mod cache;
 pub mod context;
 pub mod layout;
 pub mod shaders;
 
+pub use cache::CacheSetting;
 pub use context::{AdapterChoice, GpuContext};
 pub mod dispatch;
 pub mod readback;

@@ -7,6 +7,7 @@ use super::GpuContext;
 use crate::accel::Grid;
 use crate::image::Image;
 use crate::scene::{Scene, ShadowMode};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Rows per dispatch: small enough for a responsive progress bar, large enough that the
@@ -46,6 +47,8 @@ pub struct Renderer {
     pub timings: SetupTimings,
     /// The `Tile::pass` of each pass over the image (one unless a bundle is split).
     passes: Vec<[u32; 4]>,
+    /// Whether the pipeline cache was saved after this renderer's first frame.
+    cache_saved: AtomicBool,
 }
 
 /// A rendered frame.
@@ -87,7 +90,18 @@ impl Renderer {
                 .collect(),
             _ => vec![Tile::whole([0; 4]).pass_range],
         };
-        Ok(Renderer { grid, gpu_scene, dispatcher, width, height, grid_size: rays, variant, timings, passes })
+        Ok(Renderer {
+            grid,
+            gpu_scene,
+            dispatcher,
+            width,
+            height,
+            grid_size: rays,
+            variant,
+            timings,
+            passes,
+            cache_saved: AtomicBool::new(false),
+        })
     }
 
     /// Traces every eye ray, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after
@@ -105,6 +119,10 @@ impl Renderer {
             progress(y, rows);
         }
         let (out, rays) = self.dispatcher.read(ctx);
+        // Drivers that compile at the first dispatch (lavapipe) fill the cache only now.
+        if !self.cache_saved.swap(true, Ordering::Relaxed) {
+            ctx.save_pipeline_cache();
+        }
         // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
         let meter = |p: &[f32; 4]| p[3] as u32;
         let eye_hits = out.iter().filter(|p| meter(p) & 1 == 1).count() as u64;
