@@ -4,7 +4,9 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn irt(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_irt")).args(args).output().expect("irt runs")
+    // The pipeline cache goes to the test's own directory, not the user's ~/.cache.
+    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("cli-cache");
+    Command::new(env!("CARGO_BIN_EXE_irt")).args(args).env("IRT_CACHE_DIR", cache).output().expect("irt runs")
 }
 
 fn tmp(name: &str) -> PathBuf {
