@@ -197,8 +197,8 @@ fn empty_scene_one_primitive_and_everything_in_one_cell() {
 fn dielectric_around_the_critical_angle() {
     // The eye inside a large glass sphere (eta 1.5, critical angle 41.8°), looking at its wall
     // obliquely: the image spans incidence angles from near 0° to about 65° (30° at its centre),
-    // so a band of pixels
-    // sits at the critical angle, where reflectance jumps to 1 (total internal reflection).
+    // so a band of pixels sits at the critical angle, where reflectance jumps to 1 (total
+    // internal reflection).
     let mut s = materials_scene();
     s.spheres.push(Sphere { center: DVec3::new(0.0, 0.5, 0.0), radius: 5.0, material: 2 });
     s.camera.eye = DVec3::new(-1.5, 0.8, 2.0);
