@@ -7,25 +7,30 @@ struct Dda {
     // Cell index per axis at which the ray has left the grid.
     out: vec3i,
     // Ray parameter at which the ray crosses the next cell boundary, per axis.
-    t_next: vec3f,
-    t_delta: vec3f,
+    t_next: vec3r,
+    t_delta: vec3r,
     // The ray segment clipped to the grid box.
-    t_enter: f32,
-    t_leave: f32,
+    t_enter: real,
+    t_leave: real,
 }
 
 // Sets up the walk of o + t d, t in [t_min, t_max]; returns false if the segment misses the grid.
-// Direction components may be exactly ±0: such an axis is never stepped.
-fn dda_init(o: vec3f, d: vec3f, t_min: f32, t_max: f32, s: ptr<function, Dda>) -> bool {
-    let gmin = params.grid_min.xyz;
-    let gmax = params.grid_max.xyz;
+// Direction components may be exactly ±0: such an axis is never stepped. Computed in `real`
+// (f32, or f64 in the f64 pipeline variant).
+fn dda_init(o_in: vec3f, d_in: vec3f, t_min_in: f32, t_max_in: f32, s: ptr<function, Dda>) -> bool {
+    let o = vec3r(o_in);
+    let d = vec3r(d_in);
+    let t_min = real(t_min_in);
+    let t_max = real(t_max_in);
+    let gmin = vec3r(params.grid_min.xyz);
+    let gmax = vec3r(params.grid_max.xyz);
     let res = vec3i(params.grid_res.xyz);
-    let moving = d != vec3f(0.0);
-    let inv_d = select(vec3f(0.0), 1.0 / d, moving);
+    let moving = d_in != vec3f(0.0);
+    let inv_d = select(vec3r(0.0), 1.0 / d, moving);
     let ta = (gmin - o) * inv_d;
     let tb = (gmax - o) * inv_d;
-    let t_lo = select(vec3f(-BIG), min(ta, tb), moving);
-    let t_hi = select(vec3f(BIG), max(ta, tb), moving);
+    let t_lo = select(vec3r(real(-BIG)), min(ta, tb), moving);
+    let t_hi = select(vec3r(real(BIG)), max(ta, tb), moving);
     if any(!moving & ((o < gmin) | (o > gmax))) {
         return false;
     }
@@ -35,21 +40,21 @@ fn dda_init(o: vec3f, d: vec3f, t_min: f32, t_max: f32, s: ptr<function, Dda>) -
         return false;
     }
     let p = o + d * t0;
-    let cell = clamp(vec3i(floor((p - gmin) * params.grid_inv_cell.xyz)), vec3i(0), res - 1);
-    let positive = d > vec3f(0.0);
-    let boundary = gmin + vec3f(cell + select(vec3i(0), vec3i(1), positive)) * params.grid_cell.xyz;
+    let cell = clamp(vec3i(floor((p - gmin) * vec3r(params.grid_inv_cell.xyz))), vec3i(0), res - 1);
+    let positive = d_in > vec3f(0.0);
+    let boundary = gmin + vec3r(cell + select(vec3i(0), vec3i(1), positive)) * vec3r(params.grid_cell.xyz);
     (*s).cell = cell;
     (*s).step = select(vec3i(-1), vec3i(1), positive);
     (*s).out = select(vec3i(-1), res, positive);
-    (*s).t_next = select(vec3f(BIG), (boundary - o) * inv_d, moving);
-    (*s).t_delta = select(vec3f(BIG), params.grid_cell.xyz * abs(inv_d), moving);
+    (*s).t_next = select(vec3r(real(BIG)), (boundary - o) * inv_d, moving);
+    (*s).t_delta = select(vec3r(real(BIG)), vec3r(params.grid_cell.xyz) * abs(inv_d), moving);
     (*s).t_enter = t0;
     (*s).t_leave = t1;
     return true;
 }
 
 // Ray parameter at which the walk leaves the current cell.
-fn dda_cell_exit(s: ptr<function, Dda>) -> f32 {
+fn dda_cell_exit(s: ptr<function, Dda>) -> real {
     let t = (*s).t_next;
     return min(min(t.x, t.y), t.z);
 }
@@ -123,7 +128,7 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
                     }
                 }
             }
-            if best.prim != NO_HIT && best.t <= dda_cell_exit(&s) {
+            if best.prim != NO_HIT && real(best.t) <= dda_cell_exit(&s) {
                 return best;
             }
         }

@@ -8,7 +8,8 @@
 // so no term is a difference of two large numbers: for a small, distant sphere this is Ray
 // Tracing Gems ch. 7's r² - |f⊥|², and for a sphere far larger than the view (a planet-sized
 // ground) its numbers stay near the hit, where f32 centre-based forms lose metres.
-fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, a: vec3f, t_min: f32, t_max: f32) -> f32 {
+// In `real` arithmetic: f32, or f64 in the f64 pipeline variant.
+fn intersect_sphere_r(o: vec3r, d: vec3r, c: vec3r, r: real, a: vec3r, t_min: real, t_max: real) -> real {
     let na = (a - c) / r;
     let g = o - a;
     let gd = dot(g, d);
@@ -16,7 +17,7 @@ fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, a: vec3f, t_min: f32, 
     let gp = g - gd * d;
     let disc = r * r * nd * nd - 2.0 * r * dot(gp, na) - dot(gp, gp);
     if disc < 0.0 {
-        return MISS;
+        return real(MISS);
     }
     let fd = gd + r * nd;
     let cc = dot(g, g) + 2.0 * r * dot(na, g);
@@ -36,7 +37,11 @@ fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, a: vec3f, t_min: f32, 
     if t1 > t_min && t1 < t_max {
         return t1;
     }
-    return MISS;
+    return real(MISS);
+}
+
+fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, a: vec3f, t_min: f32, t_max: f32) -> f32 {
+    return f32(intersect_sphere_r(vec3r(o), vec3r(d), vec3r(c), real(r), vec3r(a), real(t_min), real(t_max)));
 }
 
 // Watertight ray–triangle test (Woop, Benthin & Wald, JCGT 2013), two-sided. The vertices are
@@ -45,7 +50,8 @@ fn intersect_sphere(o: vec3f, d: vec3f, c: vec3f, r: f32, a: vec3f, t_min: f32, 
 // shared edge compute it from the same numbers with opposite signs, so a ray through the edge or
 // a shared vertex hits at least one of them. Returns (t, b1, b2) with b1, b2 the barycentrics of
 // p1 and p2, or t = MISS. Zero-area triangles never hit (det == 0).
-fn intersect_triangle(o: vec3f, d: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, t_min: f32, t_max: f32) -> vec3f {
+// In `real` arithmetic: f32, or f64 in the f64 pipeline variant.
+fn intersect_triangle_r(o: vec3r, d: vec3r, p0: vec3r, p1: vec3r, p2: vec3r, t_min: real, t_max: real) -> vec3r {
     let ad = abs(d);
     var kz = 2;
     if ad.x >= ad.y && ad.x >= ad.z {
@@ -77,19 +83,23 @@ fn intersect_triangle(o: vec3f, d: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, t_min
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return vec3f(MISS, 0.0, 0.0);
+        return vec3r(real(MISS), 0.0, 0.0);
     }
     let det = u + v + w;
     if det == 0.0 {
-        return vec3f(MISS, 0.0, 0.0);
+        return vec3r(real(MISS), 0.0, 0.0);
     }
     let tt = sz * (u * a[kz] + v * b[kz] + w * c[kz]);
     let inv = 1.0 / det;
     let t = tt * inv;
     if t > t_min && t < t_max {
-        return vec3f(t, v * inv, w * inv);
+        return vec3r(t, v * inv, w * inv);
     }
-    return vec3f(MISS, 0.0, 0.0);
+    return vec3r(real(MISS), 0.0, 0.0);
+}
+
+fn intersect_triangle(o: vec3f, d: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, t_min: f32, t_max: f32) -> vec3f {
+    return vec3f(intersect_triangle_r(vec3r(o), vec3r(d), vec3r(p0), vec3r(p1), vec3r(p2), real(t_min), real(t_max)));
 }
 
 // Nearest t in (t_min, t_max) where o + t d meets the open cone (no caps) from `base` (radius r0)
@@ -99,7 +109,8 @@ fn intersect_triangle(o: vec3f, d: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, t_min
 // |q_o × q_d|² (no difference of large products), both roots without cancellation, nearer
 // first, each kept only where its axial position lies on the cone. A vanishing quadratic term
 // (ray parallel to a cylinder's axis or to a cone's generating line) leaves the linear root.
-fn intersect_cone(o: vec3f, d: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32, t_min: f32, t_max: f32) -> f32 {
+// In `real` arithmetic: f32, or f64 in the f64 pipeline variant.
+fn intersect_cone_r(o: vec3r, d: vec3r, base: vec3r, r0: real, axis: vec3r, r1: real, t_min: real, t_max: real) -> real {
     let h = length(axis);
     let a = axis / h;
     let k = (r1 - r0) / h;
@@ -117,18 +128,18 @@ fn intersect_cone(o: vec3f, d: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32
     let x = cross(qo, qd);
     let disc = dot(w, w) - dot(x, x);
     if disc < 0.0 {
-        return MISS;
+        return real(MISS);
     }
-    let q = -(qb + select(-1.0, 1.0, qb >= 0.0) * sqrt(disc));
-    var lo = 0.0;
-    var hi = 0.0;
+    let q = -(qb + select(real(-1.0), real(1.0), qb >= 0.0) * sqrt(disc));
+    var lo = real(0.0);
+    var hi = real(0.0);
     if q != 0.0 {
         let ra = qc / q;
         let rb = select(ra, q / qa, qa != 0.0);
         lo = min(ra, rb);
         hi = max(ra, rb);
     } else if qa == 0.0 {
-        return MISS;
+        return real(MISS);
     }
     let s_lo = s0 + lo * da;
     if s_lo >= 0.0 && s_lo <= h && tc + lo > t_min && tc + lo < t_max {
@@ -138,7 +149,11 @@ fn intersect_cone(o: vec3f, d: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32
     if s_hi >= 0.0 && s_hi <= h && tc + hi > t_min && tc + hi < t_max {
         return tc + hi;
     }
-    return MISS;
+    return real(MISS);
+}
+
+fn intersect_cone(o: vec3f, d: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32, t_min: f32, t_max: f32) -> f32 {
+    return f32(intersect_cone_r(vec3r(o), vec3r(d), vec3r(base), real(r0), vec3r(axis), real(r1), real(t_min), real(t_max)));
 }
 
 // Unit outward normal of that cone at the surface point p: away from the axis, tilted by the

@@ -216,7 +216,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
                 }
                 let sh = prim_shell(r, f, o, l, dist, light_r);
                 if product {
-                    if sh.y >= t_cell && sh.y < t_exit {
+                    if real(sh.y) >= t_cell && real(sh.y) < t_exit {
                         s *= sh.x;
                     }
                 } else {

@@ -113,7 +113,7 @@ fn k_dda(@builtin(global_invocation_id) gid: vec3u) {
     var k = 0u;
     if dda_init(a.xyz, b.xyz, a.w, b.w, &s) {
         loop {
-            out_buf[DDA_MAX_CELLS * i + k] = vec4f(vec3f(s.cell), dda_cell_exit(&s));
+            out_buf[DDA_MAX_CELLS * i + k] = vec4f(vec3f(s.cell), f32(dda_cell_exit(&s)));
             k += 1u;
             if k == DDA_MAX_CELLS || !dda_step(&s) {
                 break;

@@ -76,6 +76,10 @@ struct SceneArgs {
     /// Radius of every light (overrides the scene; 0 is a point light, soft modes need > 0).
     #[arg(long, value_name = "R")]
     light_radius: Option<f64>,
+    /// Arithmetic of ray–primitive intersection and grid traversal: f32, or f64 (needs the
+    /// device's SHADER_F64; lavapipe has it). See docs/stability.md.
+    #[arg(long, value_name = "BITS", default_value = "f32", value_parser = ["f32", "f64"])]
+    precision: String,
 }
 
 #[derive(Args)]
@@ -210,7 +214,12 @@ fn render(args: RenderArgs) -> Result<()> {
     check_output_path(&args.out)?;
     let ctx = open_device(&args.device)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let opts = RenderOptions { count_rays: args.stats, corner_rays: args.spd_rules, ..Default::default() };
+    let opts = RenderOptions {
+        count_rays: args.stats,
+        corner_rays: args.spd_rules,
+        f64: args.scene.precision == "f64",
+        ..Default::default()
+    };
     let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
     let bar = indicatif::ProgressBar::new(h as u64);
     bar.set_style(
@@ -366,7 +375,8 @@ fn bench(args: BenchArgs) -> Result<()> {
 
     // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
     let t = Instant::now();
-    let opts = RenderOptions { uber_shader: args.uber, ..Default::default() };
+    let f64 = scene_args.precision == "f64";
+    let opts = RenderOptions { uber_shader: args.uber, f64, ..Default::default() };
     let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
     let first = renderer.render(&ctx, &mut |_, _| {});
     let first_frame = t.elapsed();
@@ -382,7 +392,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         .collect();
     let frame = median(frames);
     // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
-    let counting = Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, ..Default::default() })
+    let counting = Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, f64, ..Default::default() })
         .map_err(anyhow::Error::msg)?;
     let rays = counting.render(&ctx, &mut |_, _| {}).rays;
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
@@ -533,7 +543,7 @@ fn stability(args: StabilityArgs) -> Result<()> {
     let mut rows = Vec::new();
     for d in irt::stability::DISTANCES {
         bar.set_message(format!("{d:e}"));
-        rows.push((d, irt::stability::measure(&ctx, &scene, d).map_err(anyhow::Error::msg)?));
+        rows.push(irt::stability::measure(&ctx, &scene, d).map_err(anyhow::Error::msg)?);
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -550,7 +560,7 @@ fn stability(args: StabilityArgs) -> Result<()> {
     irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
     irt::stability::plot_svg(
         &rows,
-        &format!("f32 GPU vs f64 reference: {name}"),
+        &format!("GPU (f32, f64) vs f64 reference: {name}"),
         &args.out_dir.join("plot.svg"),
     )
     .map_err(anyhow::Error::msg)?;

@@ -1,11 +1,12 @@
-//! `irt stability`: how far the f32 GPU path drifts from the f64 reference as a scene moves away
-//! from the origin (docs/stability.md).
+//! `irt stability`: how far the GPU, in f32 and in f64, drifts from the f64 reference as a scene
+//! moves away from the origin, and what f64 costs (docs/stability.md).
 
 use crate::gpu::{GpuContext, RenderOptions, Renderer};
 use crate::metrics::{compare, ImageDiff};
 use crate::reference;
 use crate::scene::Scene;
 use glam::DVec3;
+use std::time::{Duration, Instant};
 
 /// Distances of the precision table, in units of the scene.
 pub const DISTANCES: [f64; 6] = [0.0, 1e3, 1e4, 1e5, 1e6, 1e7];
@@ -15,47 +16,80 @@ pub fn offset(distance: f64) -> DVec3 {
     DVec3::new(1.0, 0.8, -0.6).normalize() * distance
 }
 
-/// GPU against the reference for `scene` moved `distance` from where it is.
-pub fn measure(ctx: &GpuContext, scene: &Scene, distance: f64) -> Result<ImageDiff, String> {
+/// One distance of the table: the GPU in f32 and in f64 against the reference, and their frame
+/// times (median of 3 warm frames each).
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub distance: f64,
+    pub f32: ImageDiff,
+    pub f64: ImageDiff,
+    pub f32_time: Duration,
+    pub f64_time: Duration,
+}
+
+/// Measures `scene` moved `distance` from where it is.
+pub fn measure(ctx: &GpuContext, scene: &Scene, distance: f64) -> Result<Row, String> {
     let s = scene.transformed(1.0, offset(distance));
-    let gpu = Renderer::new(ctx, &s, RenderOptions::default())?.render(ctx, &mut |_, _| {}).image;
     let r = reference::render(&s);
     let reference = crate::image::Image {
         width: r.width,
         height: r.height,
         pixels: r.pixels.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
     };
-    Ok(compare(&gpu, &reference))
+    let run = |f64| -> Result<(ImageDiff, Duration), String> {
+        let renderer = Renderer::new(ctx, &s, RenderOptions { f64, ..Default::default() })?;
+        let image = renderer.render(ctx, &mut |_, _| {}).image;
+        let mut times: Vec<Duration> = (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                renderer.render(ctx, &mut |_, _| {});
+                t.elapsed()
+            })
+            .collect();
+        times.sort();
+        Ok((compare(&image, &reference), times[1]))
+    };
+    let ((f32, f32_time), (f64, f64_time)) = (run(false)?, run(true)?);
+    Ok(Row { distance, f32, f64, f32_time, f64_time })
 }
 
 /// One Markdown row per distance.
-pub fn markdown_table(rows: &[(f64, ImageDiff)]) -> String {
+pub fn markdown_table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| distance from origin | max error | p99.9 | RMSE | pixels > 2/255 | NaN/Inf |\n|---|---|---|---|---|---|\n",
+        "| distance from origin | f32 max | f32 p99.9 | f32 pixels > 2/255 | f64 max | f64 p99.9 | f64 pixels > 2/255 | f64 time / f32 time | NaN/Inf |\n|---|---|---|---|---|---|---|---|---|\n",
     );
-    for (d, diff) in rows {
+    for r in rows {
         s += &format!(
-            "| {d:e} | {:.1}/255 | {:.1}/255 | {:.5} | {:.3}% | {} |\n",
-            diff.max * 255.0,
-            diff.p999 * 255.0,
-            diff.rmse,
-            diff.bad_pixels * 100.0,
-            diff.non_finite
+            "| {:e} | {:.1}/255 | {:.1}/255 | {:.3}% | {:.1}/255 | {:.1}/255 | {:.3}% | {:.2} | {} |\n",
+            r.distance,
+            r.f32.max * 255.0,
+            r.f32.p999 * 255.0,
+            r.f32.bad_pixels * 100.0,
+            r.f64.max * 255.0,
+            r.f64.p999 * 255.0,
+            r.f64.bad_pixels * 100.0,
+            r.f64_time.as_secs_f64() / r.f32_time.as_secs_f64(),
+            r.f32.non_finite + r.f64.non_finite
         );
     }
     s
 }
 
 /// p99.9 and max error (in 1/255 steps) against distance, log–log, as SVG.
-pub fn plot_svg(rows: &[(f64, ImageDiff)], title: &str, path: &std::path::Path) -> Result<(), String> {
+pub fn plot_svg(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), String> {
     use plotters::prelude::*;
     let err = |e: &dyn std::fmt::Display| format!("plotting {}: {e}", path.display());
     // Distance 0 is drawn at 1 (log axis); errors below 0.01/255 at 0.01.
-    let pts = |f: fn(&ImageDiff) -> f64| -> Vec<(f64, f64)> {
-        rows.iter().map(|(d, diff)| (d.max(1.0), (f(diff) * 255.0).max(0.01))).collect()
+    let pts = |f: fn(&Row) -> f64| -> Vec<(f64, f64)> {
+        rows.iter().map(|r| (r.distance.max(1.0), (f(r) * 255.0).max(0.01))).collect()
     };
-    let (max, p999) = (pts(|d| d.max), pts(|d| d.p999));
-    let x_hi = rows.iter().map(|r| r.0).fold(10.0, f64::max) * 2.0;
+    let series = [
+        (pts(|r| r.f32.max), RED, "f32 max"),
+        (pts(|r| r.f32.p999), BLUE, "f32 99.9th percentile"),
+        (pts(|r| r.f64.max), MAGENTA, "f64 max"),
+        (pts(|r| r.f64.p999), CYAN, "f64 99.9th percentile"),
+    ];
+    let x_hi = rows.iter().map(|r| r.distance).fold(10.0, f64::max) * 2.0;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (800, 500)).into_drawing_area();
@@ -73,7 +107,7 @@ pub fn plot_svg(rows: &[(f64, ImageDiff)], title: &str, path: &std::path::Path) 
             .y_desc("error vs f64 reference (1/255 steps)")
             .draw()
             .map_err(|e| err(&e))?;
-        for (data, colour, label) in [(max, RED, "max"), (p999, BLUE, "99.9th percentile")] {
+        for (data, colour, label) in series {
             chart
                 .draw_series(LineSeries::new(data.clone(), colour.stroke_width(2)))
                 .map_err(|e| err(&e))?

@@ -206,3 +206,17 @@ fn dielectric_around_the_critical_angle() {
     s.camera.vfov_deg = 60.0;
     check("critical angle", s);
 }
+
+#[test]
+fn f64_pipeline_matches_the_reference() {
+    // The f64 variant (intersection and traversal in f64) on the default scene, near the origin
+    // and 1e7 away.
+    let ctx = gpu();
+    for d in [0.0, 1e7] {
+        let s = small_default().transformed(1.0, irt::stability::offset(d));
+        let opts = irt::gpu::RenderOptions { f64: true, ..Default::default() };
+        let img =
+            irt::gpu::Renderer::new(&ctx, &s, opts).expect("f64 renderer").render(&ctx, &mut |_, _| {}).image;
+        assert_matches_reference(&format!("f64 default at {d:e}"), &img, &reference_image(&s));
+    }
+}

@@ -119,8 +119,10 @@ impl GpuContext {
             CacheSetting::Dir(dir) if supported => Some(dir),
             _ => None,
         };
-        let features =
+        let mut features =
             if cache_dir.is_some() { wgpu::Features::PIPELINE_CACHE } else { wgpu::Features::empty() };
+        // f64 shaders (`--precision f64`) where the adapter has them (lavapipe does).
+        features |= adapter.features() & wgpu::Features::SHADER_F64;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("irt"),
             required_features: features,

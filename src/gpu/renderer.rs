@@ -23,6 +23,8 @@ pub struct RenderOptions {
     /// Trace eye rays through the pixel corners, a (width+1)x(height+1) grid, as SPD's testing
     /// rules ask, instead of through the centres; each pixel is the mean of its four corners.
     pub corner_rays: bool,
+    /// Intersect and traverse in f64 (the device must have SHADER_F64; docs/stability.md).
+    pub f64: bool,
 }
 
 /// How long each stage of setting up took.
@@ -75,10 +77,16 @@ impl Renderer {
         let gpu_scene = GpuScene::upload_packed(ctx, &packed, params)?;
         ctx.wait();
         let t2 = Instant::now();
+        if opts.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
+            return Err(format!(
+                "{} has no f64 shader support (SHADER_F64): use --precision f32",
+                ctx.info.name
+            ));
+        }
         let variant = if opts.uber_shader {
-            Variant { count_rays: opts.count_rays, ..Variant::FULL }
+            Variant { count_rays: opts.count_rays, f64: opts.f64, ..Variant::FULL }
         } else {
-            Variant::for_scene(scene, opts.count_rays)
+            Variant { f64: opts.f64, ..Variant::for_scene(scene, opts.count_rays) }
         };
         let out_len = rays[0] as u64 * rays[1] as u64;
         let dispatcher = Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", out_len, &[]);

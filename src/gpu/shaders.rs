@@ -38,6 +38,9 @@ pub struct Variant {
     pub shadows: u32,
     /// Material kinds compiled in: bit `layout::material_code(kind)` per kind.
     pub materials: u32,
+    /// Ray–primitive intersection and grid traversal in f64 (`real` in the shaders); needs the
+    /// device's SHADER_F64. Scene data stay f32.
+    pub f64: bool,
 }
 
 /// Every material kind.
@@ -55,6 +58,7 @@ impl Variant {
         count_rays: true,
         shadows: SHADOWS_ANY,
         materials: ALL_MATERIALS,
+        f64: false,
     };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
@@ -65,6 +69,7 @@ impl Variant {
             count_rays,
             shadows: scene.trace.shadows.kind_index(),
             materials: scene.materials.iter().fold(0, |m, mat| m | 1 << layout::material_code(&mat.kind)),
+            f64: false,
         }
     }
 
@@ -82,10 +87,12 @@ impl Variant {
                     count_rays: bits & 4 != 0,
                     shadows,
                     materials: ALL_MATERIALS,
+                    f64: false,
                 });
             }
         }
         v.extend((0..ALL_MATERIALS).map(|materials| Variant { materials, ..Variant::FULL }));
+        v.extend([false, true].map(|count_rays| Variant { f64: true, count_rays, ..Variant::FULL }));
         v
     }
 
@@ -99,6 +106,8 @@ impl Variant {
         s += &b("COUNT_RAYS", self.count_rays);
         s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);
         s += &format!("const MATERIAL_KINDS: u32 = {}u;\n", self.materials);
+        let real = if self.f64 { "f64" } else { "f32" };
+        s += &format!("alias real = {real};\nalias vec3r = vec3<{real}>;\n");
         s
     }
 }
