@@ -9,6 +9,7 @@ pub mod gpu;
 pub mod image;
 pub mod io;
 pub mod metrics;
+pub mod plot;
 pub mod reference;
 pub mod scene;
 pub mod stability;

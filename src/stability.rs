@@ -78,7 +78,6 @@ pub fn markdown_table(rows: &[Row]) -> String {
 /// p99.9 and max error (in 1/255 steps) against distance, log–log, as SVG.
 pub fn plot_svg(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), String> {
     use plotters::prelude::*;
-    let err = |e: &dyn std::fmt::Display| format!("plotting {}: {e}", path.display());
     // Distance 0 is drawn at 1 (log axis); errors below 0.01/255 at 0.01.
     let pts = |f: fn(&Row) -> f64| -> Vec<(f64, f64)> {
         rows.iter().map(|r| (r.distance.max(1.0), (f(r) * 255.0).max(0.01))).collect()
@@ -90,35 +89,20 @@ pub fn plot_svg(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(),
         (pts(|r| r.f64.p999), CYAN, "f64 99.9th percentile"),
     ];
     let x_hi = rows.iter().map(|r| r.distance).fold(10.0, f64::max) * 2.0;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (800, 500)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(20)
-            .x_label_area_size(45)
-            .y_label_area_size(60)
-            .build_cartesian_2d((0.5..x_hi).log_scale(), (0.005..300.0).log_scale())
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("distance from the origin (scene units; 0 drawn at 1)")
-            .y_desc("error vs f64 reference (1/255 steps)")
-            .draw()
-            .map_err(|e| err(&e))?;
+    let axes =
+        ("distance from the origin (scene units; 0 drawn at 1)", "error vs f64 reference (1/255 steps)");
+    crate::plot::log_log_svg(path, title, (0.5..x_hi, 0.005..300.0), axes, |chart| {
         for (data, colour, label) in series {
             chart
                 .draw_series(LineSeries::new(data.clone(), colour.stroke_width(2)))
-                .map_err(|e| err(&e))?
+                .map_err(|e| e.to_string())?
                 .label(label)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
             chart
                 .draw_series(data.iter().map(|&p| Circle::new(p, 4, colour.filled())))
-                .map_err(|e| err(&e))?;
+                .map_err(|e| e.to_string())?;
         }
-        chart.configure_series_labels().border_style(BLACK).draw().map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
-    }
-    crate::image::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
+        chart.configure_series_labels().border_style(BLACK).draw().map_err(|e| e.to_string())?;
+        Ok(())
+    })
 }

@@ -100,7 +100,6 @@ pub fn markdown_table(rows: &[Row]) -> String {
 
 /// Error (RMSE) against frame time, log–log, one labelled point per mode, as SVG.
 pub fn plot_svg(rows: &[Row], title: &str, path: &Path) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("plotting {}: {e}", path.display());
     let ms: Vec<f64> = rows.iter().map(|r| r.frame.as_secs_f64() * 1e3).collect();
     let rmse: Vec<f64> = rows.iter().map(|r| r.rmse.max(1e-6)).collect();
     let span = |v: &[f64]| {
@@ -108,36 +107,20 @@ pub fn plot_svg(rows: &[Row], title: &str, path: &Path) -> Result<(), String> {
         let hi = v.iter().copied().fold(0.0, f64::max);
         (lo / 1.5)..(hi * 1.5)
     };
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(20)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(span(&ms).log_scale(), span(&rmse).log_scale())
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("frame time (ms, log)")
-            .y_desc("RMSE vs ground truth (display space, log)")
-            .draw()
-            .map_err(|e| err(&e))?;
-        let colour = |m: &ShadowMode| match m {
-            ShadowMode::Hard => BLACK,
-            ShadowMode::Shell { .. } => RED,
-            ShadowMode::Bundle { .. } => BLUE,
-        };
+    let colour = |m: &ShadowMode| match m {
+        ShadowMode::Hard => BLACK,
+        ShadowMode::Shell { .. } => RED,
+        ShadowMode::Bundle { .. } => BLUE,
+    };
+    let axes = ("frame time (ms, log)", "RMSE vs ground truth (display space, log)");
+    crate::plot::log_log_svg(path, title, (span(&ms), span(&rmse)), axes, |chart| {
         chart
             .draw_series(rows.iter().zip(ms.iter().zip(&rmse)).map(|(r, (&x, &y))| {
                 EmptyElement::at((x, y))
                     + Circle::new((0, 0), 4, colour(&r.mode).filled())
                     + Text::new(r.mode.to_string(), (6, -12), ("sans-serif", 12))
             }))
-            .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
-    }
-    crate::image::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    })
 }
