@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
     about = "Interactive ray tracer on Vulkan compute (Parker et al., I3D 1999)",
     long_about = "irt traces scenes with WGSL compute shaders on any Vulkan device — by default \
 Mesa's lavapipe, which runs Vulkan on the CPU. Without a SCENE it draws the built-in default \
-scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
+scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt render --shadows bundle:16 --out soft.png\n  irt tradeoff --out-dir tradeoff\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
 )]
 struct Cli {
     #[command(subcommand)]
