@@ -383,14 +383,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     if first.image.non_finite() > 0 {
         bail!("the benchmark frame contains NaN/Inf values");
     }
-    let frames: Vec<Duration> = (0..args.frames.max(1))
-        .map(|_| {
-            let t = Instant::now();
-            renderer.render(&ctx, &mut |_, _| {});
-            t.elapsed()
-        })
-        .collect();
-    let frame = median(frames);
+    let frame = renderer.median_frame_time(&ctx, args.frames);
     // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
     let counting = Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, f64, ..Default::default() })
         .map_err(anyhow::Error::msg)?;

@@ -6,7 +6,7 @@ use crate::metrics::{compare, ImageDiff};
 use crate::reference;
 use crate::scene::Scene;
 use glam::DVec3;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Distances of the precision table, in units of the scene.
 pub const DISTANCES: [f64; 6] = [0.0, 1e3, 1e4, 1e5, 1e6, 1e7];
@@ -39,15 +39,7 @@ pub fn measure(ctx: &GpuContext, scene: &Scene, distance: f64) -> Result<Row, St
     let run = |f64| -> Result<(ImageDiff, Duration), String> {
         let renderer = Renderer::new(ctx, &s, RenderOptions { f64, ..Default::default() })?;
         let image = renderer.render(ctx, &mut |_, _| {}).image;
-        let mut times: Vec<Duration> = (0..3)
-            .map(|_| {
-                let t = Instant::now();
-                renderer.render(ctx, &mut |_, _| {});
-                t.elapsed()
-            })
-            .collect();
-        times.sort();
-        Ok((compare(&image, &reference), times[1]))
+        Ok((compare(&image, &reference), renderer.median_frame_time(ctx, 3)))
     };
     let ((f32, f32_time), (f64, f64_time)) = (run(false)?, run(true)?);
     Ok(Row { distance, f32, f64, f32_time, f64_time })

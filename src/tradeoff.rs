@@ -7,7 +7,7 @@ use crate::metrics::{compare, ssim};
 use crate::scene::{Combine, Falloff, Scene, ShadowMode};
 use plotters::prelude::*;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// One mode's measurements.
 #[derive(Clone, Debug)]
@@ -50,15 +50,7 @@ pub fn measure(
     s.trace.shadows = mode;
     let renderer = Renderer::new(ctx, &s, RenderOptions::default())?;
     let image = renderer.render(ctx, &mut |_, _| {}).image;
-    let mut times: Vec<Duration> = (0..frames.max(1))
-        .map(|_| {
-            let t = Instant::now();
-            renderer.render(ctx, &mut |_, _| {});
-            t.elapsed()
-        })
-        .collect();
-    times.sort();
-    let frame = times[times.len() / 2];
+    let frame = renderer.median_frame_time(ctx, frames);
     let rays = Renderer::new(ctx, &s, RenderOptions { count_rays: true, ..Default::default() })?
         .render(ctx, &mut |_, _| {})
         .rays;

@@ -279,18 +279,6 @@ fn mutate_text(rng: &mut Rng, original: &[u8]) -> Vec<u8> {
     b
 }
 
-/// Every number in a JSON document, as a JSON pointer.
-fn number_pointers(v: &Value, at: String, out: &mut Vec<String>) {
-    match v {
-        Value::Number(_) => out.push(at),
-        Value::Array(a) => {
-            a.iter().enumerate().for_each(|(i, x)| number_pointers(x, format!("{at}/{i}"), out))
-        }
-        Value::Object(o) => o.iter().for_each(|(k, x)| number_pointers(x, format!("{at}/{k}"), out)),
-        _ => {}
-    }
-}
-
 /// JSON values for a number's place: the extremes JSON can say, and wrong types.
 fn json_extreme(rng: &mut Rng, old: &Value) -> Value {
     let old = old.as_f64().unwrap_or(1.0);
@@ -321,7 +309,7 @@ const GLTF_FIELDS: &[&str] =
 /// A JSON-aware mutation of a glTF document.
 fn mutate_json(rng: &mut Rng, doc: &mut Value, dir: &Path) {
     let mut pointers = Vec::new();
-    number_pointers(doc, String::new(), &mut pointers);
+    common::number_pointers(doc, String::new(), &mut pointers);
     if pointers.is_empty() {
         return;
     }

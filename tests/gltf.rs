@@ -563,18 +563,6 @@ fn huge_texture_is_refused_from_its_header() {
 
 // ---- Mutated files never panic -------------------------------------------------------------
 
-/// Every number in a JSON document, as a JSON pointer.
-fn number_pointers(v: &Value, at: String, out: &mut Vec<String>) {
-    match v {
-        Value::Number(_) => out.push(at),
-        Value::Array(a) => {
-            a.iter().enumerate().for_each(|(i, x)| number_pointers(x, format!("{at}/{i}"), out))
-        }
-        Value::Object(o) => o.iter().for_each(|(k, x)| number_pointers(x, format!("{at}/{k}"), out)),
-        _ => {}
-    }
-}
-
 fn check_no_panic(result: Result<Scene, LoadError>) {
     match result {
         Ok(scene) => {
@@ -609,7 +597,7 @@ fn mutated_box_files_never_panic() {
     let text = std::fs::read_to_string(sample("Box.gltf")).unwrap();
     let original: Value = serde_json::from_str(&text).unwrap();
     let mut pointers = Vec::new();
-    number_pointers(&original, String::new(), &mut pointers);
+    common::number_pointers(&original, String::new(), &mut pointers);
     let bin = {
         let uri = original["buffers"][0]["uri"].as_str().unwrap();
         let payload = uri.split_once(',').unwrap().1;

@@ -114,6 +114,20 @@ impl Renderer {
 
     /// Traces every eye ray, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after
     /// each.
+    /// Median wall time of `frames` (at least 1) further renders: what the measurement commands
+    /// report. Call after a first frame, which carries lavapipe's shader compile.
+    pub fn median_frame_time(&self, ctx: &GpuContext, frames: u32) -> Duration {
+        let mut times: Vec<Duration> = (0..frames.max(1))
+            .map(|_| {
+                let t = Instant::now();
+                self.render(ctx, &mut |_, _| {});
+                t.elapsed()
+            })
+            .collect();
+        times.sort();
+        times[times.len() / 2]
+    }
+
     pub fn render(&self, ctx: &GpuContext, progress: &mut dyn FnMut(u32, u32)) -> Frame {
         self.dispatcher.reset_counts(ctx);
         let [cols, rows] = self.grid_size;

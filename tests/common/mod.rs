@@ -201,3 +201,16 @@ pub fn assert_fails_at(
     }
     e
 }
+
+/// Every number in a JSON document, as a JSON pointer (the glTF mutation tests edit them).
+pub fn number_pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+    use serde_json::Value;
+    match v {
+        Value::Number(_) => out.push(at),
+        Value::Array(a) => {
+            a.iter().enumerate().for_each(|(i, x)| number_pointers(x, format!("{at}/{i}"), out))
+        }
+        Value::Object(o) => o.iter().for_each(|(k, x)| number_pointers(x, format!("{at}/{k}"), out)),
+        _ => {}
+    }
+}
