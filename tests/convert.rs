@@ -131,7 +131,11 @@ fn material(i: usize) -> impl Strategy<Value = Material> {
         }),
     ];
     // Any characters, control characters and quotes included; the index keeps names unique.
-    (kind, "(?s).{0,6}").prop_map(move |(kind, name)| Material { name: format!("{i}{name}"), kind })
+    (kind, "(?s).{0,6}").prop_map(move |(kind, name)| Material {
+        name: format!("{i}{name}"),
+        kind,
+        texture: None,
+    })
 }
 
 fn mesh(materials: usize) -> impl Strategy<Value = Mesh> {
@@ -145,6 +149,7 @@ fn mesh(materials: usize) -> impl Strategy<Value = Mesh> {
             (Just(positions), normals, indices).prop_map(move |(positions, normals, indices)| Mesh {
                 positions,
                 normals: smooth.then_some(normals),
+                uvs: None,
                 indices,
                 material: material as u32,
             })
@@ -216,6 +221,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                     spheres,
                     meshes,
                     cones,
+                    textures: vec![],
                     trace,
                 },
             )

@@ -161,6 +161,7 @@ fn degenerate_geometry_is_skipped_not_propagated() {
     s.meshes.push(Mesh {
         positions: vec![p, p, p, p, p + DVec3::X, p + 2.0 * DVec3::X],
         normals: None,
+        uvs: None,
         indices: vec![[0, 1, 2], [3, 4, 5]],
         material: 1,
     });

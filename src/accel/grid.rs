@@ -452,15 +452,21 @@ mod tests {
             lights: vec![],
             ambient: Ambient { sky: DVec3::ONE, ground: DVec3::ZERO, up: DVec3::Y },
             background: DVec3::ZERO,
-            materials: vec![Material { name: "m".into(), kind: MaterialKind::Diffuse { color: DVec3::ONE } }],
+            materials: vec![Material {
+                name: "m".into(),
+                texture: None,
+                kind: MaterialKind::Diffuse { color: DVec3::ONE },
+            }],
             spheres,
             meshes: vec![Mesh {
                 positions: tris.iter().flatten().copied().collect(),
                 normals: None,
+                uvs: None,
                 indices: (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
                 material: 0,
             }],
             cones: vec![],
+            textures: vec![],
             trace: TraceSettings::default(),
         }
     }

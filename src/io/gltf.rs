@@ -777,6 +777,7 @@ impl<'a> Builder<'a> {
             spheres: vec![],
             cones: vec![],
             meshes,
+            textures: vec![],
             trace: TraceSettings::default(),
         })
     }
@@ -893,7 +894,7 @@ impl<'a> Builder<'a> {
         }
         let material = self.material(&p.material())?;
         self.add_texture_sample(p, material, &positions, &indices, d)?;
-        Ok(Some(Mesh { positions, normals, indices, material }))
+        Ok(Some(Mesh { positions, normals, uvs: None, indices, material }))
     }
 
     /// The scene material for a glTF material, made on first use.
@@ -918,7 +919,7 @@ impl<'a> Builder<'a> {
         }
         self.names.insert(name.clone());
         let slot = self.materials.len() as u32;
-        self.materials.push(Material { name, kind });
+        self.materials.push(Material { name, kind, texture: None });
         self.slots.insert(m.index(), slot);
         Ok(slot)
     }

@@ -6,6 +6,7 @@
 
 pub mod gltf;
 pub mod nff;
+pub mod png;
 pub mod shapes;
 pub mod toml;
 pub mod toml_write;

@@ -371,7 +371,7 @@ impl<'a> Parser<'a> {
         }
         let index = self.materials.len() as u32;
         let kind = material_kind(rgb, kd, ks, shine, t, ior);
-        self.materials.push(Material { name: format!("f{}", index + 1), kind });
+        self.materials.push(Material { name: format!("f{}", index + 1), kind, texture: None });
         self.material_index.insert(key, index);
         self.current = Some(index);
         Ok(())
@@ -451,7 +451,13 @@ impl<'a> Parser<'a> {
         let m = *self.mesh_of.entry((material, with_normals)).or_insert(next);
         if m == next {
             let normals = with_normals.then(Vec::new);
-            self.meshes.push(Mesh { positions: Vec::new(), normals, indices: Vec::new(), material });
+            self.meshes.push(Mesh {
+                positions: Vec::new(),
+                normals,
+                uvs: None,
+                indices: Vec::new(),
+                material,
+            });
         }
         let mesh = &mut self.meshes[m];
         let first = mesh.positions.len() as u32;
@@ -490,6 +496,7 @@ impl<'a> Parser<'a> {
             spheres: self.spheres,
             meshes: self.meshes,
             cones: self.cones,
+            textures: vec![],
             trace: TraceSettings::default(),
         };
         // What is left to find is about the viewpoint (an `up` along the view, `at` on `from`,

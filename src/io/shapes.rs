@@ -36,7 +36,7 @@ impl Geometry {
     }
 
     pub fn into_mesh(self, material: u32) -> Mesh {
-        Mesh { positions: self.positions, normals: self.normals, indices: self.indices, material }
+        Mesh { positions: self.positions, normals: self.normals, uvs: None, indices: self.indices, material }
     }
 }
 

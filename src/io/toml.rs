@@ -286,6 +286,7 @@ fn build(doc: &Doc, src: &str) -> Res<Scene> {
         meshes: meshes(&doc.mesh, &names)?,
         cones: cones(&doc.cone, &names)?,
         materials,
+        textures: vec![],
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
     })
 }
@@ -372,7 +373,7 @@ fn materials<'a>(docs: &'a [Spanned<MaterialDoc>], src: &str) -> Res<(Vec<Materi
             let line = line_column(src, first.start).0;
             return err(m.name.span(), format!("material '{name}' is already defined on line {line}"));
         }
-        let material = Material { name: name.clone(), kind: material_kind(m)? };
+        let material = Material { name: name.clone(), texture: None, kind: material_kind(m)? };
         // Range checks (colour in [0, 1], eta > 0) are the scene model's; report them here
         // because here we still know which table they belong to.
         material.validate().map_err(|e| located(doc.span(), e.0))?;

@@ -24,11 +24,12 @@ fn scene(eye: DVec3, look_at: DVec3, materials: Vec<MaterialKind>) -> Scene {
         materials: materials
             .into_iter()
             .enumerate()
-            .map(|(i, kind)| Material { name: format!("m{i}"), kind })
+            .map(|(i, kind)| Material { name: format!("m{i}"), kind, texture: None })
             .collect(),
         spheres: vec![],
         meshes: vec![],
         cones: vec![],
+        textures: vec![],
         trace: TraceSettings::default(),
     }
 }
@@ -39,6 +40,7 @@ fn quad(c: DVec3, a: DVec3, b: DVec3, h: f64, material: u32) -> Mesh {
     Mesh {
         positions: vec![c - h * a - h * b, c + h * a - h * b, c + h * a + h * b, c - h * a + h * b],
         normals: None,
+        uvs: None,
         indices: vec![[0, 1, 2], [0, 2, 3]],
         material,
     }
@@ -233,7 +235,7 @@ fn random_scene(rng: &mut Rng) -> Scene {
         let c = rng.vec(-4.0, 4.0).max(v(-4., 0.2, -4.));
         s.spheres.push(Sphere { center: c, radius: rng.range(0.1, 0.8), material: i % 4 });
     }
-    let mut soup = Mesh { positions: vec![], normals: Some(vec![]), indices: vec![], material: 0 };
+    let mut soup = Mesh { positions: vec![], normals: Some(vec![]), uvs: None, indices: vec![], material: 0 };
     for i in 0..60u32 {
         let c = rng.vec(-4.0, 4.0);
         for _ in 0..3 {
@@ -258,7 +260,7 @@ fn random_scene(rng: &mut Rng) -> Scene {
             material: i as u32 % 4,
         });
     }
-    let mut floor = Mesh { positions: vec![], normals: None, indices: vec![], material: 0 };
+    let mut floor = Mesh { positions: vec![], normals: None, uvs: None, indices: vec![], material: 0 };
     let n = 8u32;
     for j in 0..=n {
         for i in 0..=n {

@@ -6,10 +6,14 @@
 
 mod builtin;
 mod shadows;
+mod texture;
 
 pub use builtin::default_scene;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
+pub use texture::{
+    srgb8_to_linear, Filter, Texture, Wrap, MAX_TEXTURES, MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS,
+};
 
 /// Largest image side we accept; larger is refused before anything is allocated.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
@@ -31,6 +35,8 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     pub meshes: Vec<Mesh>,
     pub cones: Vec<Cone>,
+    /// Base-colour textures, referred to by index from materials.
+    pub textures: Vec<Texture>,
     pub trace: TraceSettings,
 }
 
@@ -96,6 +102,17 @@ pub struct Ambient {
 pub struct Material {
     pub name: String,
     pub kind: MaterialKind,
+    /// Index into `Scene::textures`: the kind's colour is multiplied by this texture at the hit's
+    /// texture coordinates (a dielectric has no colour to multiply). Primitives without
+    /// texture coordinates (spheres, cones, meshes without `uvs`) read it at (0, 0).
+    pub texture: Option<u32>,
+}
+
+impl Material {
+    /// An untextured material.
+    pub fn new(name: impl Into<String>, kind: MaterialKind) -> Self {
+        Material { name: name.into(), kind, texture: None }
+    }
 }
 
 /// The paper's four materials (PAPER.md §4). Highlights use Blinn–Phong (n̂·ĥ)^N with the
@@ -132,12 +149,14 @@ pub struct Cone {
     pub material: u32,
 }
 
-/// Indexed triangle mesh; `normals`, when present, has one unit normal per position and is
-/// interpolated across each triangle for shading.
+/// Indexed triangle mesh; `normals` and `uvs`, when present, have one element per position and
+/// are interpolated across each triangle (normals for shading, uvs for textures).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
     pub positions: Vec<DVec3>,
     pub normals: Option<Vec<DVec3>>,
+    /// Texture coordinates, one per position (see [`Texture`]).
+    pub uvs: Option<Vec<DVec2>>,
     pub indices: Vec<[u32; 3]>,
     pub material: u32,
 }
@@ -147,6 +166,7 @@ pub struct Mesh {
 pub struct Triangle {
     pub p: [DVec3; 3],
     pub n: Option<[DVec3; 3]>,
+    pub uv: Option<[DVec2; 3]>,
     pub material: u32,
 }
 
@@ -186,6 +206,7 @@ impl Scene {
             m.indices.iter().map(move |t| Triangle {
                 p: t.map(|i| m.positions[i as usize]),
                 n: m.normals.as_ref().map(|n| t.map(|i| n[i as usize])),
+                uv: m.uvs.as_ref().map(|uv| t.map(|i| uv[i as usize])),
                 material: m.material,
             })
         })
@@ -265,8 +286,16 @@ impl Scene {
             return bad("ambient.up must not be the zero vector".into());
         }
         nonneg3("background", self.background)?;
+        self.validate_textures()?;
         for m in &self.materials {
             m.validate()?;
+            if let Some(t) = m.texture.filter(|&t| t as usize >= self.textures.len()) {
+                return bad(format!(
+                    "material '{}' uses texture index {t} but only {} exist",
+                    m.name,
+                    self.textures.len()
+                ));
+            }
         }
         let nmat = self.materials.len() as u32;
         for (i, s) in self.spheres.iter().enumerate() {
@@ -295,6 +324,14 @@ impl Scene {
                 }
                 for (j, v) in n.iter().enumerate() {
                     finite3(&format!("mesh {i} normal {j}"), *v)?;
+                }
+            }
+            if let Some(uv) = &m.uvs {
+                if uv.len() != m.positions.len() {
+                    return bad(format!("mesh {i} has {} uvs for {} vertices", uv.len(), m.positions.len()));
+                }
+                if let Some(j) = uv.iter().position(|v| !v.is_finite()) {
+                    return bad(format!("mesh {i} uv {j} ({}, {}) is not finite", uv[j].x, uv[j].y));
                 }
             }
             let nv = m.positions.len() as u32;
@@ -326,6 +363,44 @@ impl Scene {
         }
         if !(t.weight_cutoff.is_finite() && (0.0..1.0).contains(&t.weight_cutoff)) {
             return bad(format!("trace.weight_cutoff {} must be in [0, 1)", t.weight_cutoff));
+        }
+        Ok(())
+    }
+}
+
+impl Scene {
+    fn validate_textures(&self) -> Result<(), InvalidScene> {
+        let bad = |msg: String| Err(InvalidScene(msg));
+        if self.textures.len() > MAX_TEXTURES {
+            return bad(format!(
+                "{} textures given; at most {MAX_TEXTURES} are supported",
+                self.textures.len()
+            ));
+        }
+        let mut total = 0u64;
+        for t in &self.textures {
+            let pixels = t.width as u64 * t.height as u64;
+            if pixels == 0 || pixels > MAX_TEXTURE_PIXELS {
+                return bad(format!(
+                    "texture '{}' is {}x{} texels; textures must have 1 to {MAX_TEXTURE_PIXELS}",
+                    t.name, t.width, t.height
+                ));
+            }
+            if t.texels.len() as u64 != pixels {
+                return bad(format!(
+                    "texture '{}' has {} texels for {}x{}",
+                    t.name,
+                    t.texels.len(),
+                    t.width,
+                    t.height
+                ));
+            }
+            total += pixels;
+        }
+        if total > MAX_TOTAL_TEXTURE_PIXELS {
+            return bad(format!(
+                "the textures have {total} texels together; at most {MAX_TOTAL_TEXTURE_PIXELS} are supported"
+            ));
         }
         Ok(())
     }

@@ -58,7 +58,7 @@ pub fn gpu() -> irt::gpu::GpuContext {
 }
 
 pub fn material(name: &str, kind: MaterialKind) -> Material {
-    Material { name: name.into(), kind }
+    Material { name: name.into(), kind, texture: None }
 }
 
 /// A scene of the given spheres and triangles (one diffuse material), camera looking at them.
@@ -73,7 +73,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
     let meshes = if triangles.is_empty() {
         vec![]
     } else {
-        vec![Mesh { positions, normals: None, indices, material: 0 }]
+        vec![Mesh { positions, normals: None, uvs: None, indices, material: 0 }]
     };
     Scene {
         camera: Camera {
@@ -91,6 +91,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
         spheres,
         meshes,
         cones: vec![],
+        textures: vec![],
         trace: TraceSettings::default(),
     }
 }

@@ -1,0 +1,57 @@
+//! Texture images: PNG in (glTF images, TOML `[[texture]]` files) and out (`irt convert`).
+
+use crate::scene::MAX_TEXTURE_PIXELS;
+
+/// A decoded image: width, height, sRGB-encoded RGBA texels (row 0 at the top).
+pub type Rgba8 = (u32, u32, Vec<[u8; 4]>);
+
+/// Why an image cannot be used.
+#[derive(Debug)]
+pub enum Unusable {
+    /// Bad input: an error.
+    Refused(String),
+    /// Not a PNG: glTF may use JPEG, which irt does not decode (a warning there).
+    NotPng(String),
+}
+
+/// Decodes a PNG after checking its size in the header (the first chunk, IHDR, PNG §11.2.2),
+/// so a huge declared image is refused before anything is allocated. `what` names the image in
+/// messages.
+pub fn decode(bytes: &[u8], what: &str) -> Result<Rgba8, Unusable> {
+    use image::{ImageFormat, ImageReader, Limits};
+    use std::io::Cursor;
+    if !bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        return Err(Unusable::NotPng(format!("{what} is not a PNG; irt decodes PNG textures only")));
+    }
+    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes(b.try_into().unwrap()));
+    let (Some(w), Some(h), Some(b"IHDR")) = (word(16), word(20), bytes.get(12..16)) else {
+        return Err(Unusable::Refused(format!("{what}: the PNG does not start with its IHDR header")));
+    };
+    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
+        return Err(Unusable::Refused(format!(
+            "{what} is {w}x{h} pixels; irt reads textures of 1 to {MAX_TEXTURE_PIXELS} pixels"
+        )));
+    }
+    let mut reader = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png);
+    let mut limits = Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    limits.max_alloc = Some(MAX_TEXTURE_PIXELS * 16);
+    reader.limits(limits);
+    let image =
+        reader.decode().map_err(|e| Unusable::Refused(format!("{what}: cannot decode the PNG: {e}")))?;
+    // 16-bit and grey images are brought to 8-bit RGBA the way the image crate does (no
+    // dithering): what irt samples is 8-bit sRGB.
+    let texels = image.to_rgba8().into_raw().chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
+    Ok((w, h, texels))
+}
+
+/// Encodes RGBA texels as a PNG (lossless: decoding gives the same texels back).
+pub fn encode(width: u32, height: u32, texels: &[[u8; 4]]) -> Result<Vec<u8>, String> {
+    use image::{ExtendedColorType, ImageEncoder};
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(texels.as_flattened(), width, height, ExtendedColorType::Rgba8)
+        .map_err(|e| format!("cannot encode a {width}x{height} PNG: {e}"))?;
+    Ok(out)
+}
