@@ -11,7 +11,7 @@ echo "Machine: ${cpu}, $(nproc) cores; $(date -u +%Y-%m-%d); command: \`scripts/
 echo
 echo "| scene | size | primitives | grid build ms | first frame ms (cold) | frame ms | Mrays/s | device |"
 echo "|---|---|---|---|---|---|---|---|"
-for s in "" scenes/spd/balls_s2.nff scenes/spd/gears_s1.nff scenes/spd/jacks_s2.nff; do
+for s in "" scenes/spd/balls_s2.nff scenes/spd/gears_s1.nff scenes/spd/jacks_s2.nff tests/data/scenes/gltf/Duck.glb; do
     for uber in "" --uber; do
         # shellcheck disable=SC2086
         $irt bench $s --cold --markdown $uber 2>/dev/null

@@ -37,6 +37,7 @@ struct Triangle {
     p2: vec3f,
     material: u32,
     normals: u32,
+    uvs: u32,
 }
 
 fn load_triangle(i: u32) -> Triangle {
@@ -44,7 +45,7 @@ fn load_triangle(i: u32) -> Triangle {
     let a = texel(base);
     let b = texel(base + 1u);
     let c = texel(base + 2u);
-    return Triangle(bitcast<vec3f>(a.xyz), bitcast<vec3f>(b.xyz), bitcast<vec3f>(c.xyz), a.w, b.w);
+    return Triangle(bitcast<vec3f>(a.xyz), bitcast<vec3f>(b.xyz), bitcast<vec3f>(c.xyz), a.w, b.w, c.w);
 }
 
 // Interpolated vertex normal of normal record `rec` at barycentrics (b1, b2).
@@ -56,18 +57,27 @@ fn vertex_normal(rec: u32, b1: f32, b2: f32) -> vec3f {
     return (1.0 - b1 - b2) * n0 + b1 * n1 + b2 * n2;
 }
 
+// Interpolated texture coordinates of uv record `rec` at barycentrics (b1, b2).
+fn vertex_uv(rec: u32, b1: f32, b2: f32) -> vec2f {
+    let base = params.aux_base.y + rec * UV_TEXELS;
+    let a = ftexel(base);
+    let b = ftexel(base + 1u);
+    return (1.0 - b1 - b2) * a.xy + b1 * a.zw + b2 * b.xy;
+}
+
 struct Material {
     color: vec3f,
     kind: u32,
     eta: f32,
     exponent: f32,
+    texture: u32,
 }
 
 fn load_material(m: u32) -> Material {
     let base = params.prim_base.w + m * MATERIAL_TEXELS;
     let a = texel(base);
-    let b = ftexel(base + 1u);
-    return Material(bitcast<vec3f>(a.xyz), a.w, b.x, b.y);
+    let b = texel(base + 1u);
+    return Material(bitcast<vec3f>(a.xyz), a.w, bitcast<f32>(b.x), bitcast<f32>(b.y), b.z);
 }
 
 // Cone `i`: from `base` (radius r0) to `base + axis` (radius r1).
@@ -79,14 +89,14 @@ struct Cone {
 }
 
 fn load_cone(i: u32) -> Cone {
-    let base = params.cone_base.x + i * CONE_TEXELS;
+    let base = params.aux_base.x + i * CONE_TEXELS;
     let a = ftexel(base);
     let b = ftexel(base + 1u);
     return Cone(a.xyz, a.w, b.xyz, b.w);
 }
 
 fn cone_material(i: u32) -> u32 {
-    return texel(params.cone_base.x + i * CONE_TEXELS + 2u).x;
+    return texel(params.aux_base.x + i * CONE_TEXELS + 2u).x;
 }
 
 // (start, count) of grid cell `c`'s primitive references.

@@ -88,7 +88,7 @@ fn k_shade(@builtin(global_invocation_id) gid: vec3u) {
     let b = 7u * i;
     let a = test_in[b];
     let p = test_in[b + 1u];
-    let m = Material(a.xyz, u32(a.w), p.x, p.y);
+    let m = Material(a.xyz, u32(a.w), p.x, p.y, NO_TEXTURE);
     let inside = p.z != 0.0;
     let n = test_in[b + 2u].xyz;
     let e = test_in[b + 3u].xyz;
@@ -199,4 +199,28 @@ fn k_cone_shell(@builtin(global_invocation_id) gid: vec3u) {
     let e = test_in[5u * i + 3u];
     let f = u32(test_in[5u * i + 4u].x);
     out_buf[i] = vec4f(cone_shell(f, o.xyz, l.xyz, o.w, l.w, c.xyz, c.w, e.xyz, e.w), 0.0, 0.0);
+}
+
+// in: (u, v, texture, _) -> (rgb, 0) of sample_texture
+@compute @workgroup_size(8, 8, 1)
+fn k_texture(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let a = test_in[i];
+    out_buf[i] = vec4f(sample_texture(u32(a.z), a.xy), 0.0);
+}
+
+// in: o, d -> (1 if hit, uv, 0) of surface_at: texture coordinates interpolated at a hit
+@compute @workgroup_size(8, 8, 1)
+fn k_surface_uv(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let o = test_in[2u * i].xyz;
+    let d = test_in[2u * i + 1u].xyz;
+    let h = trace_closest(o, d, 0.0, BIG);
+    if h.prim == NO_HIT {
+        out_buf[i] = vec4f(0.0);
+        return;
+    }
+    out_buf[i] = vec4f(1.0, surface_at(h, o, d).uv, 0.0);
 }

@@ -18,6 +18,8 @@ struct Surface {
     inside: bool,
     // Magnitude of the numbers p was computed from; its rounding error is relative to this.
     scale: f32,
+    // Texture coordinates ((0, 0) where the primitive has none).
+    uv: vec2f,
 }
 
 fn vmax(v: vec3f) -> f32 {
@@ -48,6 +50,7 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
     var ng: vec3f;
     var n: vec3f;
     var material: u32;
+    var uv = vec2f(0.0);
     if HAS_SPHERES && prim_kind(h.prim) == PRIM_SPHERE {
         let s = load_sphere(i);
         ng = unit_or(p - s.xyz, -d);
@@ -86,6 +89,9 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
             }
         }
         material = tri.material;
+        if HAS_TEXTURES && tri.uvs != NO_UVS {
+            uv = vertex_uv(tri.uvs, h.b1, h.b2);
+        }
     }
     let inside = dot(ng, d) > 0.0;
     if inside {
@@ -95,7 +101,7 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
     if dot(n, ng) < 0.0 {
         n = ng;
     }
-    return Surface(p, ng, n, material, inside, scale);
+    return Surface(p, ng, n, material, inside, scale, uv);
 }
 
 // `p` moved off the surface to the side `dir` leaves on (docs/shading.md, "Ray origins").
@@ -163,7 +169,10 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
             }
         } else {
             let sf = surface_at(h, ray.o, ray.d);
-            let m = load_material(sf.material);
+            var m = load_material(sf.material);
+            if HAS_TEXTURES && m.texture != NO_TEXTURE {
+                m.color *= sample_texture(m.texture, sf.uv);
+            }
             let e = -ray.d;
             total += ray.w * shade_local(sf, m, e);
             if ray.depth < max_depth {

@@ -21,7 +21,7 @@ struct Params {
     grid_res: vec4u,
     macro_res: vec4u,
     prim_base: vec4u,
-    cone_base: vec4u,
+    aux_base: vec4u,
     grid_base: vec4u,
     image: vec4u,
     eye_grid: vec4u,

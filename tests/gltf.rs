@@ -3,10 +3,10 @@
 //! the JSON object and what was expected; mutated files never panic.
 mod common;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use image::ImageEncoder;
 use irt::io::{gltf::parse, load, LoadError};
-use irt::scene::{MaterialKind, Scene};
+use irt::scene::{Filter, MaterialKind, Scene, Wrap};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
@@ -88,17 +88,25 @@ fn the_duck_is_the_same_scene_as_gltf_and_as_glb() {
 }
 
 #[test]
-fn the_duck_uses_its_camera_and_its_texture_colour() {
+fn the_duck_uses_its_camera_and_its_texture() {
     let s = load_sample("Duck.glb");
     // cameras[0]: yfov 0.6605925559997559 rad, aspectRatio 1.5 → 640 wide.
     assert!((s.camera.vfov_deg - 0.6605925559997559f64.to_degrees()).abs() < 1e-12);
     assert_eq!((s.camera.width, s.camera.height), (640, 427));
     // The node at (400.113, 463.264, -431.078) under the root's 0.01 scale.
     assert!((s.camera.eye - DVec3::new(4.00113, 4.63264, -4.31078)).length() < 1e-5, "{}", s.camera.eye);
-    // metallicFactor 0, no roughness (1): diffuse, coloured by the mostly yellow texture.
-    let MaterialKind::Diffuse { color } = s.materials[0].kind else { panic!("{:?}", s.materials[0]) };
-    assert!(color.x > 0.5 && color.y > 0.3 && color.z < 0.1, "yellow: {color}");
+    // metallicFactor 0, no roughness (1): diffuse, white factor times the texture.
+    assert_eq!(s.materials[0].kind, MaterialKind::Diffuse { color: DVec3::ONE });
     assert_eq!(s.materials[0].name, "blinn3-fx");
+    assert_eq!(s.materials[0].texture, Some(0));
+    let t = &s.textures[0];
+    assert_eq!((t.width, t.height, t.texels.len()), (512, 512, 512 * 512));
+    assert_eq!((t.wrap, t.filter), ([Wrap::Repeat; 2], Filter::Linear), "the default sampler");
+    // Its mean colour, read where the surface reads it, is the duck's yellow.
+    let uvs = s.meshes[0].uvs.as_ref().expect("TEXCOORD_0");
+    assert_eq!(uvs.len(), s.meshes[0].positions.len());
+    let mean = uvs.iter().map(|&uv| irt::reference::sample_texture(t, uv)).sum::<DVec3>() / uvs.len() as f64;
+    assert!(mean.x > 0.5 && mean.y > 0.3 && mean.z < 0.1, "yellow: {mean}");
 }
 
 #[test]
@@ -145,6 +153,13 @@ fn golden_box() {
 #[test]
 fn golden_duck() {
     golden("Duck.glb");
+}
+
+#[test]
+fn golden_box_textured() {
+    let s = load_sample("BoxTextured.gltf");
+    assert!(s.materials[0].texture.is_some() && s.meshes[0].uvs.is_some(), "sampled, not averaged");
+    golden("BoxTextured.gltf");
 }
 
 // ---- A small valid file to break -----------------------------------------------------------
@@ -471,19 +486,22 @@ fn without_a_scene_every_root_node_is_shown_and_orthographic_cameras_are_replace
 }
 
 #[test]
-fn base_colour_textures_are_averaged_where_the_surface_uses_them() {
-    // A 2x1 PNG, red | blue; the triangle's texture coordinates all lie in the red half.
+fn base_colour_textures_keep_their_texels_sampler_and_coordinates() {
+    // A 2x1 PNG, red | blue.
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(&[255, 0, 0, 0, 0, 255], 2, 1, image::ExtendedColorType::Rgb8)
         .unwrap();
-    let uv: Vec<u8> = [0.1f32, 0.2, 0.4, 0.2, 0.1, 0.9].iter().flat_map(|x| x.to_le_bytes()).collect();
+    let uvs = [0.1f32, 0.2, 0.4, 0.2, -0.1, 1.9];
+    let uv_bytes: Vec<u8> = uvs.iter().flat_map(|x| x.to_le_bytes()).collect();
     let mut bin = triangle_bin(POSITIONS, [0, 1, 2]);
-    bin.extend(&uv);
+    bin.extend(&uv_bytes);
     let doc = with(triangle(), |d| {
         d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
-        d["textures"] = json!([{ "source": 0 }]);
-        d["images"] = json!([{ "uri": format!("data:image/png;base64,{}", base64(&png)) }]);
+        // CLAMP_TO_EDGE along u, MIRRORED_REPEAT along v, NEAREST magnification.
+        d["samplers"] = json!([{ "wrapS": 33071, "wrapT": 33648, "magFilter": 9728 }]);
+        d["textures"] = json!([{ "source": 0, "sampler": 0 }]);
+        d["images"] = json!([{ "uri": format!("data:image/png;base64,{}", base64(&png)), "name": "rb" }]);
         d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(2);
         d["accessors"]
             .as_array_mut()
@@ -496,17 +514,29 @@ fn base_colour_textures_are_averaged_where_the_surface_uses_them() {
         d["buffers"][0] = json!({ "byteLength": 68, "uri": data_uri(&bin) });
     });
     let s = load_json("textured.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(
-        s.materials[0].kind,
-        MaterialKind::Diffuse { color: DVec3::new(0.5, 0.0, 0.0) },
-        "factor 0.5 × red"
-    );
-    // Without texture coordinates, the whole image's mean: half red, half blue.
+    assert_eq!(s.materials[0].kind, MaterialKind::Diffuse { color: DVec3::splat(0.5) }, "the factor");
+    assert_eq!(s.materials[0].texture, Some(0));
+    let t = &s.textures[0];
+    assert_eq!((t.name.as_str(), t.width, t.height), ("rb", 2, 1));
+    assert_eq!(t.texels, vec![[255, 0, 0, 255], [0, 0, 255, 255]]);
+    assert_eq!((t.wrap, t.filter), ([Wrap::Clamp, Wrap::Mirror], Filter::Nearest));
+    let want: Vec<DVec2> = uvs.chunks(2).map(|c| DVec2::new(c[0] as f64, c[1] as f64)).collect();
+    assert_eq!(s.meshes[0].uvs.as_ref(), Some(&want));
+    // Without texture coordinates the texture stays; the surface reads it at (0, 0).
     let doc = with(doc, |d| {
         d["meshes"][0]["primitives"][0]["attributes"].as_object_mut().unwrap().remove("TEXCOORD_0");
     });
-    let s = load_json("untextured.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(s.materials[0].kind, MaterialKind::Diffuse { color: DVec3::new(0.25, 0.0, 0.25) });
+    let s = load_json("no_uvs.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((s.materials[0].texture, s.meshes[0].uvs.as_ref()), (Some(0), None));
+    // A dielectric has no colour to texture.
+    let doc = with(doc, |d| {
+        d["extensionsUsed"] = json!(["KHR_materials_transmission"]);
+        d["materials"][0]["extensions"] =
+            json!({ "KHR_materials_transmission": { "transmissionFactor": 1.0 } });
+    });
+    let s = load_json("glass.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
+    assert!(matches!(s.materials[0].kind, MaterialKind::Dielectric { .. }));
+    assert_eq!((s.materials[0].texture, s.textures.len()), (None, 0));
 }
 
 #[test]

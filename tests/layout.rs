@@ -43,7 +43,7 @@ fn rust_structs_match_wgsl() {
         "Params",
         rust_layout!(Params; eye, cam_u, cam_v, cam_w, ambient_sky, ambient_ground, ambient_up,
             background, grid_min, grid_max, grid_cell, grid_inv_cell, grid_res, macro_res,
-            prim_base, cone_base, grid_base, image, eye_grid, trace, shadow, lights),
+            prim_base, aux_base, grid_base, image, eye_grid, trace, shadow, lights),
     );
 }
 

@@ -22,6 +22,8 @@ fn specialised_pipelines_draw_what_the_uber_pipeline_draws() {
         ("gears (triangles only)", load("scenes/spd/gears_s1.nff", 96)),
         ("jacks (spheres and cylinders)", load("scenes/spd/jacks_s2.nff", 96)),
         ("mesh.toml (meshes, vertex normals)", load("scenes/mesh.toml", 96)),
+        ("Duck.glb (textured triangles)", load("tests/data/scenes/gltf/Duck.glb", 96)),
+        ("BoxTextured.gltf (textured triangles)", load("tests/data/scenes/gltf/BoxTextured.gltf", 96)),
     ];
     for mode in ["bundle:16", "shell"] {
         let mut s = load("scenes/cones.toml", 96);
@@ -36,6 +38,8 @@ fn specialised_pipelines_draw_what_the_uber_pipeline_draws() {
             (r.variant, r.render(&ctx, &mut |_, _| {}).image)
         };
         let ((spec_variant, spec), (uber_variant, uber)) = (render(false), render(true));
+        // Texture code is compiled in exactly when a material has a texture.
+        assert_eq!(spec_variant.textures, scene.materials.iter().any(|m| m.texture.is_some()), "{name}");
         assert_ne!(spec_variant, uber_variant, "{name}: the scene needs everything?");
         // Same equations on the same inputs; only dead code differs, so the images agree to the
         // last bits (LLVM may still schedule a few operations differently: 1e-6 relative).

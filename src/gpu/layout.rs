@@ -7,7 +7,7 @@
 //! stored as their bits and `bitcast` back in the shader.
 
 use crate::accel::{Grid, PrimKind, PrimRef};
-use crate::scene::{bundle_samples, MaterialKind, Scene, ShadowMode, MAX_LIGHTS};
+use crate::scene::{bundle_samples, Filter, MaterialKind, Scene, ShadowMode, Wrap, MAX_LIGHTS};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
@@ -22,12 +22,36 @@ pub const TRIANGLE_TEXELS: u32 = 3;
 pub const NORMAL_TEXELS: u32 = 3;
 pub const MATERIAL_TEXELS: u32 = 2;
 pub const CONE_TEXELS: u32 = 3;
+pub const UV_TEXELS: u32 = 2;
+/// Texture records: one texel each. Texture pixels: four RGBA8 pixels (one u32 each) per texel.
+pub const TEXTURE_TEXELS: u32 = 1;
+pub const PIXELS_PER_TEXEL: u32 = 4;
 /// Cells per texel: (start, count) pairs.
 pub const CELLS_PER_TEXEL: u32 = 2;
 pub const REFS_PER_TEXEL: u32 = 4;
 pub const MACRO_BITS_PER_TEXEL: u32 = 128;
 /// Marks a triangle without vertex normals.
 pub const NO_NORMALS: u32 = u32::MAX;
+/// Marks a triangle without texture coordinates.
+pub const NO_UVS: u32 = u32::MAX;
+/// Marks an untextured material.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+/// Wrap and filter codes as stored in a texture record.
+pub fn wrap_code(w: Wrap) -> u32 {
+    match w {
+        Wrap::Repeat => 0,
+        Wrap::Clamp => 1,
+        Wrap::Mirror => 2,
+    }
+}
+
+pub fn filter_code(f: Filter) -> u32 {
+    match f {
+        Filter::Nearest => 0,
+        Filter::Linear => 1,
+    }
+}
 
 /// Material kind codes as stored in the material record.
 pub fn material_code(kind: &MaterialKind) -> u32 {
@@ -71,8 +95,9 @@ pub struct Params {
     pub macro_res: [u32; 4],
     /// First texel of the sphere, triangle, vertex-normal and material records.
     pub prim_base: [u32; 4],
-    /// First texel of the cone records; yzw unused.
-    pub cone_base: [u32; 4],
+    /// First texel of the cone records, texture-coordinate records, texture records and texture
+    /// pixels.
+    pub aux_base: [u32; 4],
     /// First texel of the cell ranges, primitive references, macro-cell bits and shadow-bundle
     /// points.
     pub grid_base: [u32; 4],
@@ -134,7 +159,7 @@ fn f4(v: DVec3, w: u32) -> [u32; 4] {
 pub struct PackedScene {
     pub texels: Vec<[u32; 4]>,
     pub prim_base: [u32; 4],
-    pub cone_base: u32,
+    pub aux_base: [u32; 4],
     pub grid_base: [u32; 4],
 }
 
@@ -155,12 +180,17 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 /// Lays out, in order: spheres, triangles, vertex normals, materials, cones, cell ranges,
 /// references, macro-cell bits. Record formats (the shader's `scene.wgsl` decodes the same):
 /// - sphere: `[c.xyz, r]`, `[material, anchor.xyz]` (`sphere_anchor`)
-/// - triangle: `[p0.xyz, material]`, `[p1.xyz, normal_record or NO_NORMALS]`, `[p2.xyz, 0]`
+/// - triangle: `[p0.xyz, material]`, `[p1.xyz, normal_record or NO_NORMALS]`,
+///   `[p2.xyz, uv_record or NO_UVS]`
 /// - vertex normals: `[n0.xyz, 0]`, `[n1.xyz, 0]`, `[n2.xyz, 0]`
-/// - material: `[colour.rgb, kind]`, `[eta, exponent, 0, 0]`
+/// - material: `[colour.rgb, kind]`, `[eta, exponent, texture or NO_TEXTURE, 0]`
 /// - cone: `[base.xyz, base_radius]`, `[axis.xyz, apex_radius]`, `[material, 0, 0, 0]`, where
 ///   `axis = apex - base` is formed in f64: rounding it, rather than the apex, keeps a short
 ///   cone's axis accurate far from the origin.
+/// - texture coordinates: `[u0, v0, u1, v1]`, `[u2, v2, 0, 0]`
+/// - texture: `[first pixel, width, height, wrap_u | wrap_v << 2 | filter << 4]` (`wrap_code`,
+///   `filter_code`); pixels: the RGBA8 texels of every texture as u32 (r in the low byte,
+///   `unpack4x8unorm`'s order), four per texel, each texture starting at its first pixel.
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
 pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
@@ -173,6 +203,7 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     }
     let triangle_base = t.len() as u32;
     let mut normals: Vec<[u32; 4]> = Vec::new();
+    let mut uvs: Vec<[u32; 4]> = Vec::new();
     for tri in scene.triangles() {
         let normal_record = match tri.n {
             Some(n) => {
@@ -184,7 +215,17 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         };
         t.push(f4(tri.p[0] - origin, tri.material));
         t.push(f4(tri.p[1] - origin, normal_record));
-        t.push(f4(tri.p[2] - origin, 0));
+        let uv_record = match tri.uv {
+            Some(uv) => {
+                let rec = (uvs.len() as u32) / UV_TEXELS;
+                let b = uv.map(|v| [(v.x as f32).to_bits(), (v.y as f32).to_bits()]);
+                uvs.push([b[0][0], b[0][1], b[1][0], b[1][1]]);
+                uvs.push([b[2][0], b[2][1], 0, 0]);
+                rec
+            }
+            None => NO_UVS,
+        };
+        t.push(f4(tri.p[2] - origin, uv_record));
     }
     let normal_base = t.len() as u32;
     t.extend(normals);
@@ -198,13 +239,31 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
             MaterialKind::Polished { color, eta, exponent } => (color, eta, exponent),
         };
         t.push(f4(colour, code));
-        t.push([(eta as f32).to_bits(), (exponent as f32).to_bits(), 0, 0]);
+        let texture = m.texture.unwrap_or(NO_TEXTURE);
+        t.push([(eta as f32).to_bits(), (exponent as f32).to_bits(), texture, 0]);
     }
     let cone_base = t.len() as u32;
     for c in &scene.cones {
         t.push(f4(c.base - origin, (c.base_radius as f32).to_bits()));
         t.push(f4(c.apex - c.base, (c.apex_radius as f32).to_bits()));
         t.push([c.material, 0, 0, 0]);
+    }
+    let uv_base = t.len() as u32;
+    t.extend(uvs);
+    let texture_base = t.len() as u32;
+    let mut first = 0u32;
+    for tex in &scene.textures {
+        let flags = wrap_code(tex.wrap[0]) | wrap_code(tex.wrap[1]) << 2 | filter_code(tex.filter) << 4;
+        t.push([first, tex.width, tex.height, flags]);
+        first += tex.texels.len() as u32;
+    }
+    let pixel_base = t.len() as u32;
+    let pixels: Vec<u32> =
+        scene.textures.iter().flat_map(|tex| tex.texels.iter().map(|&p| u32::from_le_bytes(p))).collect();
+    for chunk in pixels.chunks(PIXELS_PER_TEXEL as usize) {
+        let mut texel = [0u32; 4];
+        texel[..chunk.len()].copy_from_slice(chunk);
+        t.push(texel);
     }
     let cell_base = t.len() as u32;
     let cells = grid.cell_start.len() - 1;
@@ -241,7 +300,7 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     PackedScene {
         texels: t,
         prim_base: [sphere_base, triangle_base, normal_base, material_base],
-        cone_base,
+        aux_base: [cone_base, uv_base, texture_base, pixel_base],
         grid_base: [cell_base, ref_base, macro_base, bundle_base],
     }
 }
@@ -273,7 +332,7 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -
         grid_res: [res[0], res[1], res[2], grid.macro_factor],
         macro_res: [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], 0],
         prim_base: packed.prim_base,
-        cone_base: [packed.cone_base, 0, 0, 0],
+        aux_base: packed.aux_base,
         grid_base: packed.grid_base,
         image: [cam.width, cam.height, scene.trace.max_depth, scene.lights.len() as u32],
         eye_grid: eye_grid(cam.width, cam.height, false),
@@ -306,6 +365,17 @@ pub fn wgsl_constants() -> String {
     s += &c("MATERIAL_TEXELS", MATERIAL_TEXELS);
     s += &c("CONE_TEXELS", CONE_TEXELS);
     s += &c("NO_NORMALS", NO_NORMALS);
+    s += &c("UV_TEXELS", UV_TEXELS);
+    s += &c("TEXTURE_TEXELS", TEXTURE_TEXELS);
+    s += &c("PIXELS_PER_TEXEL", PIXELS_PER_TEXEL);
+    s += &c("NO_UVS", NO_UVS);
+    s += &c("NO_TEXTURE", NO_TEXTURE);
+    for w in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
+        s += &c(&format!("WRAP_{}", w.name().to_uppercase()), wrap_code(w));
+    }
+    for f in [Filter::Nearest, Filter::Linear] {
+        s += &c(&format!("FILTER_{}", f.name().to_uppercase()), filter_code(f));
+    }
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
     s += &c("PRIM_INDEX_BITS", PrimRef::INDEX_BITS);

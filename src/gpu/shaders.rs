@@ -4,9 +4,10 @@
 use super::layout;
 
 /// Shared modules, in dependency order.
-const MODULES: [(&str, &str); 6] = [
+const MODULES: [(&str, &str); 7] = [
     ("types.wgsl", include_str!("../../shaders/types.wgsl")),
     ("scene.wgsl", include_str!("../../shaders/scene.wgsl")),
+    ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
     ("intersect.wgsl", include_str!("../../shaders/intersect.wgsl")),
     ("grid.wgsl", include_str!("../../shaders/grid.wgsl")),
     ("shading.wgsl", include_str!("../../shaders/shading.wgsl")),
@@ -41,6 +42,8 @@ pub struct Variant {
     /// Ray–primitive intersection and grid traversal in f64 (`real` in the shaders); needs the
     /// device's SHADER_F64. Scene data stay f32.
     pub f64: bool,
+    /// Base-colour textures: texture coordinates at hits and texture sampling.
+    pub textures: bool,
 }
 
 /// Every material kind.
@@ -59,6 +62,7 @@ impl Variant {
         shadows: SHADOWS_ANY,
         materials: ALL_MATERIALS,
         f64: false,
+        textures: true,
     };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
@@ -70,6 +74,7 @@ impl Variant {
             shadows: scene.trace.shadows.kind_index(),
             materials: scene.materials.iter().fold(0, |m, mat| m | 1 << layout::material_code(&mat.kind)),
             f64: false,
+            textures: scene.materials.iter().any(|m| m.texture.is_some()),
         }
     }
 
@@ -88,11 +93,13 @@ impl Variant {
                     shadows,
                     materials: ALL_MATERIALS,
                     f64: false,
+                    textures: bits & 2 != 0,
                 });
             }
         }
         v.extend((0..ALL_MATERIALS).map(|materials| Variant { materials, ..Variant::FULL }));
         v.extend([false, true].map(|count_rays| Variant { f64: true, count_rays, ..Variant::FULL }));
+        v.push(Variant { textures: false, ..Variant::FULL });
         v
     }
 
@@ -104,6 +111,7 @@ impl Variant {
         s += &b("HAS_TRIANGLES", self.triangles);
         s += &b("HAS_CONES", self.cones);
         s += &b("COUNT_RAYS", self.count_rays);
+        s += &b("HAS_TEXTURES", self.textures);
         s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);
         s += &format!("const MATERIAL_KINDS: u32 = {}u;\n", self.materials);
         let real = if self.f64 { "f64" } else { "f32" };

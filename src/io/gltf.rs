@@ -6,17 +6,21 @@
 //! count, offset and size is checked against its buffer before anything is allocated, and every
 //! problem names the JSON object it comes from (`accessors[3]`, `meshes[0].primitives[1]`).
 
+use super::png::{self, Unusable};
 use super::toml::{DEFAULT_FOV_DEG, DEFAULT_HEIGHT, DEFAULT_WIDTH};
 use super::{read_limited, LoadError, MAX_MATERIALS, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
-use crate::scene::{Ambient, Camera, Light, Material, MaterialKind, Mesh, Scene, TraceSettings, MAX_LIGHTS};
+use crate::scene::{
+    Ambient, Camera, Filter, Light, Material, MaterialKind, Mesh, Scene, Texture, TraceSettings, Wrap,
+    MAX_LIGHTS, MAX_TEXTURES,
+};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::json;
 use ::gltf::khr_lights_punctual::Kind as LightKind;
 use ::gltf::mesh::Mode;
 use ::gltf::scene::Transform;
-use ::gltf::texture::WrappingMode;
+use ::gltf::texture::{MagFilter, WrappingMode};
 use ::gltf::{Accessor, Document, Semantic};
-use glam::{DMat3, DMat4, DQuat, DVec3};
+use glam::{DMat3, DMat4, DQuat, DVec2, DVec3};
 use std::borrow::Cow;
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
@@ -27,9 +31,6 @@ pub const SUPPORTED_EXTENSIONS: &[&str] =
     &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_clearcoat"];
 /// All buffers of one file together; external buffer files are limited like scene files.
 pub const MAX_BUFFER_BYTES: u64 = MAX_SCENE_FILE_BYTES;
-/// Textures are decoded only to average their colour (docs/gltf.md): 4096² is plenty for that
-/// and costs 48 MiB decoded; larger images are refused before decoding.
-pub const MAX_TEXTURE_PIXELS: u64 = 1 << 24;
 /// A metal rougher than this reflects a blur that looks matte, not the paper's mirror, so it
 /// becomes diffuse in its base colour.
 pub const METAL_MAX_ROUGHNESS: f64 = 0.5;
@@ -644,59 +645,6 @@ fn material_kind(m: &::gltf::Material) -> Res<MaterialKind> {
     })
 }
 
-/// A base-colour texture decoded to 8-bit sRGB, only to average it (docs/gltf.md).
-struct Texture {
-    width: usize,
-    height: usize,
-    rgb: Vec<u8>,
-    wrap: [WrappingMode; 2],
-}
-
-impl Texture {
-    /// Linear colour of the texel under `uv` (nearest, the sampler's wrap modes).
-    fn sample(&self, uv: [f64; 2], lut: &[f64; 256]) -> DVec3 {
-        let texel = |t: f64, wrap: WrappingMode, n: usize| {
-            let t = match wrap {
-                WrappingMode::ClampToEdge => t.clamp(0.0, 1.0),
-                WrappingMode::MirroredRepeat => {
-                    let t = t.rem_euclid(2.0);
-                    if t > 1.0 {
-                        2.0 - t
-                    } else {
-                        t
-                    }
-                }
-                WrappingMode::Repeat => t.rem_euclid(1.0),
-            };
-            ((t * n as f64) as usize).min(n - 1)
-        };
-        let (x, y) = (texel(uv[0], self.wrap[0], self.width), texel(uv[1], self.wrap[1], self.height));
-        let p = &self.rgb[3 * (y * self.width + x)..][..3];
-        DVec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize])
-    }
-
-    fn mean(&self, lut: &[f64; 256]) -> DVec3 {
-        let sum: DVec3 = self
-            .rgb
-            .chunks_exact(3)
-            .map(|p| DVec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
-            .sum();
-        sum / (self.width * self.height).max(1) as f64
-    }
-}
-
-/// sRGB 8-bit → linear.
-fn srgb_lut() -> [f64; 256] {
-    std::array::from_fn(|i| {
-        let c = i as f64 / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    })
-}
-
 // ---- Building the scene --------------------------------------------------------------------
 
 /// One primitive of one mesh instance, sized before anything is read.
@@ -704,13 +652,6 @@ struct Draw<'a> {
     primitive: ::gltf::Primitive<'a>,
     world: DMat4,
     at: String,
-}
-
-/// Surface-weighted sum of a material's base-colour texture over the triangles that use it.
-#[derive(Default)]
-struct TextureSum {
-    color: DVec3,
-    area: f64,
 }
 
 struct Builder<'a> {
@@ -722,8 +663,9 @@ struct Builder<'a> {
     /// glTF material index (None: the default material) → scene material.
     slots: HashMap<Option<usize>, u32>,
     names: HashSet<String>,
-    textures: HashMap<usize, Option<Texture>>,
-    sums: HashMap<u32, (usize, TextureSum)>,
+    textures: Vec<Texture>,
+    /// (image, wrap, filter) → scene texture, or None for an image irt cannot decode.
+    texture_slots: HashMap<(usize, [Wrap; 2], Filter), Option<u32>>,
     warned: HashSet<String>,
 }
 
@@ -737,8 +679,8 @@ impl<'a> Builder<'a> {
             materials: Vec::new(),
             slots: HashMap::new(),
             names: HashSet::new(),
-            textures: HashMap::new(),
-            sums: HashMap::new(),
+            textures: Vec::new(),
+            texture_slots: HashMap::new(),
             warned: HashSet::new(),
         }
     }
@@ -761,7 +703,6 @@ impl<'a> Builder<'a> {
         if meshes.is_empty() {
             return Err("the scene has no triangles to render".into());
         }
-        self.apply_texture_colors();
         let (center, radius) = bounds(&meshes);
         let camera = self.camera(&nodes, center, radius)?;
         let mut lights = self.lights(&nodes, center, radius)?;
@@ -777,7 +718,7 @@ impl<'a> Builder<'a> {
             spheres: vec![],
             cones: vec![],
             meshes,
-            textures: vec![],
+            textures: self.textures,
             trace: TraceSettings::default(),
         })
     }
@@ -893,8 +834,8 @@ impl<'a> Builder<'a> {
             indices.iter_mut().for_each(|t| t.swap(1, 2));
         }
         let material = self.material(&p.material())?;
-        self.add_texture_sample(p, material, &positions, &indices, d)?;
-        Ok(Some(Mesh { positions, normals, uvs: None, indices, material }))
+        let uvs = self.uvs(p, material, positions.len(), d)?;
+        Ok(Some(Mesh { positions, normals, uvs, indices, material }))
     }
 
     /// The scene material for a glTF material, made on first use.
@@ -906,6 +847,11 @@ impl<'a> Builder<'a> {
             return Err(format!("more than {MAX_MATERIALS} materials; irt's limit is that"));
         }
         let kind = material_kind(m)?;
+        // A dielectric has no colour for a texture to modulate.
+        let texture = match (&kind, m.pbr_metallic_roughness().base_color_texture()) {
+            (MaterialKind::Dielectric { .. }, _) | (_, None) => None,
+            (_, Some(info)) => self.texture(&info.texture())?,
+        };
         let base = match (m.name(), m.index()) {
             (Some(name), _) if !name.is_empty() => name.to_string(),
             (_, Some(i)) => format!("material{i}"),
@@ -919,115 +865,107 @@ impl<'a> Builder<'a> {
         }
         self.names.insert(name.clone());
         let slot = self.materials.len() as u32;
-        self.materials.push(Material { name, kind, texture: None });
+        self.materials.push(Material { name, kind, texture });
         self.slots.insert(m.index(), slot);
         Ok(slot)
     }
 
-    /// Adds the texture colour under the primitive's triangles to its material's average.
-    fn add_texture_sample(
+    /// The texture coordinates a textured material reads on this primitive (its `texCoord`
+    /// set); None for untextured materials, or (with a warning) when the set is missing.
+    fn uvs(
         &mut self,
         p: &::gltf::Primitive,
         material: u32,
-        positions: &[DVec3],
-        triangles: &[[u32; 3]],
+        vertices: usize,
         d: &Draw,
-    ) -> Res<()> {
-        let Some(info) = p.material().pbr_metallic_roughness().base_color_texture() else { return Ok(()) };
-        let image = info.texture().source().index();
-        self.sums.entry(material).or_insert_with(|| (image, TextureSum::default()));
-        if self.texture(&info.texture())?.is_none() {
-            return Ok(());
+    ) -> Res<Option<Vec<DVec2>>> {
+        if self.materials[material as usize].texture.is_none() {
+            return Ok(None);
         }
-        let Some(uv_accessor) = p.get(&Semantic::TexCoords(info.tex_coord())) else { return Ok(()) };
-        let uv = read_uv(&uv_accessor, &format!("TEXCOORD_{} of {}", info.tex_coord(), d.at), self.buffers)?;
-        if uv.len() != positions.len() {
+        let set = p.material().pbr_metallic_roughness().base_color_texture().expect("textured").tex_coord();
+        let Some(a) = p.get(&Semantic::TexCoords(set)) else {
+            self.warn(format!(
+                "{}: its material is textured but it has no TEXCOORD_{set}; read at (0, 0)",
+                d.at
+            ));
+            return Ok(None);
+        };
+        let what = format!("TEXCOORD_{set} of {}", d.at);
+        let uv = read_uv(&a, &what, self.buffers)?;
+        if uv.len() != vertices {
             return Err(format!(
-                "{} (TEXCOORD_{} of {}) has {} elements but POSITION has {}",
-                accessor_name(&uv_accessor),
-                info.tex_coord(),
-                d.at,
-                uv.len(),
-                positions.len()
+                "{} ({what}) has {} elements but POSITION has {vertices}",
+                accessor_name(&a),
+                uv.len()
             ));
         }
-        let lut = srgb_lut();
-        let texture = self.textures[&image].as_ref().expect("decoded above");
-        let mut sum = TextureSum::default();
-        // Four points per triangle (its centroid and one towards each corner), weighted by area.
-        const POINTS: [[f64; 3]; 4] = [
-            [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
-            [4.0 / 6.0, 1.0 / 6.0, 1.0 / 6.0],
-            [1.0 / 6.0, 4.0 / 6.0, 1.0 / 6.0],
-            [1.0 / 6.0, 1.0 / 6.0, 4.0 / 6.0],
-        ];
-        for t in triangles {
-            let [a, b, c] = t.map(|i| i as usize);
-            let area = 0.5 * (positions[b] - positions[a]).cross(positions[c] - positions[a]).length();
-            for w in POINTS {
-                let at = |k: usize| w[0] * uv[a][k] + w[1] * uv[b][k] + w[2] * uv[c][k];
-                sum.color += texture.sample([at(0), at(1)], &lut) * (area / 4.0);
-            }
-            sum.area += area;
-        }
-        let entry = &mut self.sums.get_mut(&material).expect("inserted above").1;
-        entry.color += sum.color;
-        entry.area += sum.area;
-        Ok(())
+        Ok(Some(uv.into_iter().map(DVec2::from).collect()))
     }
 
-    /// Decodes a texture's image once; None (with a warning) for formats irt cannot decode.
-    fn texture(&mut self, texture: &::gltf::Texture) -> Res<Option<&Texture>> {
-        let image = texture.source();
-        let index = image.index();
-        if !self.textures.contains_key(&index) {
-            let what = format!("images[{index}]");
-            // The raw JSON: the crate's `source()` unwraps a `mimeType` or `uri` that validation
-            // does not guarantee is there.
-            let doc = self.doc;
-            let json = &doc.as_json().images[index];
-            let bytes: Cow<[u8]> = match (&json.buffer_view, &json.uri) {
-                (Some(view), _) => {
-                    let view = doc.views().nth(view.value()).expect("validated index");
-                    let data = &self.buffers[view.buffer().index()];
-                    let range = view.offset()..view.offset().saturating_add(view.length());
-                    Cow::Borrowed(data.get(range).ok_or_else(|| {
-                        format!("{what}: bufferViews[{}] runs past the end of its buffer", view.index())
-                    })?)
-                }
-                (None, Some(uri)) => Cow::Owned(read_uri(uri, self.base, &what)?),
-                (None, None) => return Err(format!("{what} has neither a uri nor a bufferView")),
-            };
-            let sampler = texture.sampler();
-            let decoded = decode_png(&bytes, &what, [sampler.wrap_s(), sampler.wrap_t()]);
-            let decoded = match decoded {
-                Ok(t) => Some(t),
-                Err(Unusable::Refused(m)) => return Err(m),
-                Err(Unusable::NotPng(m)) => {
-                    self.warn(m);
-                    None
-                }
-            };
-            self.textures.insert(index, decoded);
+    /// The scene texture for a glTF texture (its image under its sampler's wrap and filter),
+    /// decoded once; None (with a warning) for images irt cannot decode.
+    fn texture(&mut self, texture: &::gltf::Texture) -> Res<Option<u32>> {
+        let index = texture.source().index();
+        let sampler = texture.sampler();
+        let wrap = [sampler.wrap_s(), sampler.wrap_t()].map(|w| match w {
+            WrappingMode::Repeat => Wrap::Repeat,
+            WrappingMode::ClampToEdge => Wrap::Clamp,
+            WrappingMode::MirroredRepeat => Wrap::Mirror,
+        });
+        // Magnification is what a ray tracer without footprints does everywhere; minification
+        // filters (mip-maps) have nothing to choose from.
+        let filter = match sampler.mag_filter() {
+            Some(MagFilter::Nearest) => Filter::Nearest,
+            _ => Filter::Linear,
+        };
+        let key = (index, wrap, filter);
+        if let Some(&slot) = self.texture_slots.get(&key) {
+            return Ok(slot);
         }
-        Ok(self.textures[&index].as_ref())
-    }
-
-    /// Multiplies each textured material's colour by its texture's surface average (the mean
-    /// of the whole image when no triangle has texture coordinates).
-    fn apply_texture_colors(&mut self) {
-        let lut = srgb_lut();
-        for (&slot, (image, sum)) in &self.sums {
-            let Some(texture) = self.textures.get(image).and_then(Option::as_ref) else { continue };
-            let mean = if sum.area > 0.0 { sum.color / sum.area } else { texture.mean(&lut) };
-            let mean = mean.clamp(DVec3::ZERO, DVec3::ONE);
-            match &mut self.materials[slot as usize].kind {
-                MaterialKind::Diffuse { color }
-                | MaterialKind::Metal { color, .. }
-                | MaterialKind::Polished { color, .. } => *color *= mean,
-                MaterialKind::Dielectric { .. } => {}
+        let what = format!("images[{index}]");
+        // The raw JSON: the crate's `source()` unwraps a `mimeType` or `uri` that validation
+        // does not guarantee is there.
+        let doc = self.doc;
+        let json = &doc.as_json().images[index];
+        let bytes: Cow<[u8]> = match (&json.buffer_view, &json.uri) {
+            (Some(view), _) => {
+                let view = doc.views().nth(view.value()).expect("validated index");
+                let data = &self.buffers[view.buffer().index()];
+                let range = view.offset()..view.offset().saturating_add(view.length());
+                Cow::Borrowed(data.get(range).ok_or_else(|| {
+                    format!("{what}: bufferViews[{}] runs past the end of its buffer", view.index())
+                })?)
             }
-        }
+            (None, Some(uri)) => Cow::Owned(read_uri(uri, self.base, &what)?),
+            (None, None) => return Err(format!("{what} has neither a uri nor a bufferView")),
+        };
+        let slot = match png::decode(&bytes, &what) {
+            Ok((width, height, texels)) => {
+                if self.textures.len() >= MAX_TEXTURES {
+                    return Err(format!("more than {MAX_TEXTURES} textures; irt's limit is that"));
+                }
+                let base = match json.name.as_deref() {
+                    Some(n) if !n.is_empty() => n.to_string(),
+                    _ => format!("image{index}"),
+                };
+                // One image under two samplers is two textures; names stay unique.
+                let mut name = base.clone();
+                let mut k = 2;
+                while self.textures.iter().any(|t| t.name == name) {
+                    name = format!("{base} ({k})");
+                    k += 1;
+                }
+                self.textures.push(Texture { name, width, height, texels, wrap, filter });
+                Some(self.textures.len() as u32 - 1)
+            }
+            Err(Unusable::Refused(m)) => return Err(m),
+            Err(Unusable::NotPng(m)) => {
+                self.warn(format!("{m}: the material uses its base colour factor alone"));
+                None
+            }
+        };
+        self.texture_slots.insert(key, slot);
+        Ok(slot)
     }
 
     /// The first perspective camera in the scene, or one that frames the whole scene.
@@ -1146,42 +1084,6 @@ impl<'a> Builder<'a> {
             .map(|(position, c)| Light { position, color: (c * scale).min(DVec3::ONE), radius: 0.0 })
             .collect())
     }
-}
-
-enum Unusable {
-    /// Bad input: an error.
-    Refused(String),
-    /// A format irt does not decode: a warning.
-    NotPng(String),
-}
-
-/// Decodes a PNG after checking its size in the header (the first chunk, IHDR, PNG §11.2.2).
-fn decode_png(bytes: &[u8], what: &str, wrap: [WrappingMode; 2]) -> Result<Texture, Unusable> {
-    use image::{ImageFormat, ImageReader, Limits};
-    use std::io::Cursor;
-    if !bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        return Err(Unusable::NotPng(format!(
-            "{what} is not a PNG; irt decodes PNG textures only, so its colour is not used"
-        )));
-    }
-    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes(b.try_into().unwrap()));
-    let (Some(w), Some(h), Some(b"IHDR")) = (word(16), word(20), bytes.get(12..16)) else {
-        return Err(Unusable::Refused(format!("{what}: the PNG does not start with its IHDR header")));
-    };
-    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
-        return Err(Unusable::Refused(format!(
-            "{what} is {w}x{h} pixels; irt reads textures of 1 to {MAX_TEXTURE_PIXELS} pixels"
-        )));
-    }
-    let mut reader = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png);
-    let mut limits = Limits::default();
-    limits.max_image_width = Some(w);
-    limits.max_image_height = Some(h);
-    limits.max_alloc = Some(MAX_TEXTURE_PIXELS * 16);
-    reader.limits(limits);
-    let image =
-        reader.decode().map_err(|e| Unusable::Refused(format!("{what}: cannot decode the PNG: {e}")))?;
-    Ok(Texture { width: w as usize, height: h as usize, rgb: image.to_rgb8().into_raw(), wrap })
 }
 
 /// Centre and radius of the bounding box of every vertex (radius 1 for a single point).

@@ -7,8 +7,9 @@ use super::geometry::{
 };
 use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light};
 use super::shadows::{bundle_point, cone_shell, frame, sphere_shell, stratified_disc, triangle_shell};
+use super::texture::material_at;
 use crate::scene::{bundle_samples, CameraBasis, Combine, Light, MaterialKind, Scene, ShadowMode, Triangle};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::cell::Cell;
 use std::ops::AddAssign;
 
@@ -63,6 +64,8 @@ pub struct SurfaceHit {
     /// sphere's centre and radius or the triangle's vertices): its rounding error is relative
     /// to this, so ray offsets are too.
     pub scale: f64,
+    /// Texture coordinates ((0, 0) where the primitive has none).
+    pub uv: DVec2,
 }
 
 #[derive(Clone, Copy)]
@@ -212,6 +215,7 @@ impl<'a> Reference<'a> {
     fn resolve(&self, o: DVec3, d: DVec3, t: f64, prim: Prim) -> SurfaceHit {
         let p = o + t * d;
         let mut scale = o.abs().max_element() + t * d.length();
+        let mut uv = DVec2::ZERO;
         let (n_g, n, material) = match prim {
             Prim::Sphere(i) => {
                 let s = &self.scene.spheres[i];
@@ -222,6 +226,9 @@ impl<'a> Reference<'a> {
             }
             Prim::Triangle { index, b1, b2 } => {
                 let tri = &self.triangles[index];
+                if let Some([a, b, c]) = tri.uv {
+                    uv = (1.0 - b1 - b2) * a + b1 * b + b2 * c;
+                }
                 scale = tri.p.iter().fold(scale, |m, v| m.max(v.abs().max_element()));
                 let n_g = triangle_normal(tri.p[0], tri.p[1], tri.p[2]);
                 let n = match tri.n {
@@ -254,7 +261,7 @@ impl<'a> Reference<'a> {
         if n.dot(n_g) < 0.0 {
             n = n_g;
         }
-        SurfaceHit { t, p, n_g, n, inside, material, scale }
+        SurfaceHit { t, p, n_g, n, inside, material, scale, uv }
     }
 
     /// Radiance arriving at `o` from direction `d` (unit) for a ray of the given depth and
@@ -276,7 +283,7 @@ impl<'a> Reference<'a> {
         let Some(hit) = self.intersect(o, d, f64::INFINITY) else {
             return self.scene.background;
         };
-        let m = &self.scene.materials[hit.material as usize].kind;
+        let m = &material_at(self.scene, hit.material, hit.uv);
         let (p, n, n_g, inside) = (hit.p, hit.n, hit.n_g, hit.inside);
         let e = -d;
         let eps = RAY_OFFSET_REL * hit.scale.max(1.0);

@@ -1,0 +1,80 @@
+// Base-colour textures (src/scene/texture.rs; records: src/gpu/layout.rs, pack_scene).
+// CPU twin: src/reference/texture.rs (same names). Sampling reads the scene texture's texels
+// with textureLoad and filters here, not with a sampler: a hardware sampler's filter weights
+// have a few bits of precision, so the f64 twin could not follow it.
+
+struct TextureInfo {
+    first: u32,
+    size: vec2u,
+    flags: u32,
+}
+
+fn load_texture(t: u32) -> TextureInfo {
+    let r = texel(params.aux_base.z + t * TEXTURE_TEXELS);
+    return TextureInfo(r.x, r.yz, r.w);
+}
+
+// sRGB-encoded value in [0, 1] → linear (the sRGB EOTF).
+fn srgb_to_linear(c: vec3f) -> vec3f {
+    let lo = c / 12.92;
+    let hi = pow((c + 0.055) / 1.055, vec3f(2.4));
+    return select(hi, lo, c <= vec3f(0.04045));
+}
+
+// Linear RGB of pixel `i` of the texture whose pixels start at pixel `first`.
+fn texture_pixel(first: u32, i: u32) -> vec3f {
+    let p = first + i;
+    let word = texel(params.aux_base.w + p / PIXELS_PER_TEXEL)[p % PIXELS_PER_TEXEL];
+    return srgb_to_linear(unpack4x8unorm(word).rgb);
+}
+
+// Coordinate `u` (in texture widths) folded into the range the wrap mode repeats: [0, 1] for
+// repeat and clamp, [0, 2] for mirror (one period: the image, then its mirror). Done in float so
+// that the texel indices below stay small whatever `u` is; the clamp also maps a NaN to 0.
+fn fold_coord(u: f32, mode: u32) -> f32 {
+    var f = clamp(u, 0.0, 1.0);
+    if mode == WRAP_REPEAT {
+        f = u - floor(u);
+    } else if mode == WRAP_MIRROR {
+        f = u - 2.0 * floor(0.5 * u);
+    }
+    return min(max(f, 0.0), 2.0);
+}
+
+// Texel index `i` (any integer within a few periods) wrapped into [0, n).
+fn wrap_index(i: i32, n: i32, mode: u32) -> i32 {
+    if mode == WRAP_CLAMP {
+        return clamp(i, 0, n - 1);
+    }
+    if mode == WRAP_MIRROR {
+        let k = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return select(k, 2 * n - 1 - k, k >= n);
+    }
+    return ((i % n) + n) % n;
+}
+
+// Linear RGB of texture `t` at `uv` (u right, v down, (0, 0) the top-left corner of the image),
+// filtered and wrapped as the texture says.
+fn sample_texture(t: u32, uv: vec2f) -> vec3f {
+    let info = load_texture(t);
+    let n = vec2i(info.size);
+    let wrap = vec2u(info.flags & 3u, (info.flags >> 2u) & 3u);
+    let x = vec2f(fold_coord(uv.x, wrap.x), fold_coord(uv.y, wrap.y)) * vec2f(info.size);
+    if ((info.flags >> 4u) & 3u) == FILTER_NEAREST {
+        let i = vec2i(floor(x));
+        let ix = wrap_index(i.x, n.x, wrap.x);
+        let iy = wrap_index(i.y, n.y, wrap.y);
+        return texture_pixel(info.first, u32(iy * n.x + ix));
+    }
+    // Bilinear between the four texel centres around x (centres at integer + 0.5).
+    let xc = x - 0.5;
+    let i0 = vec2i(floor(xc));
+    let f = xc - floor(xc);
+    let x0 = wrap_index(i0.x, n.x, wrap.x);
+    let x1 = wrap_index(i0.x + 1, n.x, wrap.x);
+    let y0 = wrap_index(i0.y, n.y, wrap.y) * n.x;
+    let y1 = wrap_index(i0.y + 1, n.y, wrap.y) * n.x;
+    let top = mix(texture_pixel(info.first, u32(y0 + x0)), texture_pixel(info.first, u32(y0 + x1)), f.x);
+    let bottom = mix(texture_pixel(info.first, u32(y1 + x0)), texture_pixel(info.first, u32(y1 + x1)), f.x);
+    return mix(top, bottom, f.y);
+}
