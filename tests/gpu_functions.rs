@@ -32,10 +32,6 @@ impl Harness {
     }
 }
 
-fn d3(v: [f32; 4]) -> DVec3 {
-    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)
-}
-
 #[test]
 fn ray_sphere() {
     let h = Harness::new();

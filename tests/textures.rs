@@ -68,7 +68,7 @@ fn sample_texture_matches_its_twin() {
         let tex = &scene.textures[inp[2] as usize];
         let uv = DVec2::new(inp[0] as f64, inp[1] as f64);
         let want = cpu::sample_texture(tex, uv);
-        let got = DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64);
+        let got = d3(*o);
         let err = (got - want).abs().max_element();
         // Tolerance: the shader folds u into a period and scales it in f32; an error of a few
         // ulps of u·size moves the bilinear weights by ~1e-7·size per unit of contrast, and the
@@ -151,10 +151,6 @@ fn texture_coordinates_at_hits_match_the_reference() {
         assert!(err < 1e-5, "ray {k}: uv {:?} vs {}", &o[1..3], h.uv);
     }
     assert!(hits > 2500, "only {hits} hits");
-}
-
-fn d3(v: [f32; 4]) -> DVec3 {
-    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)
 }
 
 /// Whether the ray passes within f32 rounding of the quad's outline.

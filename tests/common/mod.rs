@@ -46,6 +46,11 @@ pub fn v4(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
 
+/// The xyz of a kernel's vec4 output (or input) as f64.
+pub fn d3(v: [f32; 4]) -> DVec3 {
+    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)
+}
+
 /// The f64 value of what the GPU actually sees (inputs rounded to f32 first), so tests compare
 /// the functions and not the rounding of their inputs.
 pub fn f32_round(v: DVec3) -> DVec3 {
