@@ -444,9 +444,9 @@ fn materials<'a>(
     Ok((out, names))
 }
 
-/// Reads and decodes every texture's PNG. The sizes the files declare are added up first, so
-/// that a scene over [`MAX_TOTAL_TEXTURE_PIXELS`] is refused before anything is decoded; each
-/// image's own size is checked by [`png::decode`], from its header, before it is decoded.
+/// Reads and decodes every texture's PNG. The headers come first: a file that is not a PNG, an
+/// image too big on its own, and a scene whose images together exceed
+/// [`MAX_TOTAL_TEXTURE_PIXELS`] are refused before any file is read whole or decoded.
 fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res<(Vec<Texture>, Names<'a>)> {
     at_most(docs, MAX_TEXTURES, "[[texture]] tables")?;
     let mut names = Names::new("texture");
@@ -460,9 +460,16 @@ fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res
     for (t, (path, ..)) in docs.iter().zip(&settings) {
         let file = &t.get_ref().file;
         let header = read_header(path).map_err(|m| located(file.span(), m))?;
-        let pixels = png::declared_size(&header).map_or(0, |(w, h)| w as u64 * h as u64);
-        // An image too big on its own is refused with its size by `png::decode` below.
-        total += if pixels <= MAX_TEXTURE_PIXELS { pixels } else { 0 };
+        let pixels = png::declared_size(&header).map(|(w, h)| w as u64 * h as u64);
+        if !pixels.is_some_and(|p| (1..=MAX_TEXTURE_PIXELS).contains(&p)) {
+            // Not a PNG, or a size out of range: `decode` refuses these from the header alone.
+            let message = match png::decode(&header, &texture_what(path)) {
+                Err(png::Unusable::Refused(m) | png::Unusable::NotPng(m)) => m,
+                Ok(_) => format!("{}: the PNG header is unusable", texture_what(path)),
+            };
+            return err(file.span(), message);
+        }
+        total += pixels.unwrap_or(0);
         if total > MAX_TOTAL_TEXTURE_PIXELS {
             return err(
                 file.span(),
@@ -476,7 +483,7 @@ fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res
     let mut out = Vec::with_capacity(docs.len());
     for (t, (path, wrap, filter)) in docs.iter().zip(settings) {
         let t = t.get_ref();
-        let what = format!("texture file '{}'", path.display());
+        let what = texture_what(&path);
         let bytes = super::read_limited(&path, MAX_TEXTURE_FILE_BYTES, "texture file")
             .map_err(|m| located(t.file.span(), format!("'{}': {m}", path.display())))?;
         let (width, height, texels) = png::decode(&bytes, &what).map_err(|e| match e {
@@ -485,6 +492,11 @@ fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res
         out.push(Texture { name: t.name.get_ref().clone(), width, height, texels, wrap, filter });
     }
     Ok((out, names))
+}
+
+/// A texture file as messages name it.
+fn texture_what(path: &Path) -> String {
+    format!("texture file '{}'", path.display())
 }
 
 /// A texture's `file`, relative to the directory of the scene file `origin`.
