@@ -41,7 +41,8 @@ enum Command {
 struct ConvertArgs {
     /// Scene to read (.toml, .gltf, .glb).
     input: PathBuf,
-    /// TOML file to write (atomically); loading it gives back exactly the scene irt read.
+    /// TOML file to write (atomically); loading it gives back exactly the scene irt read. Each
+    /// texture is written beside it as OUTPUT-STEM.<index>[.<name>].png (replacing such files).
     output: PathBuf,
 }
 
@@ -272,20 +273,29 @@ fn convert(args: ConvertArgs) -> Result<()> {
     }
     check_output_path(&args.output)?;
     let scene = irt::io::load(&args.input)?;
-    let text = irt::io::toml_write::to_toml(&scene);
-    if text.len() as u64 > irt::io::MAX_SCENE_FILE_BYTES {
+    let stem = args.output.file_stem().map_or("scene".into(), |s| s.to_string_lossy());
+    let files = irt::io::toml_write::to_files(&scene, &stem).map_err(anyhow::Error::msg)?;
+    if files.toml.len() as u64 > irt::io::MAX_SCENE_FILE_BYTES {
         bail!(
             "the TOML would be {} bytes, above the {}-byte limit irt loads; keep the scene in its own format",
-            text.len(),
+            files.toml.len(),
             irt::io::MAX_SCENE_FILE_BYTES
         );
     }
-    irt::image::write_atomic(&args.output, text.as_bytes())
+    // Textures first: the TOML, written last, never refers to a file that is not there yet.
+    let dir = args.output.parent().unwrap_or(Path::new(""));
+    for (name, png) in &files.textures {
+        let path = dir.join(name);
+        irt::image::write_atomic(&path, png).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    irt::image::write_atomic(&args.output, files.toml.as_bytes())
         .with_context(|| format!("writing {}", args.output.display()))?;
     eprintln!(
-        "wrote {} ({} materials, {} spheres, {} triangles, {} lights)",
+        "wrote {} ({} materials, {} textures, {} spheres, {} triangles, {} lights)",
         args.output.display(),
         scene.materials.len(),
+        scene.textures.len(),
         scene.spheres.len(),
         scene.triangle_count(),
         scene.lights.len()

@@ -517,6 +517,12 @@ fn fuzz(format: &str, inputs: Vec<PathBuf>, mutate: impl Fn(&mut Rng, &[u8], &Pa
 
 #[test]
 fn mutated_toml_scenes() {
+    // The textures scenes refer to, where the mutants are loaded from, so that they get read.
+    let textures = work_dir("toml").join("textures");
+    std::fs::create_dir_all(&textures).unwrap();
+    for png in files("scenes/textures", &["png"]) {
+        std::fs::copy(&png, textures.join(png.file_name().unwrap())).unwrap();
+    }
     fuzz("toml", files("scenes", &["toml"]), |rng, b, _| mutate_text(rng, b));
 }
 

@@ -3,10 +3,10 @@
 //! what is wrong — never a panic.
 mod common;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use irt::io::toml::{parse_str, EMPTY_SCENE};
 use irt::io::{load, load_with_limit, LoadError};
-use irt::scene::{MaterialKind, Scene};
+use irt::scene::{Filter, MaterialKind, Scene, Wrap};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -166,10 +166,18 @@ position = [-5, 5, 5]
 max_depth = 3
 weight_cutoff = 0.01
 
+# Relative to the scene file's directory; `test.toml` is in the current one, the crate root.
+[[texture]]
+name = "tiles"
+file = "scenes/textures/checker.png"
+wrap = ["mirror", "clamp"]
+filter = "nearest"
+
 [[material]]
 name = "matte"
 type = "diffuse"
 color = [0.5, 0.25, 0.125]
+texture = "tiles"
 
 [[material]]
 name = "steel"
@@ -196,6 +204,7 @@ material = "water"
 material = "steel"
 positions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
 normals = [[0, 0, 2], [0, 0, 1], [0, 0, 1]]
+uvs = [[0, 0], [1, 0], [0.5, 1]]
 indices = [[0, 1, 2]]
 translate = [10, 0, 0]
 scale = 2
@@ -255,6 +264,12 @@ fn every_feature_reaches_the_scene() {
     assert_eq!(inline.positions[1], DVec3::new(12.0, 0.0, 0.0), "scaled, then translated");
     assert_eq!(inline.normals.as_ref().unwrap()[0], DVec3::Z, "normals are made unit length");
     assert_eq!(inline.indices, vec![[0, 1, 2]]);
+    assert_eq!(inline.uvs, Some(vec![DVec2::ZERO, DVec2::X, DVec2::new(0.5, 1.0)]));
+    assert_eq!(s.textures.len(), 1);
+    let t = &s.textures[0];
+    assert_eq!((t.name.as_str(), t.width, t.height, t.texels.len()), ("tiles", 8, 8, 64));
+    assert_eq!((t.wrap, t.filter), ([Wrap::Mirror, Wrap::Clamp], Filter::Nearest));
+    assert_eq!(s.materials.iter().map(|m| m.texture).collect::<Vec<_>>(), [Some(0), None, None, None]);
     assert_eq!(quad.indices.len(), 2);
     assert!(quad.positions.iter().all(|p| p.y == -1.0 && p.x.abs() == 2.0 && p.z.abs() == 1.0));
     assert_eq!(corners.positions[2], DVec3::new(1.0, 0.0, 1.0));
@@ -493,6 +508,13 @@ const LINES: &[&str] = &[
     "shape = \"box\"",
     "shape = \"quad\"",
     "subdivisions = 6",
+    "[[texture]]",
+    "texture = \"tiles\"",
+    "file = \"scenes/textures/checker.png\"",
+    "wrap = [\"clamp\", \"tile\"]",
+    "filter = \"nearest\"",
+    "uvs = [[0, 0], [1, 0], [0, 1]]",
+    "uvs = [[0, 0], [1, 0], [0, 1], [1, 1]]",
     "radius = -1",
     "material = \"matte\"",
     "name = \"steel\"",
@@ -685,4 +707,212 @@ fn cones_reach_the_scene_and_bad_cones_point_at_their_value() {
     let flat = cone.replace("[0, 1, 0]", "[0, 0, 0]");
     fails_at(&with(&format!("{flat}radius = 1")), "[[cone]]", &["cone 0", "same point"]);
     fails_at(&with(&format!("{cone}radius = 1\nheight = 2")), "height", &["unknown field"]);
+}
+
+// ---- Textures ------------------------------------------------------------------------------
+
+/// The texels of `checker.png` in [`texture_dir`]: 2x2, every alpha.
+const CHECKER: [[u8; 4]; 4] = [[255, 0, 0, 255], [0, 255, 0, 128], [0, 0, 255, 0], [10, 20, 30, 40]];
+
+/// A PNG signature and IHDR header declaring `w`x`h` RGBA8 pixels, and no image data: decoding
+/// it fails, so an error about its size proves it was refused from the header.
+fn png_header(w: u32, h: u32) -> Vec<u8> {
+    let mut b = b"\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR".to_vec();
+    b.extend_from_slice(&w.to_be_bytes());
+    b.extend_from_slice(&h.to_be_bytes());
+    b.extend_from_slice(&[8, 6, 0, 0, 0, 0, 0, 0, 0]);
+    b
+}
+
+/// A directory with texture files: `checker.png` (a real PNG, [`CHECKER`]), `text.png` (not a
+/// PNG), `huge.png` (declares 100000x100000), `4k.png` (declares 4096x4096, the largest texture).
+/// Written once: tests run in parallel, and rewriting a file another test is reading would race.
+fn texture_dir() -> PathBuf {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let png = irt::io::png::encode(2, 2, &CHECKER).unwrap();
+        tmp_file("text.png", b"GIF89a, or so it says");
+        tmp_file("huge.png", &png_header(100_000, 100_000));
+        tmp_file("4k.png", &png_header(4096, 4096));
+        tmp_file("checker.png", &png).parent().unwrap().to_path_buf()
+    })
+    .clone()
+}
+
+/// Parses `src` as if it were the file `textured.toml` in [`texture_dir`].
+fn parse_textured(src: &str) -> (String, Result<Scene, LoadError>) {
+    let origin = texture_dir().join("textured.toml").display().to_string();
+    let result = parse_str(src, &origin);
+    (origin, result)
+}
+
+fn textured_fails_at(src: &str, at: &str, words: &[&str]) -> LoadError {
+    let (origin, result) = parse_textured(src);
+    common::assert_fails_at(result, src, &origin, at, words)
+}
+
+const TEXTURE: &str = "[[texture]]\nname = \"checker\"\nfile = \"checker.png\"\n";
+
+#[test]
+fn textures_reach_the_scene() {
+    let src = with(&format!(
+        "{TEXTURE}\
+         [[texture]]\nname = \"odd\"\nfile = \"./checker.png\"\nwrap = [\"mirror\", \"clamp\"]\nfilter = \"nearest\"\n\
+         [[texture]]\nname = \"clamped\"\nfile = \"checker.png\"\nwrap = \"clamp\"\n\
+         [[material]]\nname = \"tiled\"\ntype = \"polished\"\ntexture = \"odd\"\n\
+         {INLINE}indices = [[0, 1, 2]]\nuvs = [[0, 0], [1.5, -0.0], [0, 1e300]]\n\
+         [[mesh]]\nmaterial = \"tiled\"\nshape = \"quad\"\ncenter = [0, 0, 0]\nsize = [1, 1]\n\
+         uvs = [[0, 0], [0, 1], [1, 1], [1, 0]]\nscale = 2"
+    ));
+    let (_, result) = parse_textured(&src);
+    let s = result.unwrap_or_else(|e| panic!("{e}"));
+    let [checker, odd, clamped] = s.textures.as_slice() else { panic!("3 textures") };
+    assert_eq!((checker.name.as_str(), checker.width, checker.height), ("checker", 2, 2));
+    assert_eq!(checker.texels, CHECKER, "texels as in the file, alpha kept");
+    assert_eq!((checker.wrap, checker.filter), ([Wrap::Repeat; 2], Filter::Linear), "the defaults");
+    assert_eq!((odd.wrap, odd.filter), ([Wrap::Mirror, Wrap::Clamp], Filter::Nearest));
+    assert_eq!(odd.texels, CHECKER);
+    assert_eq!(clamped.wrap, [Wrap::Clamp; 2]);
+    assert_eq!((s.materials[0].texture, s.materials[1].texture), (None, Some(1)));
+    let uvs = s.meshes[0].uvs.as_ref().unwrap();
+    assert_eq!(uvs[1], DVec2::new(1.5, -0.0));
+    assert!(uvs[1].y.is_sign_negative() && uvs[2].y == 1e300);
+    let quad = &s.meshes[1];
+    assert_eq!(quad.uvs.as_deref(), Some(&[DVec2::ZERO, DVec2::Y, DVec2::ONE, DVec2::X][..]), "not scaled");
+    assert_eq!(quad.positions[0], DVec3::new(-1.0, 0.0, -1.0), "corner 0 is (-x, -z)");
+    assert_eq!(s.meshes[0].positions.len(), 3);
+}
+
+#[test]
+fn the_textured_example_scene_uses_textures() {
+    let s = load(&scenes_dir().join("textured.toml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.textures.len(), 2);
+    assert_eq!((s.textures[0].width, s.textures[0].height), (8, 8));
+    assert_eq!(s.textures[0].texels, s.textures[1].texels, "one file, two samplers");
+    assert!(s.materials.iter().filter(|m| m.texture.is_some()).count() >= 2);
+    assert!(s.meshes.iter().all(|m| m.uvs.is_some()));
+    let file = std::fs::metadata(scenes_dir().join("textures/checker.png")).unwrap().len();
+    assert!(file < 1024, "the example texture is small ({file} bytes)");
+}
+
+#[test]
+fn missing_texture_file_names_the_path() {
+    let src = with("[[texture]]\nname = \"t\"\nfile = \"no/such.png\"");
+    let e = textured_fails_at(&src, "\"no/such.png\"", &["cannot read the texture file", "No such file"]);
+    let path = texture_dir().join("no/such.png");
+    assert!(e.message.contains(&path.display().to_string()), "the path relative to the scene: {e}");
+}
+
+#[test]
+fn texture_file_that_is_not_a_png() {
+    let src = with("[[texture]]\nname = \"t\"\nfile = \"text.png\"");
+    textured_fails_at(&src, "\"text.png\"", &["text.png", "is not a PNG", "PNG textures only"]);
+}
+
+#[test]
+fn texture_too_large_is_refused_from_its_header() {
+    let src = with("[[texture]]\nname = \"t\"\nfile = \"huge.png\"");
+    let e = textured_fails_at(&src, "\"huge.png\"", &["huge.png", "100000x100000 pixels", "16777216"]);
+    assert!(!e.message.contains("decode"), "refused before decoding: {e}");
+}
+
+#[test]
+fn textures_too_large_together_are_refused_before_decoding() {
+    // Two 4096² images are the most a scene may hold; a third is refused before anything is
+    // decoded (decoding these headers-only files would fail with another message).
+    let big = |i: usize| format!("[[texture]]\nname = \"t{i}\"\nfile = \"4k.png\"\n");
+    let src = with(&(0..3).map(big).collect::<String>());
+    textured_fails_at(&src, "\"4k.png\"", &["50331648 pixels together", "at most 33554432"]);
+}
+
+#[test]
+fn too_many_textures_points_at_the_first_extra_one() {
+    let n = irt::scene::MAX_TEXTURES;
+    let tables: String =
+        (0..=n).map(|i| format!("[[texture]]\nname = \"t{i}\"\nfile = \"x.png\"\n")).collect();
+    let src = with(&tables);
+    textured_fails_at(
+        &src,
+        &format!("[[texture]]\nname = \"t{n}\""),
+        &["too many [[texture]]", &n.to_string()],
+    );
+}
+
+#[test]
+fn unknown_texture_name_on_a_material() {
+    let src = with(&format!("{TEXTURE}[[material]]\nname = \"m\"\ntype = \"metal\"\ntexture = \"chekcer\""));
+    textured_fails_at(&src, "\"chekcer\"", &["unknown texture 'chekcer'", "(textures defined: 'checker')"]);
+    let src = with("[[material]]\nname = \"m\"\ntype = \"diffuse\"\ntexture = \"checker\"");
+    fails_at(&src, "\"checker\"", &["unknown texture 'checker'", "defines no [[texture]]"]);
+}
+
+#[test]
+fn texture_on_a_dielectric() {
+    let src = with(&format!(
+        "{TEXTURE}[[material]]\nname = \"glass\"\ntype = \"dielectric\"\ntexture = \"checker\""
+    ));
+    textured_fails_at(
+        &src,
+        "\"checker\"",
+        &["a dielectric material has no colour to texture", "diffuse, metal"],
+    );
+}
+
+#[test]
+fn duplicate_texture_name() {
+    let first_line = common::position_of(&with(TEXTURE), "\"checker\"").0;
+    let src = with(&format!("{TEXTURE}{TEXTURE}"));
+    textured_fails_at(
+        &src,
+        "\"checker\"",
+        &["texture 'checker' is already defined", &format!("on line {first_line}")],
+    );
+}
+
+#[test]
+fn texture_needs_name_and_file() {
+    fails_at(&with("[[texture]]\nname = \"t\""), "[[texture]]", &["missing field `file`"]);
+    fails_at(&with("[[texture]]\nfile = \"t.png\""), "[[texture]]", &["missing field `name`"]);
+    fails_at(
+        &with("[[texture]]\nname = \"t\"\nfile = \"t.png\"\nsize = 2"),
+        "size",
+        &["unknown field `size`"],
+    );
+}
+
+#[test]
+fn bad_wrap_and_filter_words() {
+    let expected = ["\"repeat\", \"clamp\", \"mirror\""];
+    let src = with(&format!("{TEXTURE}wrap = \"tile\""));
+    textured_fails_at(&src, "\"tile\"", &[&["unknown `wrap` \"tile\""][..], &expected].concat());
+    let src = with(&format!("{TEXTURE}wrap = [\"repeat\", \"Clamp\"]"));
+    textured_fails_at(&src, "[\"repeat\"", &["unknown `wrap` \"Clamp\""]);
+    let src = with(&format!("{TEXTURE}wrap = [\"repeat\"]"));
+    textured_fails_at(&src, "[\"repeat\"]", &["`wrap` needs 2 modes", "found 1"]);
+    let src = with(&format!("{TEXTURE}wrap = 3"));
+    textured_fails_at(&src, "3", &["a wrap mode", "[u mode, v mode]"]);
+    let src = with(&format!("{TEXTURE}filter = \"cubic\""));
+    textured_fails_at(&src, "\"cubic\"", &["unknown `filter` \"cubic\"", "\"nearest\", \"linear\""]);
+}
+
+#[test]
+fn uvs_count_must_match_the_vertices() {
+    let src = with(&format!("{INLINE}indices = [[0, 1, 2]]\nuvs = [[0, 0], [1, 0]]"));
+    fails_at(&src, "[[0, 0], [1, 0]]", &["`uvs` has 2 entries", "`positions` has 3 vertices"]);
+    let quad = "[[mesh]]\nmaterial = \"white\"\nshape = \"quad\"\ncenter = [0, 0, 0]\nsize = [1, 1]\n";
+    let src = with(&format!("{quad}uvs = [[0, 0], [1, 0], [1, 1]]"));
+    fails_at(&src, "[[0, 0], [1, 0], [1, 1]]", &["`uvs` has 3 entries", "a quad has 4 vertices"]);
+    let src = with(&format!("{INLINE}indices = [[0, 1, 2]]\nuvs = [[0, 0], [1, 0], [0, 1, 0]]"));
+    fails_at(&src, "[0, 1, 0]", &["`uvs` needs 2 numbers", "found 3"]);
+    let src =
+        with("[[mesh]]\nmaterial = \"white\"\nshape = \"box\"\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nuvs = []");
+    fails_at(&src, "[]", &["`uvs` does not apply to a box"]);
+}
+
+#[test]
+fn non_finite_uv() {
+    let src = with(&format!("{INLINE}indices = [[0, 1, 2]]\nuvs = [[0, 0], [0, nan], [0, 1]]"));
+    fails_at(&src, "[0, nan]", &["`uvs` contains NaN", "finite"]);
+    let src = with(&format!("{INLINE}indices = [[0, 1, 2]]\nuvs = [[0, 0], [1, 0], [-inf, 1]]"));
+    fails_at(&src, "[-inf, 1]", &["`uvs` contains -inf"]);
 }

@@ -55,3 +55,19 @@ pub fn encode(width: u32, height: u32, texels: &[[u8; 4]]) -> Result<Vec<u8>, St
         .map_err(|e| format!("cannot encode a {width}x{height} PNG: {e}"))?;
     Ok(out)
 }
+
+/// The width and height a PNG declares in its IHDR header (the first 24 bytes of the file), or
+/// `None` when `bytes` does not start like a PNG. Lets a loader add up texture sizes before it
+/// decodes any of them; [`decode`] checks the same header again.
+pub fn declared_size(bytes: &[u8]) -> Option<(u32, u32)> {
+    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes(b.try_into().unwrap()));
+    match (bytes.starts_with(PNG_SIGNATURE), bytes.get(12..16), word(16), word(20)) {
+        (true, Some(b"IHDR"), Some(w), Some(h)) => Some((w, h)),
+        _ => None,
+    }
+}
+
+/// The bytes every PNG file starts with (PNG §5.2); the IHDR size follows up to byte 24.
+pub const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+/// Bytes of a PNG up to the end of the image size in its IHDR header.
+pub const HEADER_BYTES: usize = 24;

@@ -8,15 +8,20 @@
 //! is about.
 
 use super::shapes::{self, Geometry, MAX_ICOSPHERE_SUBDIVISIONS};
-use super::{line_column, LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES};
+use super::{
+    line_column, png, LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES,
+};
 use crate::scene::{
-    Ambient, Camera, Cone, Light, Material, MaterialKind, Mesh, Scene, Sphere, TraceSettings, MAX_LIGHTS,
+    Ambient, Camera, Cone, Filter, Light, Material, MaterialKind, Mesh, Scene, Sphere, Texture,
+    TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES, MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS,
 };
 use ::toml::Spanned;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use serde::Deserialize;
 use std::collections::HashMap;
+use std::io::Read;
 use std::ops::Range;
+use std::path::{Path, PathBuf};
 
 pub const DEFAULT_FOV_DEG: f64 = 45.0;
 pub const DEFAULT_WIDTH: u32 = 640;
@@ -28,9 +33,14 @@ pub const DEFAULT_COAT_EXPONENT: f64 = 128.0;
 pub const DEFAULT_DIFFUSE_COLOR: f64 = 0.8;
 pub const DEFAULT_METAL_COLOR: f64 = 0.9;
 pub const DEFAULT_ICOSPHERE_SUBDIVISIONS: u32 = 2;
+/// Largest texture file read. A PNG of the largest texture irt accepts ([`MAX_TEXTURE_PIXELS`])
+/// stored without compression at 16 bits per channel is 8 bytes per pixel, 128 MiB, plus a
+/// filter byte per row and chunk headers; this leaves room for that and no more.
+pub const MAX_TEXTURE_FILE_BYTES: u64 = MAX_TEXTURE_PIXELS * 8 + (16 << 20);
 pub const EMPTY_SCENE: &str = "scene has nothing to render: add a [[sphere]], [[mesh]] or [[cone]]";
 
-/// Parses and validates a scene; `origin` names the source in error messages.
+/// Parses and validates a scene; `origin` names the source in error messages, and texture
+/// `file`s are found relative to its directory (for a `<built-in …>` origin: the current one).
 pub fn parse_str(src: &str, origin: &str) -> Result<Scene, LoadError> {
     let located = |e: Located| match e.span {
         Some(span) => LoadError::at(origin, src, span.start, e.message),
@@ -38,7 +48,7 @@ pub fn parse_str(src: &str, origin: &str) -> Result<Scene, LoadError> {
     };
     let doc: Doc = ::toml::from_str(src)
         .map_err(|e| located(Located { span: e.span(), message: e.message().trim_end().to_string() }))?;
-    let scene = build(&doc, src).map_err(located)?;
+    let scene = build(&doc, src, origin).map_err(located)?;
     scene.validate().map_err(|e| located(Located { span: blame(&doc, &e.0), message: e.0 }))?;
     if scene.primitive_count() == 0 {
         return Err(LoadError::new(origin, EMPTY_SCENE));
@@ -62,6 +72,8 @@ struct Doc {
     #[serde(default)]
     light: Vec<Spanned<LightDoc>>,
     trace: Option<Spanned<TraceDoc>>,
+    #[serde(default)]
+    texture: Vec<Spanned<TextureDoc>>,
     #[serde(default)]
     material: Vec<Spanned<MaterialDoc>>,
     #[serde(default)]
@@ -108,6 +120,23 @@ struct TraceDoc {
     shadows: Option<Spanned<String>>,
 }
 
+/// A PNG image used as a base colour, and how it is sampled.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TextureDoc {
+    name: Spanned<String>,
+    file: Spanned<String>,
+    wrap: Option<Spanned<WrapDoc>>,
+    filter: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged, expecting = "a wrap mode (\"repeat\", \"clamp\" or \"mirror\") or a list [u mode, v mode]")]
+enum WrapDoc {
+    Both(String),
+    Each(Vec<String>),
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MaterialDoc {
@@ -117,6 +146,7 @@ struct MaterialDoc {
     color: Option<Numbers>,
     exponent: Option<Number>,
     eta: Option<Number>,
+    texture: Option<Spanned<String>>,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -158,6 +188,7 @@ struct MeshDoc {
     positions: Option<Spanned<Vec<Numbers>>>,
     indices: Option<Spanned<Vec<Spanned<Vec<i64>>>>>,
     normals: Option<Spanned<Vec<Numbers>>>,
+    uvs: Option<Spanned<Vec<Numbers>>>,
     center: Option<Numbers>,
     size: Option<Numbers>,
     corners: Option<Spanned<Vec<Numbers>>>,
@@ -275,8 +306,9 @@ fn at_most<T>(tables: &[Spanned<T>], max: usize, what: &str) -> Res<()> {
 
 // ---- Building the scene --------------------------------------------------------------------
 
-fn build(doc: &Doc, src: &str) -> Res<Scene> {
-    let (materials, names) = materials(&doc.material, src)?;
+fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
+    let (textures, texture_names) = textures(&doc.texture, src, origin)?;
+    let (materials, names) = materials(&doc.material, src, &texture_names)?;
     Ok(Scene {
         camera: camera(doc.camera.get_ref())?,
         lights: lights(&doc.light)?,
@@ -286,7 +318,7 @@ fn build(doc: &Doc, src: &str) -> Res<Scene> {
         meshes: meshes(&doc.mesh, &names)?,
         cones: cones(&doc.cone, &names)?,
         materials,
-        textures: vec![],
+        textures,
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
     })
 }
@@ -335,52 +367,177 @@ fn trace(t: &TraceDoc) -> Res<TraceSettings> {
     })
 }
 
-/// Material names → index, and where each was defined.
-#[derive(Default)]
-struct Names<'a>(HashMap<&'a str, (u32, Span)>);
+/// Names of one kind of table (`what`: "material", "texture") → index, and where each was
+/// defined.
+struct Names<'a> {
+    what: &'static str,
+    map: HashMap<&'a str, (u32, Span)>,
+}
 
-impl Names<'_> {
+impl<'a> Names<'a> {
+    fn new(what: &'static str) -> Self {
+        Names { what, map: HashMap::new() }
+    }
+
+    /// Adds the next table's `name`, refusing one already taken.
+    fn define(&mut self, name: &'a Spanned<String>, src: &str) -> Res<u32> {
+        let (what, text) = (self.what, name.get_ref());
+        if let Some((_, first)) = self.map.get(text.as_str()) {
+            let line = line_column(src, first.start).0;
+            return err(name.span(), format!("{what} '{text}' is already defined on line {line}"));
+        }
+        let index = self.map.len() as u32;
+        self.map.insert(text, (index, name.span()));
+        Ok(index)
+    }
+
     fn resolve(&self, name: &Spanned<String>) -> Res<u32> {
-        match self.0.get(name.get_ref().as_str()) {
+        match self.map.get(name.get_ref().as_str()) {
             Some((index, _)) => Ok(*index),
             None => err(name.span(), self.unknown(name.get_ref())),
         }
     }
 
     fn unknown(&self, name: &str) -> String {
-        if self.0.is_empty() {
-            return format!("unknown material '{name}': the file defines no [[material]]");
+        let what = self.what;
+        if self.map.is_empty() {
+            return format!("unknown {what} '{name}': the file defines no [[{what}]]");
         }
-        let mut known: Vec<_> = self.0.iter().map(|(n, (i, _))| (*i, *n)).collect();
+        let mut known: Vec<_> = self.map.iter().map(|(n, (i, _))| (*i, *n)).collect();
         known.sort_unstable();
         const SHOWN: usize = 10;
         let mut list = known.iter().take(SHOWN).map(|(_, n)| format!("'{n}'")).collect::<Vec<_>>().join(", ");
         if known.len() > SHOWN {
             list += &format!(" and {} more", known.len() - SHOWN);
         }
-        format!("unknown material '{name}' (materials defined: {list})")
+        format!("unknown {what} '{name}' ({what}s defined: {list})")
     }
 }
 
-fn materials<'a>(docs: &'a [Spanned<MaterialDoc>], src: &str) -> Res<(Vec<Material>, Names<'a>)> {
+fn materials<'a>(
+    docs: &'a [Spanned<MaterialDoc>],
+    src: &str,
+    textures: &Names,
+) -> Res<(Vec<Material>, Names<'a>)> {
     at_most(docs, MAX_MATERIALS, "[[material]] tables")?;
-    let mut names = Names::default();
+    let mut names = Names::new("material");
     let mut out = Vec::with_capacity(docs.len());
     for doc in docs {
         let m = doc.get_ref();
-        let name = m.name.get_ref();
-        if let Some((_, first)) = names.0.get(name.as_str()) {
-            let line = line_column(src, first.start).0;
-            return err(m.name.span(), format!("material '{name}' is already defined on line {line}"));
-        }
-        let material = Material { name: name.clone(), texture: None, kind: material_kind(m)? };
+        names.define(&m.name, src)?;
+        let texture =
+            match (&m.texture, m.kind) {
+                (None, _) => None,
+                (Some(t), MaterialType::Dielectric) => return err(
+                    t.span(),
+                    "a dielectric material has no colour to texture; `texture` applies to diffuse, metal \
+                     and polished materials",
+                ),
+                (Some(t), _) => Some(textures.resolve(t)?),
+            };
+        let material = Material { name: m.name.get_ref().clone(), texture, kind: material_kind(m)? };
         // Range checks (colour in [0, 1], eta > 0) are the scene model's; report them here
         // because here we still know which table they belong to.
         material.validate().map_err(|e| located(doc.span(), e.0))?;
-        names.0.insert(name, (out.len() as u32, m.name.span()));
         out.push(material);
     }
     Ok((out, names))
+}
+
+/// Reads and decodes every texture's PNG. The headers come first: a file that is not a PNG, an
+/// image too big on its own, and a scene whose images together exceed
+/// [`MAX_TOTAL_TEXTURE_PIXELS`] are refused before any file is read whole or decoded.
+fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res<(Vec<Texture>, Names<'a>)> {
+    at_most(docs, MAX_TEXTURES, "[[texture]] tables")?;
+    let mut names = Names::new("texture");
+    let mut settings = Vec::with_capacity(docs.len());
+    for doc in docs {
+        let t = doc.get_ref();
+        names.define(&t.name, src)?;
+        settings.push((texture_file(origin, &t.file), wrap(&t.wrap)?, filter(&t.filter)?));
+    }
+    let mut total = 0u64;
+    for (t, (path, ..)) in docs.iter().zip(&settings) {
+        let file = &t.get_ref().file;
+        let header = read_header(path).map_err(|m| located(file.span(), m))?;
+        let pixels = png::declared_size(&header).map(|(w, h)| w as u64 * h as u64);
+        if !pixels.is_some_and(|p| (1..=MAX_TEXTURE_PIXELS).contains(&p)) {
+            // Not a PNG, or a size out of range: `decode` refuses these from the header alone.
+            let message = match png::decode(&header, &texture_what(path)) {
+                Err(png::Unusable::Refused(m) | png::Unusable::NotPng(m)) => m,
+                Ok(_) => format!("{}: the PNG header is unusable", texture_what(path)),
+            };
+            return err(file.span(), message);
+        }
+        total += pixels.unwrap_or(0);
+        if total > MAX_TOTAL_TEXTURE_PIXELS {
+            return err(
+                file.span(),
+                format!(
+                    "the textures up to this one have {total} pixels together; a scene's textures may \
+                     have at most {MAX_TOTAL_TEXTURE_PIXELS}"
+                ),
+            );
+        }
+    }
+    let mut out = Vec::with_capacity(docs.len());
+    for (t, (path, wrap, filter)) in docs.iter().zip(settings) {
+        let t = t.get_ref();
+        let what = texture_what(&path);
+        let bytes = super::read_limited(&path, MAX_TEXTURE_FILE_BYTES, "texture file")
+            .map_err(|m| located(t.file.span(), format!("'{}': {m}", path.display())))?;
+        let (width, height, texels) = png::decode(&bytes, &what).map_err(|e| match e {
+            png::Unusable::Refused(m) | png::Unusable::NotPng(m) => located(t.file.span(), m),
+        })?;
+        out.push(Texture { name: t.name.get_ref().clone(), width, height, texels, wrap, filter });
+    }
+    Ok((out, names))
+}
+
+/// A texture file as messages name it.
+fn texture_what(path: &Path) -> String {
+    format!("texture file '{}'", path.display())
+}
+
+/// A texture's `file`, relative to the directory of the scene file `origin`.
+fn texture_file(origin: &str, file: &Spanned<String>) -> PathBuf {
+    Path::new(origin).parent().unwrap_or(Path::new("")).join(file.get_ref())
+}
+
+/// The first bytes of a PNG, up to its declared size (fewer if the file is shorter).
+fn read_header(path: &Path) -> Result<Vec<u8>, String> {
+    let cannot = |e: std::io::Error| format!("'{}': cannot read the texture file: {e}", path.display());
+    let mut header = Vec::with_capacity(png::HEADER_BYTES);
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    file.take(png::HEADER_BYTES as u64).read_to_end(&mut header).map_err(cannot)?;
+    Ok(header)
+}
+
+/// A word from `names` (the modes of a wrap or filter), or an error listing them.
+fn mode<T: Copy>(word: &str, names: &[(&str, T)], key: &str, span: Span) -> Res<T> {
+    match names.iter().find(|(n, _)| *n == word) {
+        Some((_, mode)) => Ok(*mode),
+        None => {
+            let known = names.iter().map(|(n, _)| format!("\"{n}\"")).collect::<Vec<_>>().join(", ");
+            err(span, format!("unknown `{key}` \"{word}\"; expected one of {known}"))
+        }
+    }
+}
+
+fn wrap(w: &Option<Spanned<WrapDoc>>) -> Res<[Wrap; 2]> {
+    let Some(w) = w else { return Ok([Wrap::default(); 2]) };
+    let one = |word: &str| mode(word, &Wrap::NAMES, "wrap", w.span());
+    match w.get_ref() {
+        WrapDoc::Both(word) => Ok([one(word)?; 2]),
+        WrapDoc::Each(words) => match words.as_slice() {
+            [u, v] => Ok([one(u)?, one(v)?]),
+            _ => err(w.span(), format!("`wrap` needs 2 modes [u, v] as a list, found {}", words.len())),
+        },
+    }
+}
+
+fn filter(f: &Option<Spanned<String>>) -> Res<Filter> {
+    f.as_ref().map_or(Ok(Filter::default()), |f| mode(f.get_ref(), &Filter::NAMES, "filter", f.span()))
 }
 
 fn material_kind(m: &MaterialDoc) -> Res<MaterialKind> {
@@ -486,14 +643,15 @@ fn meshes(docs: &[Spanned<MeshDoc>], names: &Names) -> Res<Vec<Mesh>> {
 fn mesh(m: &MeshDoc, table: &Span, names: &Names) -> Res<Mesh> {
     let material = names.resolve(&m.material)?;
     let (what, allowed): (&str, &[&str]) = match m.shape {
-        None => ("an inline mesh (no `shape`)", &["positions", "indices", "normals"]),
-        Some(Shape::Quad) => ("a quad", &["center", "size", "corners"]),
+        None => ("an inline mesh (no `shape`)", &["positions", "indices", "normals", "uvs"]),
+        Some(Shape::Quad) => ("a quad", &["center", "size", "corners", "uvs"]),
         Some(Shape::Box) => ("a box", &["min", "max"]),
         Some(Shape::Icosphere) => ("an icosphere", &["center", "radius", "subdivisions"]),
     };
     #[rustfmt::skip]
     let given = [
         ("positions", span_of(&m.positions)), ("indices", span_of(&m.indices)), ("normals", span_of(&m.normals)),
+        ("uvs", span_of(&m.uvs)),
         ("center", span_of(&m.center)), ("size", span_of(&m.size)), ("corners", span_of(&m.corners)),
         ("min", span_of(&m.min)), ("max", span_of(&m.max)), ("radius", span_of(&m.radius)),
         ("subdivisions", span_of(&m.subdivisions)),
@@ -505,8 +663,26 @@ fn mesh(m: &MeshDoc, table: &Span, names: &Names) -> Res<Mesh> {
         Some(Shape::Box) => cuboid(m, what, table)?,
         Some(Shape::Icosphere) => icosphere(m, what, table)?,
     };
+    let vertices = match m.shape {
+        None => "`positions` has",
+        _ => "a quad has",
+    };
+    let uvs = m.uvs.as_ref().map(|u| uvs(u, geometry.positions.len(), vertices)).transpose()?;
     geometry.transform(scale(&m.scale)?, vec3_or(&m.translate, "translate", DVec3::ZERO)?);
-    Ok(geometry.into_mesh(material))
+    // Texture coordinates belong to the vertices and are not moved by `scale` and `translate`.
+    Ok(Mesh { uvs, ..geometry.into_mesh(material) })
+}
+
+/// One texture coordinate `[u, v]` per vertex (`vertices`: "`positions` has", "a quad has").
+fn uvs(u: &Spanned<Vec<Numbers>>, vertex_count: usize, vertices: &str) -> Res<Vec<DVec2>> {
+    if u.get_ref().len() != vertex_count {
+        let count = u.get_ref().len();
+        return err(
+            u.span(),
+            format!("`uvs` has {count} entries but {vertices} {vertex_count} vertices; give one [u, v] per vertex"),
+        );
+    }
+    u.get_ref().iter().map(|v| numbers::<2>(v, "uvs").map(DVec2::from_array)).collect()
 }
 
 fn inline(m: &MeshDoc, what: &str, table: &Span) -> Res<Geometry> {

@@ -5,11 +5,66 @@
 //! parse back to the same bits, always with a `.` or an exponent so that TOML reads a float).
 //! Meshes are written inline. Every table is a list of `(key, Value)` pairs, so a new primitive
 //! is one more loop in [`to_toml`].
+//!
+//! Textures live in PNG files beside the TOML. [`to_files`] gives the text and every PNG with
+//! the file name the text refers to; the caller writes them into one directory. [`to_toml`] is
+//! the text alone, for a caller that names (and writes) the texture files itself.
 
+use super::png;
 use crate::scene::{MaterialKind, Scene};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::collections::HashSet;
 use std::fmt::Write;
+
+/// A scene as the files that hold it: the TOML text and one PNG per texture.
+pub struct SceneFiles {
+    pub toml: String,
+    /// `(file name, PNG bytes)` for each texture, in scene order. The names are plain file
+    /// names (no directory); the TOML refers to them relative to its own directory.
+    pub textures: Vec<(String, Vec<u8>)>,
+}
+
+/// The scene as files, for a TOML file whose name without `.toml` is `stem`: texture `i` goes to
+/// `<stem>.<i>.png`, or `<stem>.<i>.<name>.png` with the texture's name made safe
+/// ([`texture_file_names`]). PNG is lossless, so loading the files gives back the same texels.
+pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, String> {
+    let names = texture_file_names(scene, stem);
+    let textures = scene
+        .textures
+        .iter()
+        .zip(&names)
+        .map(|(t, file)| {
+            let png = png::encode(t.width, t.height, &t.texels)
+                .map_err(|e| format!("texture '{}': {e}", t.name))?;
+            Ok((file.clone(), png))
+        })
+        .collect::<Result<_, String>>()?;
+    Ok(SceneFiles { toml: to_toml(scene, &names), textures })
+}
+
+/// File names for the scene's textures, unique (the index) and safe on any file system: the
+/// texture's name is kept only in ASCII letters, digits, `-` and `_` (others become `_`, at
+/// most 32 of them, a trailing `.png` dropped) and left out when nothing is left of it.
+pub fn texture_file_names(scene: &Scene, stem: &str) -> Vec<String> {
+    scene
+        .textures
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let name = t.name.strip_suffix(".png").or(t.name.strip_suffix(".PNG")).unwrap_or(&t.name);
+            let safe: String = name
+                .chars()
+                .take(32)
+                .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+                .collect();
+            if safe.chars().all(|c| c == '_') {
+                format!("{stem}.{i}.png")
+            } else {
+                format!("{stem}.{i}.{safe}.png")
+            }
+        })
+        .collect()
+}
 
 /// A value as the writer lays it out.
 enum Value<'a> {
@@ -19,14 +74,21 @@ enum Value<'a> {
     Vec3(DVec3),
     /// One vector per line (mesh positions and normals).
     Vec3s(&'a [DVec3]),
+    /// One `[u, v]` per line (mesh texture coordinates).
+    Vec2s(&'a [DVec2]),
+    /// `[a, b]` on one line.
+    Strs(&'a [&'a str]),
     /// One triangle per line.
     Triangles(&'a [[u32; 3]]),
 }
 
-/// The scene as TOML. The scene should be valid ([`Scene::validate`]): TOML has no spelling for
-/// NaN that the loader would accept, and the loader rejects what `validate` rejects.
-pub fn to_toml(scene: &Scene) -> String {
-    let names = material_names(scene);
+/// The scene as TOML, texture `i` read from `texture_files[i]` (a path relative to the TOML's
+/// directory; one per texture). The scene should be valid ([`Scene::validate`]): TOML has no
+/// spelling for NaN that the loader would accept, and the loader rejects what `validate` rejects.
+pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
+    assert_eq!(texture_files.len(), scene.textures.len(), "one file name per texture");
+    let names = unique_names(scene.materials.iter().map(|m| m.name.as_str()));
+    let texture_names = unique_names(scene.textures.iter().map(|t| t.name.as_str()));
     let mut out = String::from("# An irt scene (docs/scene-format.md).\n");
     entries(&mut out, &[("background", Value::Vec3(scene.background))]);
     let c = &scene.camera;
@@ -62,6 +124,16 @@ pub fn to_toml(scene: &Scene) -> String {
             ("radius", Value::Float(l.radius)),
         ]);
     }
+    for ((t, name), file) in scene.textures.iter().zip(&texture_names).zip(texture_files) {
+        let wrap = t.wrap.map(|w| w.name());
+        let mut e = vec![("name", Value::Str(name)), ("file", Value::Str(file))];
+        e.push(match wrap {
+            [u, v] if u == v => ("wrap", Value::Str(u)),
+            _ => ("wrap", Value::Strs(&wrap)),
+        });
+        e.push(("filter", Value::Str(t.filter.name())));
+        table(&mut out, "[[texture]]", &e);
+    }
     for (m, name) in scene.materials.iter().zip(&names) {
         let mut e = vec![("name", Value::Str(name))];
         match &m.kind {
@@ -84,6 +156,9 @@ pub fn to_toml(scene: &Scene) -> String {
                 ("eta", Value::Float(*eta)),
                 ("exponent", Value::Float(*exponent)),
             ]),
+        }
+        if let Some(t) = m.texture {
+            e.push(("texture", Value::Str(texture_names.get(t as usize).map_or("", String::as_str))));
         }
         table(&mut out, "[[material]]", &e);
     }
@@ -115,23 +190,24 @@ pub fn to_toml(scene: &Scene) -> String {
         if let Some(n) = &m.normals {
             e.push(("normals", Value::Vec3s(n)));
         }
+        if let Some(uv) = &m.uvs {
+            e.push(("uvs", Value::Vec2s(uv)));
+        }
         table(&mut out, "[[mesh]]", &e);
     }
     out
 }
 
-/// Material names as written: each scene name, with a suffix where a name repeats (materials
-/// are referred to by name, so names must be unique in the file).
-fn material_names(scene: &Scene) -> Vec<String> {
+/// Material or texture names as written: each scene name, with a suffix where a name repeats
+/// (materials and textures are referred to by name, so names must be unique in the file).
+fn unique_names<'a>(names: impl Iterator<Item = &'a str>) -> Vec<String> {
     let mut taken = HashSet::new();
-    scene
-        .materials
-        .iter()
-        .map(|m| {
-            let mut name = m.name.clone();
+    names
+        .map(|original| {
+            let mut name = original.to_string();
             let mut k = 2;
             while !taken.insert(name.clone()) {
-                name = format!("{} #{k}", m.name);
+                name = format!("{original} #{k}");
                 k += 1;
             }
             name
@@ -162,6 +238,23 @@ fn write_value(out: &mut String, v: &Value) {
         Value::Str(s) => string(out, s),
         Value::Vec3(v) => vec3(out, *v),
         Value::Vec3s(vs) => lines(out, vs, |out, v| vec3(out, *v)),
+        Value::Vec2s(vs) => lines(out, vs, |out, v| {
+            out.push('[');
+            float(out, v.x);
+            out.push_str(", ");
+            float(out, v.y);
+            out.push(']');
+        }),
+        Value::Strs(ss) => {
+            out.push('[');
+            for (i, s) in ss.iter().enumerate() {
+                if i > 0 {
+                    out.push_str(", ");
+                }
+                string(out, s);
+            }
+            out.push(']');
+        }
         Value::Triangles(ts) => {
             lines(out, ts, |out, t| write!(out, "[{}, {}, {}]", t[0], t[1], t[2]).unwrap())
         }
