@@ -20,11 +20,10 @@ pub enum Unusable {
 pub fn decode(bytes: &[u8], what: &str) -> Result<Rgba8, Unusable> {
     use image::{ImageFormat, ImageReader, Limits};
     use std::io::Cursor;
-    if !bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+    if !bytes.starts_with(PNG_SIGNATURE) {
         return Err(Unusable::NotPng(format!("{what} is not a PNG; irt decodes PNG textures only")));
     }
-    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes(b.try_into().unwrap()));
-    let (Some(w), Some(h), Some(b"IHDR")) = (word(16), word(20), bytes.get(12..16)) else {
+    let Some((w, h)) = declared_size(bytes) else {
         return Err(Unusable::Refused(format!("{what}: the PNG does not start with its IHDR header")));
     };
     if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
