@@ -3,8 +3,6 @@
 // Pixel whose ray tree this invocation traces (bundles are rotated per pixel).
 var<private> pixel_id: u32;
 
-const TAU: f32 = 6.283185307179586;
-
 struct Frame {
     u: vec3f,
     v: vec3f,
@@ -26,7 +24,7 @@ fn falloff(f: u32, tau: f32) -> f32 {
     }
     if f == 2u {
         let x = 1.0 - 2.0 * t;
-        return (acos(x) - x * sqrt(max(0.0, 1.0 - x * x))) / 3.141592653589793;
+        return (acos(x) - x * sqrt(max(0.0, 1.0 - x * x))) / PI;
     }
     return t * t * (3.0 - 2.0 * t);
 }

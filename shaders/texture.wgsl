@@ -59,6 +59,35 @@ fn wrap_index(i: i32, n: i32, mode: u32) -> i32 {
     return select(k, 2 * n - 1 - k, k >= n);
 }
 
+// An orthonormal frame (e1, e2) around the unit vector `a` (Duff et al. 2017, "Building an
+// Orthonormal Basis, Revisited"): continuous except where a.z changes sign.
+fn frame_around(a: vec3f) -> mat2x3f {
+    let sign = select(-1.0, 1.0, a.z >= 0.0);
+    let k = -1.0 / (sign + a.z);
+    let b = a.x * a.y * k;
+    return mat2x3f(vec3f(1.0 + sign * a.x * a.x * k, sign * b, -sign * a.x), vec3f(b, sign + a.y * a.y * k, -a.y));
+}
+
+// u of the direction `q` around the unit axis `a`: its angle in `frame_around(a)`, 0..1.
+fn angle_u(q: vec3f, a: vec3f) -> f32 {
+    let e = frame_around(a);
+    return 0.5 + atan2(dot(q, e[1]), dot(q, e[0])) / TAU;
+}
+
+// Texture coordinates of a sphere at the outward unit normal `n`: longitude around +y (u) and
+// latitude from the +y pole (v = 0) to the -y pole (v = 1), as an equirectangular map.
+fn sphere_uv(n: vec3f) -> vec2f {
+    return vec2f(angle_u(n, vec3f(0.0, 1.0, 0.0)), acos(clamp(n.y, -1.0, 1.0)) * (1.0 / PI));
+}
+
+// Texture coordinates of a cone at `p`: the angle around its axis (u) and the position along it,
+// v = 1 at the base and 0 at the apex end (the image upright on a cone standing on its base).
+fn cone_uv(p: vec3f, base: vec3f, axis: vec3f) -> vec2f {
+    let a = normalize(axis);
+    let q = p - base;
+    return vec2f(angle_u(q, a), 1.0 - dot(q, axis) / dot(axis, axis));
+}
+
 // Linear RGB of texture `t` at `uv` (u right, v down, (0, 0) the top-left corner of the image),
 // filtered and wrapped as the texture says.
 fn sample_texture(t: u32, uv: vec2f) -> vec3f {

@@ -18,7 +18,8 @@ struct Surface {
     inside: bool,
     // Magnitude of the numbers p was computed from; its rounding error is relative to this.
     scale: f32,
-    // Texture coordinates ((0, 0) where the primitive has none).
+    // Texture coordinates (interpolated on triangles, (0, 0) on a mesh without them; spheres and
+    // cones: `sphere_uv`, `cone_uv`).
     uv: vec2f,
 }
 
@@ -66,6 +67,9 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
             scale = ray_scale;
         }
         material = sphere_material(i);
+        if HAS_TEXTURES {
+            uv = sphere_uv(ng);
+        }
     } else if HAS_CONES && prim_kind(h.prim) == PRIM_CONE {
         let c = load_cone(i);
         ng = unit_or(cone_normal(p, c.base, c.r0, c.axis, c.r1), -d);
@@ -73,6 +77,9 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
         // p stays the ray's: its error is relative to the ray's numbers.
         scale = vmax(abs(o)) + h.t;
         material = cone_material(i);
+        if HAS_TEXTURES {
+            uv = cone_uv(p, c.base, c.axis);
+        }
     } else {
         let tri = load_triangle(i);
         p = tri.p0 + h.b1 * (tri.p1 - tri.p0) + h.b2 * (tri.p2 - tri.p0);

@@ -45,3 +45,5 @@ struct Tile {
 const NO_HIT: u32 = 0xffffffffu;
 const MISS: f32 = -1.0;
 const BIG: f32 = 3.0e38;
+const PI: f32 = 3.141592653589793;
+const TAU: f32 = 6.283185307179586;

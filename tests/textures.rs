@@ -158,3 +158,101 @@ fn on_edge(o: DVec3, d: DVec3) -> bool {
     let p = o + d * (-o.z / d.z);
     (p.x.abs() - 1.0).abs() < 1e-5 || (p.y.abs() - 1.0).abs() < 1e-5
 }
+
+/// Whether two u coordinates agree within `tol`, counting 0 and 1 as the same (the seam).
+fn same_u(a: f64, b: f64, tol: f64) -> bool {
+    let d = (a - b).abs();
+    d.min(1.0 - d) < tol
+}
+
+#[test]
+fn sphere_and_cone_coordinates_match_the_reference() {
+    let mut s = textured_scene(random_textures(&mut Rng::new(5)));
+    s.spheres = vec![irt::scene::Sphere { center: DVec3::new(0.3, -0.2, 0.1), radius: 1.0, material: 0 }];
+    // A slanted truncated cone away from the sphere, and a cylinder along +y (a.z = 0: the seam
+    // of the frame construction's sign choice).
+    s.cones = vec![
+        irt::scene::Cone {
+            base: DVec3::new(3.0, -1.0, 0.5),
+            base_radius: 0.8,
+            apex: DVec3::new(3.6, 1.0, -0.2),
+            apex_radius: 0.3,
+            material: 1,
+        },
+        irt::scene::Cone {
+            base: DVec3::new(-3.0, -1.0, 0.0),
+            base_radius: 0.6,
+            apex: DVec3::new(-3.0, 1.2, 0.0),
+            apex_radius: 0.6,
+            material: 2,
+        },
+    ];
+    let ctx = gpu();
+    let gpu_scene = GpuScene::upload(&ctx, &s, &Grid::build(&s)).expect("upload");
+    let reference = cpu::Reference::new(&s);
+    let mut rng = Rng::new(13);
+    let targets = [DVec3::new(0.3, -0.2, 0.1), DVec3::new(3.3, 0.0, 0.15), DVec3::new(-3.0, 0.1, 0.0)];
+    let mut inputs = Vec::new();
+    for i in 0..6144 {
+        let o = rng.unit() * 8.0;
+        let target = targets[i % 3] + rng.vec(-0.9, 0.9);
+        inputs.push(v4(o, 0.0));
+        inputs.push(v4((target - o).normalize(), 0.0));
+    }
+    let out = run_kernel(&ctx, &gpu_scene, "k_surface_uv", &inputs, (inputs.len() / 2) as u32, 1);
+    let (mut checked, mut sphere_hits, mut cone_hits) = (0, 0, 0);
+    for (k, o) in out.iter().enumerate() {
+        let (ray_o, ray_d) = (d3(inputs[2 * k]), d3(inputs[2 * k + 1]).normalize());
+        let Some(h) = reference.intersect(ray_o, ray_d, f64::INFINITY) else { continue };
+        if o[0] == 0.0 {
+            continue; // a silhouette graze decided the other way; the golden tests cover those
+        }
+        // Where the angle around the axis is ill-conditioned (at a pole or on the axis) u may
+        // differ arbitrarily; skip points within 1% of the radius of it.
+        let (axis_point, axis, radius) = if h.material == 0 {
+            sphere_hits += 1;
+            (s.spheres[0].center, DVec3::Y, 1.0)
+        } else {
+            cone_hits += 1;
+            let c = &s.cones[h.material as usize - 1];
+            (c.base, (c.apex - c.base).normalize(), c.base_radius.min(c.apex_radius))
+        };
+        let q = h.p - axis_point;
+        if (q - q.dot(axis) * axis).length() < 0.01 * radius {
+            continue;
+        }
+        checked += 1;
+        // f32 hit points are good to ~1e-7 of the scene's size, and lavapipe's atan2/acos to a few
+        // ulps: 1e-4 (a tenth of a texel of a 1024-wide texture) is far above both and far
+        // below any mistake in the convention.
+        let (u, v) = (o[1] as f64, o[2] as f64);
+        assert!(same_u(u, h.uv.x, 1e-4) && (v - h.uv.y).abs() < 1e-4, "ray {k}: uv ({u}, {v}) vs {}", h.uv);
+    }
+    println!("{checked} hits compared ({sphere_hits} sphere, {cone_hits} cone)");
+    assert!(sphere_hits > 1000 && cone_hits > 1000 && checked > 3000, "{sphere_hits}/{cone_hits}/{checked}");
+}
+
+#[test]
+fn sphere_and_cone_coordinates_follow_the_convention() {
+    use cpu::{cone_uv, sphere_uv};
+    // Sphere: the +y pole is v = 0 (the image's top row), the equator v = 1/2, -y v = 1; going
+    // round +y, u covers [0, 1] once.
+    assert!((sphere_uv(DVec3::Y).y).abs() < 1e-12 && (sphere_uv(-DVec3::Y).y - 1.0).abs() < 1e-12);
+    assert!((sphere_uv(DVec3::X).y - 0.5).abs() < 1e-12);
+    let us: Vec<f64> = (0..8)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / 8.0;
+            sphere_uv(DVec3::new(a.cos(), 0.0, a.sin())).x
+        })
+        .collect();
+    let steps: Vec<f64> = us.windows(2).map(|w| (w[1] - w[0]).rem_euclid(1.0)).collect();
+    assert!(
+        steps.iter().all(|&d| (d - 0.125).abs() < 1e-12) || steps.iter().all(|&d| (d - 0.875).abs() < 1e-12),
+        "{us:?}"
+    );
+    // Cone: v = 1 at the base, 0 at the apex, linear in between.
+    let (base, apex) = (DVec3::new(1.0, 2.0, 3.0), DVec3::new(1.0, 2.0, 5.0));
+    assert!((cone_uv(base + DVec3::X, base, apex).y - 1.0).abs() < 1e-12);
+    assert!((cone_uv(apex + DVec3::X, base, apex).y).abs() < 1e-12);
+    assert!((cone_uv(base + DVec3::new(0.0, 0.5, 0.5), base, apex).y - 0.75).abs() < 1e-12);
+}

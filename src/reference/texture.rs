@@ -1,7 +1,9 @@
 //! Texture sampling in f64: the twin of `shaders/texture.wgsl` (docs/scene-format.md, textures).
 //! Written from the definitions (texel centres at half-integers, GL's wrap modes), not from the
 //! shader: the fold-then-wrap split is the shader's trick for small integers, so it is not
-//! repeated here; each wrap mode is one formula over any integer texel index.
+//! repeated here; each wrap mode is one formula over any integer texel index. Texture
+//! coordinates of spheres and cones (`sphere_uv`, `cone_uv`) are conventions, and follow the
+//! shader's definitions.
 
 use crate::scene::{srgb8_to_linear, Filter, MaterialKind, Scene, Texture, Wrap};
 use glam::{DVec2, DVec3};
@@ -76,4 +78,33 @@ pub fn material_at(scene: &Scene, index: u32, uv: DVec2) -> MaterialKind {
         }
     }
     kind
+}
+
+/// An orthonormal pair around the unit vector `a`: the same construction as the shader's
+/// `frame_around` (Duff et al. 2017), since texture coordinates depend on the choice.
+pub fn frame_around(a: DVec3) -> (DVec3, DVec3) {
+    let sign = if a.z >= 0.0 { 1.0 } else { -1.0 };
+    let k = -1.0 / (sign + a.z);
+    let b = a.x * a.y * k;
+    (DVec3::new(1.0 + sign * a.x * a.x * k, sign * b, -sign * a.x), DVec3::new(b, sign + a.y * a.y * k, -a.y))
+}
+
+/// u of direction `q` around the unit axis `a`: its angle in [`frame_around`]`(a)`, in [0, 1].
+fn angle_u(q: DVec3, a: DVec3) -> f64 {
+    let (e1, e2) = frame_around(a);
+    0.5 + q.dot(e2).atan2(q.dot(e1)) / std::f64::consts::TAU
+}
+
+/// Texture coordinates on a sphere at the outward unit normal `n`: longitude around +y, latitude
+/// from the +y pole (v = 0) to the -y pole (v = 1).
+pub fn sphere_uv(n: DVec3) -> DVec2 {
+    DVec2::new(angle_u(n, DVec3::Y), n.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI)
+}
+
+/// Texture coordinates on a cone at `p`: the angle around the axis `base → apex` and the position
+/// along it, v = 1 at the base and 0 at the apex.
+pub fn cone_uv(p: DVec3, base: DVec3, apex: DVec3) -> DVec2 {
+    let axis = apex - base;
+    let q = p - base;
+    DVec2::new(angle_u(q, axis.normalize()), 1.0 - q.dot(axis) / axis.length_squared())
 }

@@ -7,7 +7,7 @@ use super::geometry::{
 };
 use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light};
 use super::shadows::{bundle_point, cone_shell, frame, sphere_shell, stratified_disc, triangle_shell};
-use super::texture::material_at;
+use super::texture::{cone_uv, material_at, sphere_uv};
 use crate::scene::{bundle_samples, CameraBasis, Combine, Light, MaterialKind, Scene, ShadowMode, Triangle};
 use glam::{DVec2, DVec3};
 use std::cell::Cell;
@@ -64,7 +64,8 @@ pub struct SurfaceHit {
     /// sphere's centre and radius or the triangle's vertices): its rounding error is relative
     /// to this, so ray offsets are too.
     pub scale: f64,
-    /// Texture coordinates ((0, 0) where the primitive has none).
+    /// Texture coordinates: interpolated on triangles ((0, 0) on a mesh without them), `sphere_uv`
+    /// and `cone_uv` on spheres and cones.
     pub uv: DVec2,
 }
 
@@ -222,6 +223,7 @@ impl<'a> Reference<'a> {
                 scale = scale.max(s.center.abs().max_element() + s.radius);
                 // (p - c)/r, normalised so rounding in p cannot leave it off unit length.
                 let n = (p - s.center).normalize();
+                uv = sphere_uv(n);
                 (n, n, s.material)
             }
             Prim::Triangle { index, b1, b2 } => {
@@ -250,6 +252,7 @@ impl<'a> Reference<'a> {
             Prim::Cone(i) => {
                 let c = &self.scene.cones[i];
                 let n = cone_normal(p, c.base, c.base_radius, c.apex, c.apex_radius);
+                uv = cone_uv(p, c.base, c.apex);
                 (n, n, c.material)
             }
         };

@@ -103,8 +103,9 @@ pub struct Material {
     pub name: String,
     pub kind: MaterialKind,
     /// Index into `Scene::textures`: the kind's colour is multiplied by this texture at the hit's
-    /// texture coordinates (a dielectric has no colour to multiply). Primitives without
-    /// texture coordinates (spheres, cones, meshes without `uvs`) read it at (0, 0).
+    /// texture coordinates (a dielectric has no colour to multiply). Spheres are mapped by
+    /// longitude and latitude about +y, cones by the angle around and the position along their
+    /// axis (docs/scene-format.md); a mesh without `uvs` reads the texture at (0, 0).
     pub texture: Option<u32>,
 }
 
