@@ -355,7 +355,7 @@ fn unsupported_required_extension() {
         &["extensionsRequired[0]", "KHR_draco_mesh_compression", "KHR_lights_punctual"],
     );
     // Used but not required: ignored.
-    let doc = with(triangle(), |d| d["extensionsUsed"] = json!(["KHR_texture_transform"]));
+    let doc = with(triangle(), |d| d["extensionsUsed"] = json!(["KHR_materials_sheen"]));
     load_json("used.gltf", &doc).unwrap();
 }
 
@@ -537,6 +537,66 @@ fn base_colour_textures_keep_their_texels_sampler_and_coordinates() {
     let s = load_json("glass.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
     assert!(matches!(s.materials[0].kind, MaterialKind::Dielectric { .. }));
     assert_eq!((s.materials[0].texture, s.textures.len()), (None, 0));
+}
+
+/// The textured triangle of `base_colour_textures_keep_their_texels_sampler_and_coordinates`
+/// with a KHR_texture_transform (`transform`) on its base-colour texture reference.
+fn transformed_triangle(transform: Value) -> Value {
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&[255, 0, 0, 0, 0, 255], 2, 1, image::ExtendedColorType::Rgb8)
+        .unwrap();
+    let uvs = [0.0f32, 0.0, 0.25, 0.5, 1.0, 0.75];
+    let mut bin = triangle_bin(POSITIONS, [0, 1, 2]);
+    bin.extend(uvs.iter().flat_map(|x| x.to_le_bytes()));
+    with(triangle(), |d| {
+        d["extensionsUsed"] = json!(["KHR_texture_transform"]);
+        d["extensionsRequired"] = json!(["KHR_texture_transform"]);
+        d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] =
+            json!({ "index": 0, "extensions": { "KHR_texture_transform": transform } });
+        d["textures"] = json!([{ "source": 0 }]);
+        d["images"] = json!([{ "uri": format!("data:image/png;base64,{}", base64(&png)) }]);
+        d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(2);
+        d["accessors"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({ "bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2" }));
+        d["bufferViews"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({ "buffer": 0, "byteOffset": 44, "byteLength": 24 }));
+        d["buffers"][0] = json!({ "byteLength": 68, "uri": data_uri(&bin) });
+    })
+}
+
+#[test]
+fn texture_transform_moves_the_coordinates() {
+    // offset (0.5, 0), a quarter turn, scale (2, 1): (u, v) → (0.5 - v, 2u) (the extension's
+    // matrix translation · rotation · scale, rotation counter-clockwise in uv space).
+    let t = json!({ "offset": [0.5, 0.0], "rotation": std::f64::consts::FRAC_PI_2, "scale": [2.0, 1.0] });
+    let s = load_json("transform.gltf", &transformed_triangle(t)).unwrap_or_else(|e| panic!("{e}"));
+    let got = s.meshes[0].uvs.as_ref().expect("uvs");
+    let want = [DVec2::new(0.5, 0.0), DVec2::new(0.0, 0.5), DVec2::new(-0.25, 2.0)];
+    for (g, w) in got.iter().zip(want) {
+        assert!((*g - w).length() < 1e-12, "{g} vs {w}");
+    }
+    // texCoord in the transform overrides the reference's: set 1 is missing here, so the
+    // texture is read at (0, 0) (a warning), not from TEXCOORD_0.
+    let s = load_json("set1.gltf", &transformed_triangle(json!({ "texCoord": 1 }))).unwrap();
+    assert_eq!((s.materials[0].texture, s.meshes[0].uvs.as_ref()), (Some(0), None));
+    // Bad values name the property.
+    for (t, key) in [
+        (json!({ "offset": [0.5] }), "KHR_texture_transform.offset"),
+        (json!({ "scale": [1.0, "x"] }), "KHR_texture_transform.scale"),
+        (json!({ "rotation": "quarter" }), "KHR_texture_transform.rotation"),
+        (json!({ "texCoord": -1 }), "KHR_texture_transform.texCoord"),
+    ] {
+        refused(
+            "bad_transform.gltf",
+            &transformed_triangle(t),
+            &["materials[0].pbrMetallicRoughness.baseColorTexture.extensions", key],
+        );
+    }
 }
 
 #[test]

@@ -27,8 +27,13 @@ use std::path::Path;
 
 /// Extensions irt reads (docs/gltf.md); a file that *requires* any other is refused, since it
 /// could not be shown as meant. Extensions that are only used are ignored.
-pub const SUPPORTED_EXTENSIONS: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_clearcoat"];
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_clearcoat",
+    "KHR_texture_transform",
+];
 /// All buffers of one file together; external buffer files are limited like scene files.
 pub const MAX_BUFFER_BYTES: u64 = MAX_SCENE_FILE_BYTES;
 /// A metal rougher than this reflects a blur that looks matte, not the paper's mirror, so it
@@ -590,6 +595,63 @@ fn unit(x: f64, what: &str) -> Res<f64> {
     }
 }
 
+/// KHR_texture_transform on a texture reference: texture coordinates become
+/// `offset + R(rotation) · (scale ⊙ uv)`, R turning counter-clockwise in uv space (the
+/// extension's matrix `translation * rotation * scale`). Applied to the coordinates as they are
+/// read, so the scene keeps plain per-vertex coordinates.
+struct TextureTransform {
+    offset: DVec2,
+    rotation: f64,
+    scale: DVec2,
+    /// Overrides the texture reference's `texCoord`.
+    tex_coord: Option<u32>,
+}
+
+impl TextureTransform {
+    /// The reference's transform; None without the extension (coordinates stay bit for bit).
+    fn of(info: &::gltf::texture::Info, at: &str) -> Res<Option<TextureTransform>> {
+        let Some(ext) = info.extension_value("KHR_texture_transform") else { return Ok(None) };
+        let ext = Some(ext);
+        let at = format!("{at}.extensions.KHR_texture_transform");
+        let pair = |key: &str, default: DVec2| -> Res<DVec2> {
+            match ext.and_then(|e| e.get(key)) {
+                None => Ok(default),
+                Some(v) => {
+                    match v.as_array().map(|a| a.iter().map(json::Value::as_f64).collect::<Vec<_>>()) {
+                        Some(n) if n.len() == 2 && n.iter().all(|x| x.is_some_and(f64::is_finite)) => {
+                            Ok(DVec2::new(n[0].unwrap(), n[1].unwrap()))
+                        }
+                        _ => Err(format!("{at}.{key} must be two finite numbers, not {v}")),
+                    }
+                }
+            }
+        };
+        let rotation = extension_number(ext, "rotation", 0.0, &at)?;
+        if !rotation.is_finite() {
+            return Err(format!("{at}.rotation is {rotation}; it must be finite"));
+        }
+        let tex_coord =
+            match ext.and_then(|e| e.get("texCoord")) {
+                None => None,
+                Some(v) => Some(v.as_u64().and_then(|n| u32::try_from(n).ok()).ok_or_else(|| {
+                    format!("{at}.texCoord must be a texture coordinate set number, not {v}")
+                })?),
+            };
+        Ok(Some(TextureTransform {
+            offset: pair("offset", DVec2::ZERO)?,
+            rotation,
+            scale: pair("scale", DVec2::ONE)?,
+            tex_coord,
+        }))
+    }
+
+    fn apply(&self, uv: DVec2) -> DVec2 {
+        let s = self.scale * uv;
+        let (sin, cos) = self.rotation.sin_cos();
+        self.offset + DVec2::new(cos * s.x - sin * s.y, sin * s.x + cos * s.y)
+    }
+}
+
 /// A number in an extension object that the crate does not type (KHR_materials_clearcoat).
 fn extension_number(ext: Option<&json::Value>, key: &str, default: f64, what: &str) -> Res<f64> {
     match ext.and_then(|e| e.get(key)) {
@@ -882,7 +944,13 @@ impl<'a> Builder<'a> {
         if self.materials[material as usize].texture.is_none() {
             return Ok(None);
         }
-        let set = p.material().pbr_metallic_roughness().base_color_texture().expect("textured").tex_coord();
+        let info = p.material().pbr_metallic_roughness().base_color_texture().expect("textured");
+        let at = match p.material().index() {
+            Some(i) => format!("materials[{i}].pbrMetallicRoughness.baseColorTexture"),
+            None => "the default material".into(),
+        };
+        let transform = TextureTransform::of(&info, &at)?;
+        let set = transform.as_ref().and_then(|t| t.tex_coord).unwrap_or(info.tex_coord());
         let Some(a) = p.get(&Semantic::TexCoords(set)) else {
             self.warn(format!(
                 "{}: its material is textured but it has no TEXCOORD_{set}; read at (0, 0)",
@@ -899,7 +967,11 @@ impl<'a> Builder<'a> {
                 uv.len()
             ));
         }
-        Ok(Some(uv.into_iter().map(DVec2::from).collect()))
+        let uv = uv.into_iter().map(DVec2::from);
+        Ok(Some(match transform {
+            Some(t) => uv.map(|uv| t.apply(uv)).collect(),
+            None => uv.collect(),
+        }))
     }
 
     /// The scene texture for a glTF texture (its image under its sampler's wrap and filter),
