@@ -13,6 +13,6 @@ echo "| scene | size | primitives | grid build ms | first frame ms | frame ms | 
 echo "|---|---|---|---|---|---|---|---|"
 $irt bench --markdown --cold 2>/dev/null | sed 's/^| default |/| default (cold shader cache) |/'
 $irt bench --markdown 2>/dev/null
-for s in shadows.toml mesh.toml dielectric.toml spd/balls_s4.nff spd/gears_s1.nff; do
+for s in shadows.toml mesh.toml dielectric.toml textured.toml spd/balls_s4.nff spd/gears_s1.nff; do
     $irt bench "scenes/$s" --markdown 2>/dev/null
 done
