@@ -8,7 +8,8 @@ struct Frame {
     v: vec3f,
 }
 
-// Branchless orthonormal basis around unit `n` (Duff et al. 2017): the light disc's axes.
+// Branchless orthonormal basis around unit `n` (Duff et al. 2017): the light disc's axes, and
+// where u = 0 lies around a cone's axis (`cone_uv`, texture.wgsl).
 fn frame(n: vec3f) -> Frame {
     let sign = select(-1.0, 1.0, n.z >= 0.0);
     let a = -1.0 / (sign + n.z);

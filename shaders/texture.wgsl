@@ -59,19 +59,11 @@ fn wrap_index(i: i32, n: i32, mode: u32) -> i32 {
     return select(k, 2 * n - 1 - k, k >= n);
 }
 
-// An orthonormal frame (e1, e2) around the unit vector `a` (Duff et al. 2017, "Building an
-// Orthonormal Basis, Revisited"): continuous except where a.z changes sign.
-fn frame_around(a: vec3f) -> mat2x3f {
-    let sign = select(-1.0, 1.0, a.z >= 0.0);
-    let k = -1.0 / (sign + a.z);
-    let b = a.x * a.y * k;
-    return mat2x3f(vec3f(1.0 + sign * a.x * a.x * k, sign * b, -sign * a.x), vec3f(b, sign + a.y * a.y * k, -a.y));
-}
-
-// u of the direction `q` around the unit axis `a`: its angle in `frame_around(a)`, 0..1.
+// u of the direction `q` around the unit axis `a`: its angle in the orthonormal frame around
+// `a` that light discs use too (`frame`, shadows.wgsl), 0..1.
 fn angle_u(q: vec3f, a: vec3f) -> f32 {
-    let e = frame_around(a);
-    return 0.5 + atan2(dot(q, e[1]), dot(q, e[0])) / TAU;
+    let e = frame(a);
+    return 0.5 + atan2(dot(q, e.v), dot(q, e.u)) / TAU;
 }
 
 // Texture coordinates of a sphere at the outward unit normal `n`: longitude around +y (u) and

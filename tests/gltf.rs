@@ -485,22 +485,18 @@ fn without_a_scene_every_root_node_is_shown_and_orthographic_cameras_are_replace
     assert_eq!(s.camera.look_at, DVec3::new(3.0, 0.5, 0.0), "the framing camera, at the bounds' centre");
 }
 
-#[test]
-fn base_colour_textures_keep_their_texels_sampler_and_coordinates() {
-    // A 2x1 PNG, red | blue.
+/// A triangle whose material's base-colour texture is a 2x1 PNG, red | blue, with texture
+/// coordinates `uvs` (TEXCOORD_0) and the texture reference `info`.
+fn textured_triangle(uvs: [f32; 6], info: Value) -> Value {
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
         .write_image(&[255, 0, 0, 0, 0, 255], 2, 1, image::ExtendedColorType::Rgb8)
         .unwrap();
-    let uvs = [0.1f32, 0.2, 0.4, 0.2, -0.1, 1.9];
-    let uv_bytes: Vec<u8> = uvs.iter().flat_map(|x| x.to_le_bytes()).collect();
     let mut bin = triangle_bin(POSITIONS, [0, 1, 2]);
-    bin.extend(&uv_bytes);
-    let doc = with(triangle(), |d| {
-        d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
-        // CLAMP_TO_EDGE along u, MIRRORED_REPEAT along v, NEAREST magnification.
-        d["samplers"] = json!([{ "wrapS": 33071, "wrapT": 33648, "magFilter": 9728 }]);
-        d["textures"] = json!([{ "source": 0, "sampler": 0 }]);
+    bin.extend(uvs.iter().flat_map(|x| x.to_le_bytes()));
+    with(triangle(), |d| {
+        d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = info;
+        d["textures"] = json!([{ "source": 0 }]);
         d["images"] = json!([{ "uri": format!("data:image/png;base64,{}", base64(&png)), "name": "rb" }]);
         d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(2);
         d["accessors"]
@@ -512,6 +508,16 @@ fn base_colour_textures_keep_their_texels_sampler_and_coordinates() {
             .unwrap()
             .push(json!({ "buffer": 0, "byteOffset": 44, "byteLength": 24 }));
         d["buffers"][0] = json!({ "byteLength": 68, "uri": data_uri(&bin) });
+    })
+}
+
+#[test]
+fn base_colour_textures_keep_their_texels_sampler_and_coordinates() {
+    let uvs = [0.1f32, 0.2, 0.4, 0.2, -0.1, 1.9];
+    let doc = with(textured_triangle(uvs, json!({ "index": 0 })), |d| {
+        // CLAMP_TO_EDGE along u, MIRRORED_REPEAT along v, NEAREST magnification.
+        d["samplers"] = json!([{ "wrapS": 33071, "wrapT": 33648, "magFilter": 9728 }]);
+        d["textures"][0]["sampler"] = json!(0);
     });
     let s = load_json("textured.gltf", &doc).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.materials[0].kind, MaterialKind::Diffuse { color: DVec3::splat(0.5) }, "the factor");
@@ -539,33 +545,12 @@ fn base_colour_textures_keep_their_texels_sampler_and_coordinates() {
     assert_eq!((s.materials[0].texture, s.textures.len()), (None, 0));
 }
 
-/// The textured triangle of `base_colour_textures_keep_their_texels_sampler_and_coordinates`
-/// with a KHR_texture_transform (`transform`) on its base-colour texture reference.
+/// The textured triangle with a KHR_texture_transform (`transform`) on its texture reference.
 fn transformed_triangle(transform: Value) -> Value {
-    let mut png = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut png)
-        .write_image(&[255, 0, 0, 0, 0, 255], 2, 1, image::ExtendedColorType::Rgb8)
-        .unwrap();
-    let uvs = [0.0f32, 0.0, 0.25, 0.5, 1.0, 0.75];
-    let mut bin = triangle_bin(POSITIONS, [0, 1, 2]);
-    bin.extend(uvs.iter().flat_map(|x| x.to_le_bytes()));
-    with(triangle(), |d| {
+    let info = json!({ "index": 0, "extensions": { "KHR_texture_transform": transform } });
+    with(textured_triangle([0.0, 0.0, 0.25, 0.5, 1.0, 0.75], info), |d| {
         d["extensionsUsed"] = json!(["KHR_texture_transform"]);
         d["extensionsRequired"] = json!(["KHR_texture_transform"]);
-        d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] =
-            json!({ "index": 0, "extensions": { "KHR_texture_transform": transform } });
-        d["textures"] = json!([{ "source": 0 }]);
-        d["images"] = json!([{ "uri": format!("data:image/png;base64,{}", base64(&png)) }]);
-        d["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(2);
-        d["accessors"]
-            .as_array_mut()
-            .unwrap()
-            .push(json!({ "bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2" }));
-        d["bufferViews"]
-            .as_array_mut()
-            .unwrap()
-            .push(json!({ "buffer": 0, "byteOffset": 44, "byteLength": 24 }));
-        d["buffers"][0] = json!({ "byteLength": 68, "uri": data_uri(&bin) });
     })
 }
 

@@ -18,7 +18,7 @@ pub use shading::{
     ambient_intensity, dielectric_reflectance, r0_from_eta, reflect, reflectance, refract, schlick,
     shade_ambient, shade_light,
 };
-pub use texture::{cone_uv, frame_around, material_at, sample_texture, sphere_uv, wrap_index};
+pub use texture::{cone_uv, material_at, sample_texture, sphere_uv, wrap_index};
 pub use trace::{
     render, render_with_stats, trace_pixel, RadianceImage, Reference, Stats, SurfaceHit, RAY_OFFSET_REL,
 };

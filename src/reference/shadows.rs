@@ -4,7 +4,8 @@ use crate::scene::{pixel_hash, Falloff};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 
-/// Branchless orthonormal basis around unit `n` (Duff et al. 2017): the light disc's axes.
+/// Branchless orthonormal basis around unit `n` (Duff et al. 2017): the light disc's axes, and
+/// where u = 0 lies around a cone's axis (`cone_uv`).
 pub fn frame(n: DVec3) -> (DVec3, DVec3) {
     let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);

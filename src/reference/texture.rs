@@ -5,6 +5,7 @@
 //! coordinates of spheres and cones (`sphere_uv`, `cone_uv`) are conventions, and follow the
 //! shader's definitions.
 
+use super::shadows::frame;
 use crate::scene::{srgb8_to_linear, Filter, MaterialKind, Scene, Texture, Wrap};
 use glam::{DVec2, DVec3};
 
@@ -80,18 +81,10 @@ pub fn material_at(scene: &Scene, index: u32, uv: DVec2) -> MaterialKind {
     kind
 }
 
-/// An orthonormal pair around the unit vector `a`: the same construction as the shader's
-/// `frame_around` (Duff et al. 2017), since texture coordinates depend on the choice.
-pub fn frame_around(a: DVec3) -> (DVec3, DVec3) {
-    let sign = if a.z >= 0.0 { 1.0 } else { -1.0 };
-    let k = -1.0 / (sign + a.z);
-    let b = a.x * a.y * k;
-    (DVec3::new(1.0 + sign * a.x * a.x * k, sign * b, -sign * a.x), DVec3::new(b, sign + a.y * a.y * k, -a.y))
-}
-
-/// u of direction `q` around the unit axis `a`: its angle in [`frame_around`]`(a)`, in [0, 1].
+/// u of direction `q` around the unit axis `a`: its angle in the frame around `a` that light
+/// discs use too ([`frame`]), in [0, 1].
 fn angle_u(q: DVec3, a: DVec3) -> f64 {
-    let (e1, e2) = frame_around(a);
+    let (e1, e2) = frame(a);
     0.5 + q.dot(e2).atan2(q.dot(e1)) / std::f64::consts::TAU
 }
 
