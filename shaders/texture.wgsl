@@ -85,9 +85,9 @@ fn cone_uv(p: vec3f, base: vec3f, axis: vec3f) -> vec2f {
 fn sample_texture(t: u32, uv: vec2f) -> vec3f {
     let info = load_texture(t);
     let n = vec2i(info.size);
-    let wrap = vec2u(info.flags & 3u, (info.flags >> 2u) & 3u);
+    let wrap = vec2u(info.flags, info.flags >> TEXTURE_WRAP_V_SHIFT) & vec2u((1u << TEXTURE_WRAP_V_SHIFT) - 1u);
     let x = vec2f(fold_coord(uv.x, wrap.x), fold_coord(uv.y, wrap.y)) * vec2f(info.size);
-    if ((info.flags >> 4u) & 3u) == FILTER_NEAREST {
+    if (info.flags >> TEXTURE_FILTER_SHIFT) == FILTER_NEAREST {
         let i = vec2i(floor(x));
         let ix = wrap_index(i.x, n.x, wrap.x);
         let iy = wrap_index(i.y, n.y, wrap.y);

@@ -21,6 +21,15 @@ pub fn linear_to_srgb(x: f64) -> f64 {
     }
 }
 
+/// The inverse: linear value of an sRGB-encoded one in [0, 1] (texels are stored encoded).
+pub fn srgb_to_linear(x: f64) -> f64 {
+    if x <= 0.04045 {
+        x / 12.92
+    } else {
+        ((x + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// Display value of a linear channel: clamped, sRGB-encoded, in [0, 1]. NaN maps to 0 here;
 /// the renderer's tests make sure none is ever produced.
 pub fn display(x: f64) -> f64 {
@@ -88,4 +97,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_transfer_functions_are_inverses() {
+        for i in 0..=1000 {
+            let x = i as f64 / 1000.0;
+            assert!((srgb_to_linear(linear_to_srgb(x)) - x).abs() < 1e-12, "{x}");
+            assert!((linear_to_srgb(srgb_to_linear(x)) - x).abs() < 1e-12, "{x}");
+        }
+        // The standard's fixed points: 8-bit 128 is 0.2158605 linear.
+        assert!((srgb_to_linear(128.0 / 255.0) - 0.215_860_5).abs() < 1e-7);
+    }
 }

@@ -636,6 +636,34 @@ fn huge_texture_is_refused_from_its_header() {
     refused("huge_texture.gltf", &doc, &["images[0]", "100000x100000"]);
 }
 
+#[test]
+fn textures_too_large_together_are_refused_before_decoding_the_next() {
+    // Three materials, each with its own 4096x4096 image (a solid colour: 50 KiB of PNG, 64 MiB
+    // decoded). The first two fit the scene's budget of 2^25 pixels; the third is refused from
+    // its header, before it is decoded.
+    let texels = vec![[200u8, 100, 50, 255]; 4096 * 4096];
+    let png = irt::io::png::encode(4096, 4096, &texels).unwrap();
+    let uri = format!("data:image/png;base64,{}", base64(&png));
+    let doc = with(triangle(), |d| {
+        let primitive = d["meshes"][0]["primitives"][0].clone();
+        let material = d["materials"][0].clone();
+        let (mut materials, mut primitives) = (vec![], vec![]);
+        for i in 0..3 {
+            let mut m = material.clone();
+            m["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": i });
+            materials.push(m);
+            let mut p = primitive.clone();
+            p["material"] = json!(i);
+            primitives.push(p);
+        }
+        d["materials"] = json!(materials);
+        d["meshes"][0]["primitives"] = json!(primitives);
+        d["textures"] = json!([{ "source": 0 }, { "source": 1 }, { "source": 2 }]);
+        d["images"] = json!([{ "uri": uri }, { "uri": uri }, { "uri": uri }]);
+    });
+    refused("many_textures.gltf", &doc, &["images[2]", "50331648 pixels together", "at most 33554432"]);
+}
+
 // ---- Mutated files never panic -------------------------------------------------------------
 
 fn check_no_panic(result: Result<Scene, LoadError>) {

@@ -37,6 +37,11 @@ pub const NO_UVS: u32 = u32::MAX;
 /// Marks an untextured material.
 pub const NO_TEXTURE: u32 = u32::MAX;
 
+/// Where a texture record's flags word keeps the v wrap and the filter (the u wrap is in bits
+/// 0..2): `wrap_u | wrap_v << TEXTURE_WRAP_V_SHIFT | filter << TEXTURE_FILTER_SHIFT`.
+pub const TEXTURE_WRAP_V_SHIFT: u32 = 2;
+pub const TEXTURE_FILTER_SHIFT: u32 = 4;
+
 /// Wrap and filter codes as stored in a texture record.
 pub fn wrap_code(w: Wrap) -> u32 {
     match w {
@@ -188,8 +193,8 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   `axis = apex - base` is formed in f64: rounding it, rather than the apex, keeps a short
 ///   cone's axis accurate far from the origin.
 /// - texture coordinates: `[u0, v0, u1, v1]`, `[u2, v2, 0, 0]`
-/// - texture: `[first pixel, width, height, wrap_u | wrap_v << 2 | filter << 4]` (`wrap_code`,
-///   `filter_code`); pixels: the RGBA8 texels of every texture as u32 (r in the low byte,
+/// - texture: `[first pixel, width, height, flags]` (`wrap_code`, `filter_code`, placed by
+///   `TEXTURE_WRAP_V_SHIFT`, `TEXTURE_FILTER_SHIFT`); pixels: the RGBA8 texels of every texture as u32 (r in the low byte,
 ///   `unpack4x8unorm`'s order), four per texel, each texture starting at its first pixel.
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
@@ -253,7 +258,9 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     let texture_base = t.len() as u32;
     let mut first = 0u32;
     for tex in &scene.textures {
-        let flags = wrap_code(tex.wrap[0]) | wrap_code(tex.wrap[1]) << 2 | filter_code(tex.filter) << 4;
+        let flags = wrap_code(tex.wrap[0])
+            | wrap_code(tex.wrap[1]) << TEXTURE_WRAP_V_SHIFT
+            | filter_code(tex.filter) << TEXTURE_FILTER_SHIFT;
         t.push([first, tex.width, tex.height, flags]);
         first += tex.texels.len() as u32;
     }
@@ -370,11 +377,13 @@ pub fn wgsl_constants() -> String {
     s += &c("PIXELS_PER_TEXEL", PIXELS_PER_TEXEL);
     s += &c("NO_UVS", NO_UVS);
     s += &c("NO_TEXTURE", NO_TEXTURE);
-    for w in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
-        s += &c(&format!("WRAP_{}", w.name().to_uppercase()), wrap_code(w));
+    s += &c("TEXTURE_WRAP_V_SHIFT", TEXTURE_WRAP_V_SHIFT);
+    s += &c("TEXTURE_FILTER_SHIFT", TEXTURE_FILTER_SHIFT);
+    for (name, w) in Wrap::NAMES {
+        s += &c(&format!("WRAP_{}", name.to_uppercase()), wrap_code(w));
     }
-    for f in [Filter::Nearest, Filter::Linear] {
-        s += &c(&format!("FILTER_{}", f.name().to_uppercase()), filter_code(f));
+    for (name, f) in Filter::NAMES {
+        s += &c(&format!("FILTER_{}", name.to_uppercase()), filter_code(f));
     }
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);

@@ -595,6 +595,17 @@ fn unit(x: f64, what: &str) -> Res<f64> {
     }
 }
 
+/// `base`, or `base (2)`, `base (3)`, … : the first that is not `taken`.
+fn unique_name(base: String, taken: impl Fn(&str) -> bool) -> String {
+    let mut name = base.clone();
+    let mut k = 2;
+    while taken(&name) {
+        name = format!("{base} ({k})");
+        k += 1;
+    }
+    name
+}
+
 /// KHR_texture_transform on a texture reference: texture coordinates become
 /// `offset + R(rotation) · (scale ⊙ uv)`, R turning counter-clockwise in uv space (the
 /// extension's matrix `translation * rotation * scale`). Applied to the coordinates as they are
@@ -726,6 +737,8 @@ struct Builder<'a> {
     slots: HashMap<Option<usize>, u32>,
     names: HashSet<String>,
     textures: Vec<Texture>,
+    /// Declared pixels of the images decoded so far.
+    texture_pixels: png::PixelBudget,
     /// (image, wrap, filter) → scene texture, or None for an image irt cannot decode.
     texture_slots: HashMap<(usize, [Wrap; 2], Filter), Option<u32>>,
     warned: HashSet<String>,
@@ -742,6 +755,7 @@ impl<'a> Builder<'a> {
             slots: HashMap::new(),
             names: HashSet::new(),
             textures: Vec::new(),
+            texture_pixels: png::PixelBudget::default(),
             texture_slots: HashMap::new(),
             warned: HashSet::new(),
         }
@@ -919,12 +933,7 @@ impl<'a> Builder<'a> {
             (_, Some(i)) => format!("material{i}"),
             (_, None) => "default".to_string(),
         };
-        let mut name = base.clone();
-        let mut k = 2;
-        while self.names.contains(&name) {
-            name = format!("{base} ({k})");
-            k += 1;
-        }
+        let name = unique_name(base, |n| self.names.contains(n));
         self.names.insert(name.clone());
         let slot = self.materials.len() as u32;
         self.materials.push(Material { name, kind, texture });
@@ -1011,7 +1020,12 @@ impl<'a> Builder<'a> {
             (None, Some(uri)) => Cow::Owned(read_uri(uri, self.base, &what)?),
             (None, None) => return Err(format!("{what} has neither a uri nor a bufferView")),
         };
-        let slot = match png::decode(&bytes, &what) {
+        // Sizes add up from the headers before anything is decoded.
+        let decoded = png::checked_size(&bytes, &what).and_then(|(w, h)| {
+            self.texture_pixels.take(w, h).map_err(|m| Unusable::Refused(format!("{what}: {m}")))?;
+            png::decode(&bytes, &what)
+        });
+        let slot = match decoded {
             Ok((width, height, texels)) => {
                 if self.textures.len() >= MAX_TEXTURES {
                     return Err(format!("more than {MAX_TEXTURES} textures; irt's limit is that"));
@@ -1021,12 +1035,7 @@ impl<'a> Builder<'a> {
                     _ => format!("image{index}"),
                 };
                 // One image under two samplers is two textures; names stay unique.
-                let mut name = base.clone();
-                let mut k = 2;
-                while self.textures.iter().any(|t| t.name == name) {
-                    name = format!("{base} ({k})");
-                    k += 1;
-                }
+                let name = unique_name(base, |n| self.textures.iter().any(|t| t.name == n));
                 self.textures.push(Texture { name, width, height, texels, wrap, filter });
                 Some(self.textures.len() as u32 - 1)
             }

@@ -1,6 +1,6 @@
 //! Texture images: PNG in (glTF images, TOML `[[texture]]` files) and out (`irt convert`).
 
-use crate::scene::MAX_TEXTURE_PIXELS;
+use crate::scene::{MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS};
 
 /// A decoded image: width, height, sRGB-encoded RGBA texels (row 0 at the top).
 pub type Rgba8 = (u32, u32, Vec<[u8; 4]>);
@@ -20,17 +20,7 @@ pub enum Unusable {
 pub fn decode(bytes: &[u8], what: &str) -> Result<Rgba8, Unusable> {
     use image::{ImageFormat, ImageReader, Limits};
     use std::io::Cursor;
-    if !bytes.starts_with(PNG_SIGNATURE) {
-        return Err(Unusable::NotPng(format!("{what} is not a PNG; irt decodes PNG textures only")));
-    }
-    let Some((w, h)) = declared_size(bytes) else {
-        return Err(Unusable::Refused(format!("{what}: the PNG does not start with its IHDR header")));
-    };
-    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
-        return Err(Unusable::Refused(format!(
-            "{what} is {w}x{h} pixels; irt reads textures of 1 to {MAX_TEXTURE_PIXELS} pixels"
-        )));
-    }
+    let (w, h) = checked_size(bytes, what)?;
     let mut reader = ImageReader::with_format(Cursor::new(bytes), ImageFormat::Png);
     let mut limits = Limits::default();
     limits.max_image_width = Some(w);
@@ -55,14 +45,42 @@ pub fn encode(width: u32, height: u32, texels: &[[u8; 4]]) -> Result<Vec<u8>, St
     Ok(out)
 }
 
-/// The width and height a PNG declares in its IHDR header (the first 24 bytes of the file), or
-/// `None` when `bytes` does not start like a PNG. Lets a loader add up texture sizes before it
-/// decodes any of them; [`decode`] checks the same header again.
-pub fn declared_size(bytes: &[u8]) -> Option<(u32, u32)> {
+/// The width and height a PNG declares in its IHDR header (its first [`HEADER_BYTES`]),
+/// within [`MAX_TEXTURE_PIXELS`]: what [`decode`] checks before decoding, and what a loader
+/// checks first to add up a scene's textures ([`PixelBudget`]) before it decodes any of them.
+pub fn checked_size(bytes: &[u8], what: &str) -> Result<(u32, u32), Unusable> {
+    if !bytes.starts_with(PNG_SIGNATURE) {
+        return Err(Unusable::NotPng(format!("{what} is not a PNG; irt decodes PNG textures only")));
+    }
     let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_be_bytes(b.try_into().unwrap()));
-    match (bytes.starts_with(PNG_SIGNATURE), bytes.get(12..16), word(16), word(20)) {
-        (true, Some(b"IHDR"), Some(w), Some(h)) => Some((w, h)),
-        _ => None,
+    let (Some(b"IHDR"), Some(w), Some(h)) = (bytes.get(12..16), word(16), word(20)) else {
+        return Err(Unusable::Refused(format!("{what}: the PNG does not start with its IHDR header")));
+    };
+    if w == 0 || h == 0 || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
+        return Err(Unusable::Refused(format!(
+            "{what} is {w}x{h} pixels; irt reads textures of 1 to {MAX_TEXTURE_PIXELS} pixels"
+        )));
+    }
+    Ok((w, h))
+}
+
+/// The pixels of a scene's textures so far, refused past [`MAX_TOTAL_TEXTURE_PIXELS`]: loaders
+/// add each image's declared size before decoding it, so many images that compress well (a
+/// solid 4096² image is a few KiB of PNG) cannot add up to gigabytes decoded.
+#[derive(Default)]
+pub struct PixelBudget(u64);
+
+impl PixelBudget {
+    pub fn take(&mut self, width: u32, height: u32) -> Result<(), String> {
+        self.0 += width as u64 * height as u64;
+        if self.0 > MAX_TOTAL_TEXTURE_PIXELS {
+            return Err(format!(
+                "the textures up to this one have {} pixels together; a scene's textures may have at \
+                 most {MAX_TOTAL_TEXTURE_PIXELS}",
+                self.0
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -13,7 +13,7 @@ use super::{
 };
 use crate::scene::{
     Ambient, Camera, Cone, Filter, Light, Material, MaterialKind, Mesh, Scene, Sphere, Texture,
-    TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES, MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS,
+    TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES, MAX_TEXTURE_PIXELS,
 };
 use ::toml::Spanned;
 use glam::{DVec2, DVec3};
@@ -446,7 +446,7 @@ fn materials<'a>(
 
 /// Reads and decodes every texture's PNG. The headers come first: a file that is not a PNG, an
 /// image too big on its own, and a scene whose images together exceed
-/// [`MAX_TOTAL_TEXTURE_PIXELS`] are refused before any file is read whole or decoded.
+/// [`crate::scene::MAX_TOTAL_TEXTURE_PIXELS`] are refused before any file is read whole or decoded.
 fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res<(Vec<Texture>, Names<'a>)> {
     at_most(docs, MAX_TEXTURES, "[[texture]] tables")?;
     let mut names = Names::new("texture");
@@ -456,29 +456,14 @@ fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res
         names.define(&t.name, src)?;
         settings.push((texture_file(origin, &t.file), wrap(&t.wrap)?, filter(&t.filter)?));
     }
-    let mut total = 0u64;
+    let mut budget = png::PixelBudget::default();
     for (t, (path, ..)) in docs.iter().zip(&settings) {
         let file = &t.get_ref().file;
         let header = read_header(path).map_err(|m| located(file.span(), m))?;
-        let pixels = png::declared_size(&header).map(|(w, h)| w as u64 * h as u64);
-        if !pixels.is_some_and(|p| (1..=MAX_TEXTURE_PIXELS).contains(&p)) {
-            // Not a PNG, or a size out of range: `decode` refuses these from the header alone.
-            let message = match png::decode(&header, &texture_what(path)) {
-                Err(png::Unusable::Refused(m) | png::Unusable::NotPng(m)) => m,
-                Ok(_) => format!("{}: the PNG header is unusable", texture_what(path)),
-            };
-            return err(file.span(), message);
-        }
-        total += pixels.unwrap_or(0);
-        if total > MAX_TOTAL_TEXTURE_PIXELS {
-            return err(
-                file.span(),
-                format!(
-                    "the textures up to this one have {total} pixels together; a scene's textures may \
-                     have at most {MAX_TOTAL_TEXTURE_PIXELS}"
-                ),
-            );
-        }
+        let (w, h) = png::checked_size(&header, &texture_what(path)).map_err(|e| match e {
+            png::Unusable::Refused(m) | png::Unusable::NotPng(m) => located(file.span(), m),
+        })?;
+        budget.take(w, h).map_err(|m| located(file.span(), m))?;
     }
     let mut out = Vec::with_capacity(docs.len());
     for (t, (path, wrap, filter)) in docs.iter().zip(settings) {

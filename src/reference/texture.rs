@@ -6,7 +6,8 @@
 //! shader's definitions.
 
 use super::shadows::frame;
-use crate::scene::{srgb8_to_linear, Filter, MaterialKind, Scene, Texture, Wrap};
+use crate::image::srgb_to_linear;
+use crate::scene::{Filter, MaterialKind, Scene, Texture, Wrap};
 use glam::{DVec2, DVec3};
 
 /// Texel `i` (any integer) wrapped into `[0, n)`.
@@ -30,7 +31,7 @@ fn texel(t: &Texture, x: i64, y: i64) -> DVec3 {
     let x = wrap_index(x, t.width as i64, t.wrap[0]);
     let y = wrap_index(y, t.height as i64, t.wrap[1]);
     let p = t.texels[(y * t.width as i64 + x) as usize];
-    DVec3::new(srgb8_to_linear(p[0]), srgb8_to_linear(p[1]), srgb8_to_linear(p[2]))
+    DVec3::from_array([p[0], p[1], p[2]].map(|c| srgb_to_linear(c as f64 / 255.0)))
 }
 
 /// Index of the texel row/column at coordinate `u` (in texture sizes) for a texture `n` wide,

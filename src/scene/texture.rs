@@ -75,13 +75,3 @@ impl Filter {
         Self::NAMES.iter().find(|(_, w)| *w == self).expect("every filter is named").0
     }
 }
-
-/// sRGB-encoded 8-bit value → linear (the sRGB EOTF, IEC 61966-2-1).
-pub fn srgb8_to_linear(c: u8) -> f64 {
-    let c = c as f64 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}

@@ -1,0 +1,15 @@
+# Shared by the table scripts (sourced, not run): build irt, and print the header line every
+# table starts with (machine, date, the command that regenerates it) and the table's head.
+cd "$(dirname "$0")/.."
+cargo build --release --quiet
+irt=target/release/irt
+
+# table_header SCRIPT FIRST_FRAME_COLUMN
+table_header() {
+    local cpu
+    cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
+    echo "Machine: ${cpu}, $(nproc) cores, $(free -g | awk '/Mem:/{print $2}') GiB; $(date -u +%Y-%m-%d); command: \`$1\`"
+    echo
+    echo "| scene | size | primitives | grid build ms | $2 | frame ms | Mrays/s | device |"
+    echo "|---|---|---|---|---|---|---|---|"
+}
