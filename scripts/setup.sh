@@ -1,7 +1,25 @@
 #!/usr/bin/env bash
-# Makes sure a Vulkan driver is present; installs Mesa's lavapipe (Vulkan on the CPU) with
-# apt-get when none is found. Safe to run again: it changes nothing when Vulkan is already there.
+# Makes sure a Vulkan driver fit for irt is present: Mesa's lavapipe (Vulkan on the CPU), Mesa >= 24.
+# Mesa 22.3 (Debian 12's stock package) runs irt's kernels 2-4x slower than 25.0 (../LAVAPIPE notes,
+# docs/performance.md), so on Debian 12 the driver comes from the machine's own mirror's
+# bookworm-backports suite. Safe to run again: it changes nothing when a new enough driver is there.
+# Also installs what the window tests use (Xvfb, xdotool) when missing.
 set -euo pipefail
+
+MIN_MESA_MAJOR=24
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+    SUDO="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+apt_updated=0
+apt_update() {
+    if [ "$apt_updated" -eq 0 ]; then
+        $SUDO apt-get update -qq
+        apt_updated=1
+    fi
+}
 
 have_vulkan() {
     # The loader plus at least one installed driver manifest (ICD).
@@ -13,22 +31,75 @@ have_vulkan() {
     return 1
 }
 
-if have_vulkan; then
-    echo "setup: a Vulkan driver is installed"
-    exit 0
+mesa_version() {
+    dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true
+}
+
+mesa_major() {
+    local v
+    v="$(mesa_version)"
+    v="${v#*:}" # drop an epoch
+    echo "${v%%.*}"
+}
+
+# The URI of the Debian mirror this machine already uses (deb822 or one-line sources).
+debian_mirror() {
+    local f uri=""
+    for f in /etc/apt/sources.list.d/*.sources; do
+        [ -f "$f" ] || continue
+        uri="$(awk '/^URIs:/ {print $2; exit}' "$f")"
+        case "$uri" in *security*|"") uri="" ;; *) break ;; esac
+    done
+    if [ -z "$uri" ] && [ -f /etc/apt/sources.list ]; then
+        uri="$(awk '$1 == "deb" && $3 !~ /security/ {print $2; exit}' /etc/apt/sources.list)"
+    fi
+    echo "$uri"
+}
+
+codename="$(. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}")"
+
+install_pkgs() {
+    if ! command -v apt-get >/dev/null; then
+        echo "setup: apt-get not found. Install your distribution's Mesa Vulkan drivers (lavapipe, Mesa >= $MIN_MESA_MAJOR) and the Vulkan loader, then run again." >&2
+        exit 1
+    fi
+    apt_update
+    $SUDO apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+
+if [ "$codename" = "bookworm" ] && { ! have_vulkan || [ "$(mesa_major)" -lt "$MIN_MESA_MAJOR" ] 2>/dev/null; }; then
+    mirror="$(debian_mirror)"
+    if [ -z "$mirror" ]; then
+        echo "setup: Debian 12 without a readable mirror in its apt sources; installing the stock Mesa (slower)" >&2
+        install_pkgs mesa-vulkan-drivers libvulkan1
+    else
+        list=/etc/apt/sources.list.d/irt-bookworm-backports.list
+        if ! grep -rqs "bookworm-backports" /etc/apt/sources.list /etc/apt/sources.list.d/; then
+            echo "deb $mirror bookworm-backports main" | $SUDO tee "$list" >/dev/null
+            echo "setup: enabled bookworm-backports from this machine's Debian mirror ($list)"
+            apt_updated=0
+        fi
+        apt_update
+        before="$(mesa_version)"
+        $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports \
+            mesa-vulkan-drivers libvulkan1 >/dev/null
+        echo "setup: lavapipe ${before:-(none)} -> $(mesa_version) from bookworm-backports"
+    fi
+elif ! have_vulkan; then
+    echo "setup: no Vulkan driver found; installing Mesa's lavapipe (mesa-vulkan-drivers, libvulkan1)"
+    install_pkgs mesa-vulkan-drivers libvulkan1
 fi
 
-echo "setup: no Vulkan driver found; installing Mesa's lavapipe (mesa-vulkan-drivers, libvulkan1)"
-if ! command -v apt-get >/dev/null; then
-    echo "setup: apt-get not found. Install your distribution's Mesa Vulkan drivers (lavapipe) and the Vulkan loader, then run again." >&2
-    exit 1
-fi
-SUDO=""
-if [ "$(id -u)" -ne 0 ]; then
-    SUDO="sudo"
-fi
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends mesa-vulkan-drivers libvulkan1 >/dev/null
 have_vulkan || { echo "setup: lavapipe was installed but no Vulkan driver is visible" >&2; exit 1; }
-echo "setup: lavapipe installed"
+major="$(mesa_major)"
+if [ -n "$major" ] && [ "$major" -lt "$MIN_MESA_MAJOR" ] 2>/dev/null; then
+    echo "setup: warning: Mesa $(mesa_version) is older than $MIN_MESA_MAJOR; irt works but traces 2-4x slower" >&2
+else
+    echo "setup: Vulkan driver ready (mesa-vulkan-drivers ${major:+$(mesa_version)})"
+fi
+
+# The window tests (tests/viewer.rs) drive `irt view` under a virtual X server.
+if ! command -v Xvfb >/dev/null || ! command -v xdotool >/dev/null; then
+    echo "setup: installing Xvfb and xdotool for the window tests"
+    install_pkgs xvfb xdotool xauth
+fi
