@@ -2,6 +2,9 @@
 
 // Pixel whose ray tree this invocation traces (bundles are rotated per pixel).
 var<private> pixel_id: u32;
+// Seed of the bundle's per-pixel rotation: the pixel id for the first sample, other values for
+// the later samples of progressive refinement (fresh rotations average out).
+var<private> bundle_seed: u32;
 
 struct Frame {
     u: vec3f,
@@ -258,7 +261,7 @@ fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
         var seen = 0.0;
         for (var i = tile.pass_range.x; i < min(k, tile.pass_range.y); i++) {
             loop_iters += 1u;
-            let x = bundle_point(i, pixel_id, rotate);
+            let x = bundle_point(i, bundle_seed, rotate);
             seen += ray_visibility(o, c + r * (x.x * fr.u + x.y * fr.v), gap);
         }
         return seen / f32(k);

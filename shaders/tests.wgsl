@@ -165,6 +165,7 @@ fn k_visibility(@builtin(global_invocation_id) gid: vec3u) {
     let a = test_in[2u * i];
     let b = test_in[2u * i + 1u];
     pixel_id = u32(b.w);
+    bundle_seed = pixel_id;
     out_buf[i] = vec4f(light_visibility(a.xyz, b.xyz, params.lights[u32(a.w)]), 0.0, 0.0, 0.0);
 }
 

@@ -218,28 +218,38 @@ fn eye_direction(px: f32, py: f32) -> vec3f {
     return normalize(params.cam_w.xyz + sx * params.cam_u.xyz + sy * params.cam_v.xyz);
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn render(@builtin(global_invocation_id) gid: vec3u) {
-    if gid.x >= tile.rect.z || gid.y >= tile.rect.w {
-        return;
-    }
-    let x = tile.rect.x + gid.x;
-    let y = tile.rect.y + gid.y;
+// Pixel (x, y)'s sample `tile.sample.x`: its ray tree traced, the output written (the first pass
+// of a split bundle writes, later passes add), rays counted, and on the last pass the frame
+// buffer updated as `tile.sample.y` says. Every dispatch mode (modes.wgsl) ends here, so all of
+// them compute the same pixel the same way.
+fn trace_pixel(x: u32, y: u32) {
     ray_counts = vec4u(1u, 0u, 0u, 0u);
     eye_hit = 0.0;
-    loop_iters = 0u;
     // One invocation per eye ray: at pixel centres, or at pixel corners (SPD's rule).
     pixel_id = y * params.eye_grid.x + x;
-    let offset = select(0.5, 0.0, params.eye_grid.z != 0u);
-    let c = radiance(params.eye.xyz, eye_direction(f32(x) + offset, f32(y) + offset));
+    bundle_seed = pixel_id + tile.sample.x * 0x9e3779b9u;
+    let flags = tile.sample.y;
+    let at = vec2f(f32(x), f32(y)) + select(vec2f(0.5) + tile.jitter.xy, vec2f(0.0), params.eye_grid.z != 0u);
+    var c: vec3f;
+    if (flags & FRAME_JITTER_PAIRS) != 0u {
+        // The paper's frameless jitter: two of four sub-pixel positions (a 2×2 pattern at
+        // ±0.25 px) per visit, the other two on the next visit.
+        let k = 2u * (tile.sample.x & 1u);
+        c = 0.5 * (radiance(params.eye.xyz, eye_direction_at(at + jitter_pair(k)))
+            + radiance(params.eye.xyz, eye_direction_at(at + jitter_pair(k + 1u))));
+    } else {
+        c = radiance(params.eye.xyz, eye_direction_at(at));
+    }
     // Alpha carries 2 × the loop iterations (the most of any pass) + whether the eye ray hit;
     // the renderer checks the first against lavapipe's limit and counts the second for SPD.
     let meter = f32(2u * loop_iters + u32(eye_hit));
+    var total = c;
     if tile.pass_range.z != 0u {
         out_buf[pixel_id] = vec4f(c, meter);
     } else {
         let prev = out_buf[pixel_id];
-        out_buf[pixel_id] = vec4f(prev.rgb + c, max(prev.a, meter));
+        total = prev.rgb + c;
+        out_buf[pixel_id] = vec4f(total, max(prev.a, meter));
         ray_counts = vec4u(0u, 0u, 0u, ray_counts.w);
     }
     if COUNT_RAYS {
@@ -248,4 +258,42 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
         atomicAdd(&stats[2], ray_counts.z);
         atomicAdd(&stats[3], ray_counts.w);
     }
+    if (flags & FRAME_WRITE) != 0u && tile.pass_range.w != 0u {
+        update_frame(pixel_id, total);
+    }
+}
+
+// Pixel `i` of the frame buffer gets a new value `c`: replaces it, is added to its samples
+// (FRAME_ACCUMULATE; alpha counts them) or blended in with weight α (FRAME_BLEND).
+fn update_frame(i: u32, c: vec3f) {
+    let flags = tile.sample.y;
+    let old = frame_buf[i];
+    var f = vec4f(c, 1.0);
+    if (flags & FRAME_ACCUMULATE) != 0u {
+        f = old + f;
+    } else if (flags & FRAME_BLEND) != 0u && old.a > 0.0 {
+        f = vec4f(mix(old.rgb / old.a, c, tile.jitter.z), 1.0);
+    }
+    frame_buf[i] = f;
+}
+
+// Sub-pixel offsets of the paper's jitter pattern; visits alternate between its diagonals.
+fn jitter_pair(k: u32) -> vec2f {
+    let s = select(-0.25, 0.25, k == 1u || k == 2u);
+    let t = select(-0.25, 0.25, k == 1u || k == 3u);
+    return vec2f(s, t);
+}
+
+fn eye_direction_at(p: vec2f) -> vec3f {
+    return eye_direction(p.x, p.y);
+}
+
+// The headless bands: one invocation per pixel of `tile.rect`.
+@compute @workgroup_size(8, 8, 1)
+fn render(@builtin(global_invocation_id) gid: vec3u) {
+    if gid.x >= tile.rect.z || gid.y >= tile.rect.w {
+        return;
+    }
+    loop_iters = 0u;
+    trace_pixel(tile.rect.x + gid.x, tile.rect.y + gid.y);
 }

@@ -33,6 +33,9 @@ struct Params {
 struct Tile {
     rect: vec4u,
     pass_range: vec4u,
+    work: vec4u,
+    sample: vec4u,
+    jitter: vec4f,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -41,6 +44,13 @@ struct Tile {
 @group(0) @binding(3) var<storage, read_write> stats: array<atomic<u32>, 4>;
 @group(0) @binding(4) var<uniform> tile: Tile;
 @group(0) @binding(5) var<storage, read> test_in: array<vec4f>;
+// The dispatch modes' inputs (shaders/modes.wgsl): the conventional mode's chunk boundaries, or
+// the frameless mode's pixel order (a table, or the dissolve's jump matrices).
+@group(0) @binding(6) var<storage, read> work_buf: array<u32>;
+// [0]: the next chunk of the conventional mode's tile queue.
+@group(0) @binding(7) var<storage, read_write> queue: array<atomic<u32>, 4>;
+// What the viewer shows: per pixel the sum of its samples (rgb) and their count (a).
+@group(0) @binding(8) var<storage, read_write> frame_buf: array<vec4f>;
 
 const NO_HIT: u32 = 0xffffffffu;
 const MISS: f32 = -1.0;

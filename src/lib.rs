@@ -11,6 +11,7 @@ pub mod io;
 pub mod metrics;
 pub mod plot;
 pub mod reference;
+pub mod render;
 pub mod scene;
 pub mod stability;
 pub mod tradeoff;

@@ -37,7 +37,7 @@ fn check(module: &naga::Module, name: &str, rust: (usize, Vec<(&str, usize)>)) {
 fn rust_structs_match_wgsl() {
     let (module, _) = validate(&compose(Kernel::Render, Variant::FULL)).expect("shader validates");
     check(&module, "Light", rust_layout!(GpuLight; position_radius, color));
-    check(&module, "Tile", rust_layout!(Tile; rect, pass_range));
+    check(&module, "Tile", rust_layout!(Tile; rect, pass_range, work, sample, jitter));
     check(
         &module,
         "Params",

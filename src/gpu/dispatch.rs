@@ -7,6 +7,7 @@ use super::GpuContext;
 use crate::accel::Grid;
 use crate::scene::Scene;
 use glam::DVec3;
+use std::sync::Mutex;
 
 /// A scene resident on the device: the scene texture and the frame constants.
 pub struct GpuScene {
@@ -18,6 +19,12 @@ pub struct GpuScene {
 }
 
 impl GpuScene {
+    /// Replaces the frame constants (camera, depth, image size); the next dispatch sees them.
+    pub fn write_params(&mut self, ctx: &GpuContext, params: Params) {
+        self.params = params;
+        ctx.queue.write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&params));
+    }
+
     /// Uploads in world coordinates (what readback tests, which give world-space rays, need).
     pub fn upload(ctx: &GpuContext, scene: &Scene, grid: &Grid) -> Result<Self, String> {
         Self::upload_at(ctx, scene, grid, DVec3::ZERO)
@@ -93,7 +100,7 @@ fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) 
     })
 }
 
-/// The one bind group layout every kernel uses (bindings 0–5 of shaders/types.wgsl).
+/// The one bind group layout every kernel uses (bindings 0–8 of shaders/types.wgsl).
 fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     use wgpu::{BindingType as B, BufferBindingType as Bb, ShaderStages};
     let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
@@ -119,19 +126,40 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             entry(3, buffer(Bb::Storage { read_only: false })),
             entry(4, buffer(Bb::Uniform)),
             entry(5, buffer(Bb::Storage { read_only: true })),
+            entry(6, buffer(Bb::Storage { read_only: true })),
+            entry(7, buffer(Bb::Storage { read_only: false })),
+            entry(8, buffer(Bb::Storage { read_only: false })),
         ],
     })
 }
 
-/// A compiled kernel bound to a scene and its output buffers.
+/// A compiled kernel bound to a scene and its output buffers. Pipelines are created per entry
+/// point on first use (lavapipe compiles each at its first dispatch anyway).
 pub struct Dispatcher {
-    pipeline: wgpu::ComputePipeline,
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    pipelines: Mutex<Vec<(String, wgpu::ComputePipeline)>>,
+    entry: String,
     bind_group: wgpu::BindGroup,
     out_buf: wgpu::Buffer,
     stats_buf: wgpu::Buffer,
     tile_buf: wgpu::Buffer,
+    work_buf: wgpu::Buffer,
+    queue_buf: wgpu::Buffer,
+    frame_buf: wgpu::Buffer,
     readback: wgpu::Buffer,
     out_len: u64,
+    frame_len: u64,
+}
+
+/// Sizes of the dispatch modes' buffers (src/render): none for the headless bands and the
+/// readback kernels.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ModeBuffers {
+    /// u32s the work buffer holds (boundary arrays, pixel orders).
+    pub work_len: u64,
+    /// Pixels of the frame buffer.
+    pub frame_len: u64,
 }
 
 /// Rays traced in a frame, by kind.
@@ -161,6 +189,21 @@ impl Dispatcher {
         out_len: u64,
         inputs: &[[f32; 4]],
     ) -> Self {
+        Self::with_modes(ctx, scene, kernel, variant, entry, out_len, inputs, ModeBuffers::default())
+    }
+
+    /// [`Self::new`] with the dispatch modes' buffers sized as `modes` says.
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_modes(
+        ctx: &GpuContext,
+        scene: &GpuScene,
+        kernel: Kernel,
+        variant: Variant,
+        entry: &str,
+        out_len: u64,
+        inputs: &[[f32; 4]],
+        modes: ModeBuffers,
+    ) -> Self {
         let device = &ctx.device;
         let src = shaders::compose(kernel, variant);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -172,14 +215,6 @@ impl Dispatcher {
             label: Some("irt"),
             bind_group_layouts: &[Some(&bgl)],
             immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: ctx.wgpu_pipeline_cache(),
         });
         let out_bytes = out_len * 16;
         let out_buf = storage(ctx, "out", out_bytes, wgpu::BufferUsages::COPY_SRC);
@@ -195,9 +230,18 @@ impl Dispatcher {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         };
+        let work_buf = storage(ctx, "work", modes.work_len * 4, wgpu::BufferUsages::COPY_DST);
+        let queue_buf = storage(ctx, "queue", 16, wgpu::BufferUsages::COPY_DST);
+        let frame_buf = storage(
+            ctx,
+            "frame",
+            modes.frame_len * 16,
+            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        );
+        let readback_len = out_bytes.max(modes.frame_len * 16);
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
-            size: out_bytes.max(16) + 16,
+            size: readback_len.max(16) + 16,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -212,9 +256,101 @@ impl Dispatcher {
                 bind(3, stats_buf.as_entire_binding()),
                 bind(4, tile_buf.as_entire_binding()),
                 bind(5, in_buf.as_entire_binding()),
+                bind(6, work_buf.as_entire_binding()),
+                bind(7, queue_buf.as_entire_binding()),
+                bind(8, frame_buf.as_entire_binding()),
             ],
         });
-        Dispatcher { pipeline, bind_group, out_buf, stats_buf, tile_buf, readback, out_len }
+        Dispatcher {
+            module,
+            pipeline_layout,
+            pipelines: Mutex::new(Vec::new()),
+            entry: entry.to_string(),
+            bind_group,
+            out_buf,
+            stats_buf,
+            tile_buf,
+            work_buf,
+            queue_buf,
+            frame_buf,
+            readback,
+            out_len,
+            frame_len: modes.frame_len,
+        }
+    }
+
+    fn pipeline(&self, ctx: &GpuContext, entry: &str) -> wgpu::ComputePipeline {
+        let mut pipes = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, p)) = pipes.iter().find(|(e, _)| e == entry) {
+            return p.clone();
+        }
+        let p = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&self.pipeline_layout),
+            module: &self.module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: ctx.wgpu_pipeline_cache(),
+        });
+        pipes.push((entry.to_string(), p.clone()));
+        p
+    }
+
+    /// Writes `data` at the start of the work buffer (boundary array or pixel order).
+    pub fn write_work(&self, ctx: &GpuContext, data: &[u32]) {
+        assert!(data.len() as u64 * 4 <= self.work_buf.size(), "work buffer too small");
+        if !data.is_empty() {
+            ctx.queue.write_buffer(&self.work_buf, 0, bytemuck::cast_slice(data));
+        }
+    }
+
+    /// Restarts the tile queue (takes effect before the next submitted dispatch).
+    pub fn reset_queue(&self, ctx: &GpuContext) {
+        ctx.queue.write_buffer(&self.queue_buf, 0, &[0u8; 16]);
+    }
+
+    /// Zeroes the frame buffer (no samples anywhere).
+    pub fn clear_frame(&self, ctx: &GpuContext) {
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&self.frame_buf, 0, None);
+        ctx.queue.submit([enc.finish()]);
+    }
+
+    /// The frame buffer: per pixel the sum of its samples (rgb) and their count (a).
+    pub fn frame_buffer(&self) -> &wgpu::Buffer {
+        &self.frame_buf
+    }
+
+    /// Runs `entry` over `groups` workgroups with `tile` as its uniform and waits for it.
+    pub fn run(&self, ctx: &GpuContext, entry: &str, tile: Tile, groups: [u32; 3]) {
+        ctx.queue.write_buffer(&self.tile_buf, 0, bytemuck::bytes_of(&tile));
+        let pipeline = self.pipeline(ctx, entry);
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], groups[2]);
+        }
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait();
+    }
+
+    /// Reads back the frame buffer.
+    pub fn read_frame(&self, ctx: &GpuContext) -> Vec<[f32; 4]> {
+        let bytes = self.frame_len * 16;
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&self.frame_buf, 0, &self.readback, 0, bytes);
+        ctx.queue.submit([enc.finish()]);
+        let slice = self.readback.slice(..bytes.max(16));
+        slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the readback buffer"));
+        ctx.wait();
+        let out = {
+            let data = slice.get_mapped_range().expect("readback buffer is mapped");
+            bytemuck::cast_slice(&data[..bytes as usize]).to_vec()
+        };
+        self.readback.unmap();
+        out
     }
 
     /// Clears the ray counters.
@@ -231,16 +367,7 @@ impl Dispatcher {
     /// [`Self::dispatch`] with an explicit pass (bundle sample range).
     pub fn dispatch_tile(&self, ctx: &GpuContext, tile: Tile) {
         let rect = tile.rect;
-        ctx.queue.write_buffer(&self.tile_buf, 0, bytemuck::bytes_of(&tile));
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.dispatch_workgroups(rect[2].div_ceil(8), rect[3].div_ceil(8), 1);
-        }
-        ctx.queue.submit([enc.finish()]);
-        ctx.wait();
+        self.run(ctx, &self.entry, tile, [rect[2].div_ceil(8), rect[3].div_ceil(8), 1]);
     }
 
     /// Reads back the output buffer and the ray counters.

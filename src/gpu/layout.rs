@@ -119,24 +119,54 @@ pub struct Params {
     pub lights: [GpuLight; MAX_LIGHTS],
 }
 
-/// The part of the image one dispatch covers. Mirrors `struct Tile` in `shaders/types.wgsl`.
+/// What one dispatch covers and how its pixels update the frame buffer. Mirrors `struct Tile` in
+/// `shaders/types.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct Tile {
-    /// x0, y0, width, height in pixels.
+    /// x0, y0, width, height in pixels (the headless bands' `render` entry point).
     pub rect: [u32; 4],
-    /// Bundle samples `[first, end)` this pass traces (end clamped to the bundle size), and
-    /// whether it is the first pass (which writes ambient, background and ray counts; later
-    /// passes add their share of the light to the output). See [`Tile::whole`].
+    /// Bundle samples `[first, end)` this pass traces (end clamped to the bundle size), whether
+    /// it is the first pass (which writes ambient, background and ray counts; later passes add
+    /// their share of the light to the output) and whether it is the last (which updates the
+    /// frame buffer). See [`Tile::whole`].
     pub pass_range: [u32; 4],
+    /// `render_queue`: chunks in the boundary array, tiles per workgroup (its budget), tile
+    /// columns, unused. `render_slice`: first position, positions, [`ORDER_TABLE`] or
+    /// [`ORDER_DISSOLVE`], the dissolve's bits.
+    pub work: [u32; 4],
+    /// Progressive-refinement sample index, frame flags (`FRAME_*`), the dissolve's state at the
+    /// slice's first position, unused.
+    pub sample: [u32; 4],
+    /// Sub-pixel offset of this sample from the pixel centre (x, y), the blend weight α of new
+    /// samples with [`FRAME_BLEND`], unused.
+    pub jitter: [f32; 4],
 }
 
 impl Tile {
     /// One pass over everything: what a single dispatch of `rect` means.
     pub fn whole(rect: [u32; 4]) -> Tile {
-        Tile { rect, pass_range: [0, u32::MAX, 1, 0] }
+        Tile { rect, pass_range: [0, u32::MAX, 1, 1], ..Tile::default() }
     }
 }
+
+/// Tiles of the conventional mode: 32×2 pixels, RTRT's own; one workgroup traces one tile.
+pub const TILE_W: u32 = 32;
+pub const TILE_H: u32 = 2;
+
+/// `Tile::sample[1]` flags: the pixel's last pass writes the frame buffer …
+pub const FRAME_WRITE: u32 = 1;
+/// … adding its sample to the sum (progressive refinement; alpha counts samples) …
+pub const FRAME_ACCUMULATE: u32 = 2;
+/// … or blending it into the old value with weight `Tile::jitter[2]` …
+pub const FRAME_BLEND: u32 = 4;
+/// … and tracing two of four sub-pixel positions per visit (the paper's frameless jitter).
+pub const FRAME_JITTER_PAIRS: u32 = 8;
+
+/// `Tile::work[2]` of `render_slice`: the pixel order is a table in the work buffer …
+pub const ORDER_TABLE: u32 = 0;
+/// … or the dissolve's LFSR, its jump matrices in the work buffer.
+pub const ORDER_DISSOLVE: u32 = 1;
 
 /// lavapipe (gallivm) stops every loop of a shader invocation once the loops together have run
 /// 65535 iterations (`LP_MAX_TGSI_LOOP_ITERATIONS`, shared by all loops of the shader; it exists
@@ -316,18 +346,17 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
 /// to `origin` as in [`pack_scene`].
 pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -> Params {
     let cam = &scene.camera;
-    let b = cam.basis();
     let mut lights = [GpuLight::default(); MAX_LIGHTS];
     for (g, l) in lights.iter_mut().zip(&scene.lights) {
         g.position_radius = v4(l.position - origin, l.radius as f32);
         g.color = v4(l.color, 0.0);
     }
     let res = grid.res;
-    Params {
-        eye: v4(cam.eye - origin, 0.0),
-        cam_u: v4(b.u, 0.0),
-        cam_v: v4(b.v, 0.0),
-        cam_w: v4(b.w, 0.0),
+    let mut p = Params {
+        eye: [0.0; 4],
+        cam_u: [0.0; 4],
+        cam_v: [0.0; 4],
+        cam_w: [0.0; 4],
         ambient_sky: v4(scene.ambient.sky, 0.0),
         ambient_ground: v4(scene.ambient.ground, 0.0),
         ambient_up: v4(scene.ambient.up.normalize(), 0.0),
@@ -350,7 +379,22 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -
             ShadowMode::Shell { falloff, combine } => [2, 0, 0, falloff as u32 | (combine as u32) << 8],
         },
         lights,
-    }
+    };
+    set_camera(&mut p, cam, origin);
+    p
+}
+
+/// Points `p` at `cam` (eye, frame, image size; positions relative to `origin` as the scene
+/// was packed): what a moving camera changes between dispatches.
+pub fn set_camera(p: &mut Params, cam: &crate::scene::Camera, origin: DVec3) {
+    let b = cam.basis();
+    p.eye = v4(cam.eye - origin, 0.0);
+    p.cam_u = v4(b.u, 0.0);
+    p.cam_v = v4(b.v, 0.0);
+    p.cam_w = v4(b.w, 0.0);
+    p.image[0] = cam.width;
+    p.image[1] = cam.height;
+    p.eye_grid = eye_grid(cam.width, cam.height, p.eye_grid[2] != 0);
 }
 
 /// `Params::eye_grid` for an image of `width` x `height` pixels: rays through the pixel centres,
@@ -386,6 +430,14 @@ pub fn wgsl_constants() -> String {
         s += &c(&format!("FILTER_{}", name.to_uppercase()), filter_code(f));
     }
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
+    s += &c("TILE_W", TILE_W);
+    s += &c("TILE_H", TILE_H);
+    s += &c("FRAME_WRITE", FRAME_WRITE);
+    s += &c("FRAME_ACCUMULATE", FRAME_ACCUMULATE);
+    s += &c("FRAME_BLEND", FRAME_BLEND);
+    s += &c("FRAME_JITTER_PAIRS", FRAME_JITTER_PAIRS);
+    s += &c("ORDER_TABLE", ORDER_TABLE);
+    s += &c("ORDER_DISSOLVE", ORDER_DISSOLVE);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
     s += &c("PRIM_INDEX_BITS", PrimRef::INDEX_BITS);
     s += &c("PRIM_KIND_SHIFT", PrimRef::KIND_SHIFT);

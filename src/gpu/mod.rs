@@ -10,5 +10,5 @@ pub mod dispatch;
 pub mod readback;
 pub mod renderer;
 
-pub use dispatch::{Dispatcher, GpuScene, RayCounts};
+pub use dispatch::{Dispatcher, GpuScene, ModeBuffers, RayCounts};
 pub use renderer::{Frame, RenderOptions, Renderer};

@@ -94,7 +94,10 @@ impl Renderer {
         let passes = match scene.trace.shadows {
             ShadowMode::Bundle { samples, .. } if scene.lights.iter().any(|l| l.radius > 0.0) => (0..samples)
                 .step_by(BUNDLE_SAMPLES_PER_PASS as usize)
-                .map(|k0| [k0, k0 + BUNDLE_SAMPLES_PER_PASS, (k0 == 0) as u32, 0])
+                .map(|k0| {
+                    let end = k0 + BUNDLE_SAMPLES_PER_PASS;
+                    [k0, end, (k0 == 0) as u32, (end >= samples) as u32]
+                })
                 .collect(),
             _ => vec![Tile::whole([0; 4]).pass_range],
         };
@@ -135,7 +138,7 @@ impl Renderer {
         while y < rows {
             let band = BAND_ROWS.min(rows - y);
             for &pass in &self.passes {
-                self.dispatcher.dispatch_tile(ctx, Tile { rect: [0, y, cols, band], pass_range: pass });
+                self.dispatcher.dispatch_tile(ctx, Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() });
             }
             y += band;
             progress(y, rows);

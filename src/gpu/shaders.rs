@@ -25,6 +25,7 @@ pub enum Kernel {
 
 const TRACE: &str = include_str!("../../shaders/trace.wgsl");
 const TESTS: &str = include_str!("../../shaders/tests.wgsl");
+const MODES: &str = include_str!("../../shaders/modes.wgsl");
 
 /// The features a pipeline is specialised for: code for what is off is compiled out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -124,8 +125,8 @@ impl Variant {
 pub fn compose(kernel: Kernel, variant: Variant) -> String {
     let mut src = variant.prelude();
     let entries: &[(&str, &str)] = match kernel {
-        Kernel::Render => &[("trace.wgsl", TRACE)],
-        Kernel::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
+        Kernel::Render => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
+        Kernel::Tests => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES), ("tests.wgsl", TESTS)],
     };
     for (name, text) in MODULES.iter().chain(entries) {
         src += &format!("\n// ---- {name} ----\n");

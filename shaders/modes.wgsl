@@ -1,0 +1,90 @@
+// The two ways of handing out work (../PAPER §3, src/render): both end in `trace_pixel`.
+
+// Chunk a workgroup took from the queue (shared so the whole workgroup walks it).
+var<workgroup> wg_chunk: u32;
+
+// Conventional mode: workgroups of one 32×2 tile take chunks of tiles through one atomic
+// counter (`queue[0]`) from the host's boundary array `work_buf` (chunk c = tiles
+// [work_buf[c], work_buf[c+1])), until the queue is empty or this workgroup has traced its
+// budget of tiles. The budget keeps every invocation well inside lavapipe's loop limit (its
+// loops share one counter per invocation group for the whole dispatch) and lets the host split a
+// frame into waves it can cancel between; the counter carries over from wave to wave.
+// tile.work = (chunks, tile budget per workgroup, tile columns, _).
+@compute @workgroup_size(TILE_W, TILE_H, 1)
+fn render_queue(@builtin(local_invocation_id) lid: vec3u) {
+    loop_iters = 0u;
+    var taken = 0u;
+    loop {
+        if taken >= tile.work.y {
+            break;
+        }
+        if lid.x == 0u && lid.y == 0u {
+            wg_chunk = atomicAdd(&queue[0], 1u);
+        }
+        let c = workgroupUniformLoad(&wg_chunk);
+        if c >= tile.work.x {
+            break;
+        }
+        let t0 = work_buf[c];
+        let t1 = work_buf[c + 1u];
+        for (var t = t0; t < t1; t++) {
+            loop_iters += 1u;
+            let x = (t % tile.work.z) * TILE_W + lid.x;
+            let y = (t / tile.work.z) * TILE_H + lid.y;
+            if x < params.eye_grid.x && y < params.eye_grid.y {
+                trace_pixel(x, y);
+            }
+        }
+        taken += t1 - t0;
+    }
+}
+
+// Frameless mode: one invocation per position of the slice [tile.work.x, + tile.work.y) of the
+// pixel order. tile.work.z: ORDER_TABLE (work_buf holds the pixel of every position) or
+// ORDER_DISSOLVE (work_buf holds the LFSR's jump matrices, tile.work.w its bits, tile.sample.z
+// the state at the slice's first position; state v is pixel v - 1, values past the image skip).
+@compute @workgroup_size(64, 1, 1)
+fn render_slice(@builtin(global_invocation_id) gid: vec3u) {
+    if gid.x >= tile.work.y {
+        return;
+    }
+    loop_iters = 0u;
+    var p: u32;
+    if tile.work.z == ORDER_TABLE {
+        p = work_buf[tile.work.x + gid.x];
+    } else {
+        p = dissolve_jump(tile.sample.z, gid.x, tile.work.w) - 1u;
+        if p >= params.eye_grid.x * params.eye_grid.y {
+            return;
+        }
+    }
+    trace_pixel(p % params.eye_grid.x, p / params.eye_grid.x);
+}
+
+// The LFSR state `k` steps after `s`: the product of the matrices T^(2^j) for the set bits j
+// of k, each applied as the XOR of the columns selected by the state's bits (GF(2)).
+fn dissolve_jump(s0: u32, k: u32, bits: u32) -> u32 {
+    var s = s0;
+    for (var j = 0u; j < bits; j++) {
+        loop_iters += 1u;
+        if ((k >> j) & 1u) != 0u {
+            var r = 0u;
+            for (var i = 0u; i < bits; i++) {
+                loop_iters += 1u;
+                r ^= select(0u, work_buf[j * bits + i], ((s >> i) & 1u) != 0u);
+            }
+            s = r;
+        }
+    }
+    return s;
+}
+
+// Conventional mode, once a frame is whole: its pixels (the output buffer) into the frame
+// buffer, one invocation per pixel of the tile.work.x pixels.
+@compute @workgroup_size(64, 1, 1)
+fn resolve_frame(@builtin(global_invocation_id) gid: vec3u) {
+    if gid.x >= tile.work.x {
+        return;
+    }
+    update_frame(gid.x, out_buf[gid.x].rgb);
+}

@@ -1,0 +1,540 @@
+//! A scene on the device that can be traced again and again with a changing camera: what the
+//! window, the headless mode renders, `irt replay` and the benches share. One call to
+//! [`Session::step`] is one unit of work of the current mode (a wave of the conventional tile
+//! queue, or one frameless slice); the caller decides when to present.
+
+use super::order::{Dissolve, PixelOrder};
+use super::schedule::{tile_grid, Schedule};
+use super::{Mode, Settings};
+use crate::accel::Grid;
+use crate::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
+use crate::gpu::layout::{
+    self, Params, Tile, BUNDLE_SAMPLES_PER_PASS, FRAME_ACCUMULATE, FRAME_BLEND, FRAME_JITTER_PAIRS,
+    FRAME_WRITE, LAVAPIPE_LOOP_LIMIT, ORDER_DISSOLVE, ORDER_TABLE, TILE_H, TILE_W,
+};
+use crate::gpu::shaders::{Kernel, Variant};
+use crate::gpu::GpuContext;
+use crate::image::Image;
+use crate::scene::{Camera, Scene, ShadowMode};
+use glam::DVec3;
+use std::time::{Duration, Instant};
+
+/// Tiles a workgroup of the conventional queue traces before it exits (plus at most one
+/// chunk): keeps its invocations far from lavapipe's loop limit (a pixel of the default scene
+/// runs some tens to a few hundred loop iterations) and lets a frame be split into waves.
+pub const TILE_BUDGET: u32 = 16;
+
+/// The largest chunk a workgroup takes: a schedule's larger chunks (RTRT's with few workers:
+/// 351 tiles for P = 2 at 1280×720) are cut into pieces of at most this many tiles, so no
+/// invocation traces more than `TILE_BUDGET + MAX_CHUNK_TILES` pixels in one dispatch.
+pub const MAX_CHUNK_TILES: u32 = 16;
+
+/// `b` with every chunk longer than `max` tiles cut into pieces of `max` (the last shorter).
+pub fn cap_chunks(b: &[u32], max: u32) -> Vec<u32> {
+    let mut out = vec![b[0]];
+    for w in b.windows(2) {
+        let mut t = w[0];
+        while w[1] - t > max {
+            t += max;
+            out.push(t);
+        }
+        out.push(w[1]);
+    }
+    out
+}
+
+/// Frameless slices never straddle a pass of the order: positions `[first, first + len)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SliceSpan {
+    pub first: u64,
+    pub len: u64,
+}
+
+/// What one [`Session::step`] did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepReport {
+    /// Pixels whose value this step changed in the frame buffer (conventional: the whole frame
+    /// when it completes, else 0).
+    pub pixels: u64,
+    /// Eye rays traced (conventional waves trace pixels that show only when the frame
+    /// completes; jittered pairs trace two per pixel).
+    pub eye_rays: u64,
+    /// Wall time of the dispatches (submit to done).
+    pub trace_time: Duration,
+    /// Conventional: the frame finished in this step; frameless: a pass of the order finished.
+    pub frame_done: bool,
+    /// Frameless: the slice this step traced (positions of the current pass).
+    pub slice: Option<SliceSpan>,
+    /// The camera version the traced pixels saw (see [`Session::camera_version`]).
+    pub camera_version: u64,
+    /// Nothing to do: refinement reached its sample limit.
+    pub idle: bool,
+}
+
+/// The refinement jitter of sample `k`: (0, 0) for the first (pixel centres, as a headless
+/// render), then the R2 sequence (Roberts 2018) over the pixel, in [-0.5, 0.5)².
+pub fn refinement_jitter(k: u32) -> [f32; 2] {
+    if k == 0 {
+        return [0.0, 0.0];
+    }
+    const A1: f64 = 0.754_877_666_246_692_8; // 1/φ₂, φ₂ the plastic number
+    const A2: f64 = 0.569_840_290_998_053_3; // 1/φ₂²
+    let f = |a: f64| ((0.5 + a * k as f64).fract() - 0.5) as f32;
+    [f(A1), f(A2)]
+}
+
+pub struct Session {
+    scene: Scene,
+    settings: Settings,
+    /// Positions were packed relative to this point (the camera's eye when uploaded).
+    origin: DVec3,
+    pub grid: Grid,
+    gpu_scene: GpuScene,
+    dispatcher: Dispatcher,
+    pub variant: Variant,
+    /// Pixels the buffers hold (the render size never exceeds it).
+    capacity: [u32; 2],
+    /// The `Tile::pass_range` of each pass over a pixel (one unless a bundle is split).
+    passes: Vec<[u32; 4]>,
+    /// Bumped by every change that makes the frame buffer stale (camera, settings).
+    camera_version: u64,
+    /// Samples (conventional frames, frameless passes) completed since the last change.
+    samples: u32,
+    // Conventional: the frame in flight.
+    chunks: u32,
+    waves_left: u32,
+    wave_groups: u32,
+    // Frameless: the position in the current pass, and where the last change happened.
+    cursor: u64,
+    pass_len: u64,
+    dissolve: Option<Dissolve>,
+    /// Positions traced since the last change (a pixel's visit index since then is
+    /// `positions_since_change / pass_len`).
+    positions_since_change: u64,
+    /// Loop iterations the last step's busiest invocation group ran (lavapipe's limit).
+    pub max_loop_iterations: u32,
+}
+
+impl Session {
+    /// Builds the grid, uploads the scene (positions relative to its camera's eye) and compiles
+    /// the kernel for the scene and `settings`.
+    pub fn new(ctx: &GpuContext, scene: &Scene, settings: Settings) -> Result<Self, String> {
+        let mut scene = scene.clone();
+        settings.apply_to(&mut scene);
+        let grid = Grid::build(&scene);
+        let origin = scene.camera.eye;
+        let packed = layout::pack_scene(&scene, &grid, origin);
+        let params = layout::params(&scene, &grid, &packed, origin);
+        let gpu_scene = GpuScene::upload_packed(ctx, &packed, params)?;
+        if settings.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
+            return Err(format!("{} has no f64 shader support (SHADER_F64): use --precision f32", ctx.info.name));
+        }
+        let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
+        let capacity = [scene.camera.width, scene.camera.height];
+        let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity);
+        let mut s = Session {
+            passes: passes(&scene),
+            scene,
+            settings,
+            origin,
+            grid,
+            gpu_scene,
+            dispatcher,
+            variant,
+            capacity,
+            camera_version: 0,
+            samples: 0,
+            chunks: 0,
+            waves_left: 0,
+            wave_groups: 0,
+            cursor: 0,
+            pass_len: 0,
+            dissolve: None,
+            positions_since_change: 0,
+            max_loop_iterations: 0,
+        };
+        s.configure_mode(ctx)?;
+        s.dispatcher.clear_frame(ctx);
+        Ok(s)
+    }
+
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    pub fn camera(&self) -> &Camera {
+        &self.scene.camera
+    }
+
+    /// Render size in pixels.
+    pub fn size(&self) -> [u32; 2] {
+        [self.scene.camera.width, self.scene.camera.height]
+    }
+
+    /// Bumped by every change that restarts refinement.
+    pub fn camera_version(&self) -> u64 {
+        self.camera_version
+    }
+
+    /// Samples accumulated since the last change (conventional: frames; frameless: passes).
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Frameless: positions in one pass of the order (≥ the pixel count for the dissolve).
+    pub fn pass_len(&self) -> u64 {
+        self.pass_len
+    }
+
+    /// Frameless: where in the pass the next slice starts.
+    pub fn cursor(&self) -> u64 {
+        self.cursor
+    }
+
+    /// The frame buffer the window blits: `size()[0] × size()[1]` vec4s, row-major, rgb the sum
+    /// of a pixel's samples and a their count (0: never traced).
+    pub fn frame_buffer(&self) -> &wgpu::Buffer {
+        self.dispatcher.frame_buffer()
+    }
+
+    /// Moves the camera (its width and height are ignored: see [`Session::set_size`]); takes
+    /// effect from the next step. Cancels the conventional frame in flight and restarts
+    /// refinement; frameless slices simply carry on with the new camera.
+    pub fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) {
+        let [w, h] = self.size();
+        let cam = Camera { width: w, height: h, ..camera.clone() };
+        if cam == self.scene.camera {
+            return;
+        }
+        self.scene.camera = cam;
+        self.write_camera(ctx);
+        self.restart();
+    }
+
+    /// Changes the render size (at most the size the session was made with: scale down for
+    /// speed); restarts everything.
+    pub fn set_size(&mut self, ctx: &GpuContext, width: u32, height: u32) -> Result<(), String> {
+        let (width, height) = (width.max(1), height.max(1));
+        if [width, height] == self.size() {
+            return Ok(());
+        }
+        if width > self.capacity[0] || height > self.capacity[1] || width as u64 * height as u64 > self.capacity_pixels() {
+            self.capacity = [width.max(self.capacity[0]), height.max(self.capacity[1])];
+            self.dispatcher = make_dispatcher(ctx, &self.gpu_scene, self.variant, self.capacity);
+        }
+        self.scene.camera.width = width;
+        self.scene.camera.height = height;
+        self.write_camera(ctx);
+        self.configure_mode(ctx)?;
+        self.dispatcher.clear_frame(ctx);
+        self.restart();
+        Ok(())
+    }
+
+    fn capacity_pixels(&self) -> u64 {
+        self.capacity[0] as u64 * self.capacity[1] as u64
+    }
+
+    /// Applies new settings: the mode, depth and refinement limit take effect at once; a new
+    /// shadow mode or precision rebuilds the grid (shell references) and recompiles the kernel.
+    pub fn apply(&mut self, ctx: &GpuContext, settings: Settings) -> Result<(), String> {
+        if settings == self.settings {
+            return Ok(());
+        }
+        let rebuild = settings.shadows != self.settings.shadows
+            || settings.light_radius != self.settings.light_radius
+            || settings.f64 != self.settings.f64;
+        if rebuild {
+            let mut fresh = Session::new(ctx, &self.scene, settings.clone())?;
+            fresh.set_size(ctx, self.scene.camera.width, self.scene.camera.height)?;
+            fresh.camera_version = self.camera_version + 1;
+            *self = fresh;
+            return Ok(());
+        }
+        self.settings = settings;
+        self.settings.apply_to(&mut self.scene);
+        let mut p = self.gpu_scene.params;
+        p.image[2] = self.scene.trace.max_depth;
+        self.gpu_scene.write_params(ctx, p);
+        self.configure_mode(ctx)?;
+        self.restart();
+        Ok(())
+    }
+
+    fn write_camera(&mut self, ctx: &GpuContext) {
+        let mut p: Params = self.gpu_scene.params;
+        layout::set_camera(&mut p, &self.scene.camera, self.origin);
+        self.gpu_scene.write_params(ctx, p);
+    }
+
+    fn restart(&mut self) {
+        self.camera_version += 1;
+        self.samples = 0;
+        self.waves_left = 0;
+        self.positions_since_change = 0;
+    }
+
+    /// Uploads what the mode reads from the work buffer.
+    fn configure_mode(&mut self, ctx: &GpuContext) -> Result<(), String> {
+        let [w, h] = self.size();
+        match self.settings.mode {
+            Mode::Conventional { schedule, workers } => {
+                let [tx, ty] = tile_grid(w, h);
+                let workers = if workers == 0 { Schedule::default_workers(ctx) } else { workers };
+                let b = cap_chunks(&schedule.boundaries(tx * ty, workers), MAX_CHUNK_TILES);
+                self.chunks = b.len() as u32 - 1;
+                self.dispatcher.write_work(ctx, &b);
+                self.waves_left = 0;
+            }
+            Mode::Frameless { order, .. } => {
+                let pixels = w as u64 * h as u64;
+                if order == PixelOrder::Dissolve {
+                    if !Dissolve::fits(pixels) {
+                        return Err(format!("the dissolve order handles at most 2^26 - 1 pixels; {w}x{h} has {pixels}"));
+                    }
+                    let d = Dissolve::new(pixels);
+                    self.dispatcher.write_work(ctx, &d.jumps());
+                    self.dissolve = Some(d);
+                } else {
+                    let table = order.table(w, h).expect("table orders have tables");
+                    self.dispatcher.write_work(ctx, &table);
+                    self.dissolve = None;
+                }
+                self.pass_len = order.pass_len(w, h);
+                self.cursor = 0;
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether refinement has reached its sample limit (nothing left to trace).
+    pub fn converged(&self) -> bool {
+        self.settings.max_samples > 0 && self.samples >= self.settings.max_samples
+    }
+
+    /// One unit of work: a wave of the conventional frame, or one frameless slice.
+    pub fn step(&mut self, ctx: &GpuContext) -> StepReport {
+        if self.converged() {
+            return StepReport { idle: true, camera_version: self.camera_version, ..Default::default() };
+        }
+        match self.settings.mode {
+            Mode::Conventional { .. } => self.step_conventional(ctx),
+            Mode::Frameless { .. } => self.step_frameless(ctx),
+        }
+    }
+
+    /// Runs steps until the current conventional frame or frameless pass is complete (or
+    /// refinement converged): one whole picture, what the headless commands write.
+    pub fn complete_pass(&mut self, ctx: &GpuContext) -> Duration {
+        let mut t = Duration::ZERO;
+        loop {
+            let r = self.step(ctx);
+            t += r.trace_time;
+            if r.frame_done || r.idle {
+                return t;
+            }
+        }
+    }
+
+    fn step_conventional(&mut self, ctx: &GpuContext) -> StepReport {
+        let [w, h] = self.size();
+        let [tx, ty] = tile_grid(w, h);
+        let tiles = tx * ty;
+        let new_frame = self.waves_left == 0;
+        if new_frame {
+            // A new frame: the queue restarts; enough waves that every tile is taken (each
+            // workgroup traces at least TILE_BUDGET tiles unless the queue runs dry).
+            let per_wave = tiles.div_ceil(self.settings.waves.max(1));
+            self.wave_groups = per_wave.div_ceil(TILE_BUDGET).max(1);
+            self.waves_left = tiles.div_ceil(self.wave_groups * TILE_BUDGET);
+        }
+        let k = self.samples;
+        let jitter = refinement_jitter(k);
+        let split = self.passes.len() > 1;
+        let t0 = Instant::now();
+        for &pass in &self.passes {
+            let tile = Tile {
+                pass_range: pass,
+                work: [self.chunks, TILE_BUDGET, tx, 0],
+                sample: [k, 0, 0, 0],
+                jitter: [jitter[0], jitter[1], 0.0, 0.0],
+                ..Tile::default()
+            };
+            if split {
+                // A split bundle: every pass walks the whole queue in one dispatch (waves would
+                // interleave passes); the passes add up per pixel.
+                self.dispatcher.reset_queue(ctx);
+                self.dispatcher.run(ctx, "render_queue", tile, [tiles.div_ceil(TILE_BUDGET), 1, 1]);
+            } else {
+                // One wave of this frame; the queue's counter carries over between waves.
+                if new_frame {
+                    self.dispatcher.reset_queue(ctx);
+                }
+                self.dispatcher.run(ctx, "render_queue", tile, [self.wave_groups, 1, 1]);
+            }
+        }
+        if split {
+            self.waves_left = 1;
+        }
+        self.waves_left -= 1;
+        let mut r = StepReport {
+            eye_rays: 0,
+            trace_time: t0.elapsed(),
+            camera_version: self.camera_version,
+            ..Default::default()
+        };
+        if self.waves_left == 0 {
+            // The frame is whole: into the frame buffer (a first sample replaces, later add).
+            let flags = if k == 0 { FRAME_WRITE } else { FRAME_WRITE | FRAME_ACCUMULATE };
+            let t1 = Instant::now();
+            let tile = Tile { sample: [k, flags, 0, 0], work: [w * h, 0, 0, 0], ..Tile::default() };
+            self.dispatcher.run(ctx, "resolve_frame", tile, [(w * h).div_ceil(64), 1, 1]);
+            r.trace_time += t1.elapsed();
+            r.frame_done = true;
+            r.pixels = w as u64 * h as u64;
+            r.eye_rays = r.pixels;
+            self.samples += 1;
+        }
+        r
+    }
+
+    fn step_frameless(&mut self, ctx: &GpuContext) -> StepReport {
+        let Mode::Frameless { slice, blend, jitter_pairs, .. } = self.settings.mode else { unreachable!() };
+        let visit = (self.positions_since_change / self.pass_len) as u32;
+        // A slice ends at the end of the pass and where this visit since the change ends, so
+        // every slice's pixels share one sample index.
+        let to_visit_end = self.pass_len - self.positions_since_change % self.pass_len;
+        let len = (slice.max(1) as u64).min(self.pass_len - self.cursor).min(to_visit_end);
+        let first = self.cursor;
+        let refine = blend.is_none() && !jitter_pairs;
+        let mut flags = FRAME_WRITE;
+        if jitter_pairs {
+            flags |= FRAME_JITTER_PAIRS | FRAME_BLEND;
+        } else if blend.is_some() {
+            flags |= FRAME_BLEND;
+        } else if visit > 0 {
+            flags |= FRAME_ACCUMULATE;
+        }
+        let alpha = if jitter_pairs { 0.5 } else { blend.unwrap_or(1.0) };
+        let jitter = if refine { refinement_jitter(visit) } else { [0.0, 0.0] };
+        let (kind, bits, state) = match &self.dissolve {
+            Some(d) => (ORDER_DISSOLVE, d.bits, d.state_at(first)),
+            None => (ORDER_TABLE, 0, 0),
+        };
+        let t0 = Instant::now();
+        for &pass in &self.passes {
+            let tile = Tile {
+                pass_range: pass,
+                work: [first as u32, len as u32, kind, bits],
+                sample: [visit, flags, state, 0],
+                jitter: [jitter[0], jitter[1], alpha, 0.0],
+                ..Tile::default()
+            };
+            self.dispatcher.run(ctx, "render_slice", tile, [(len as u32).div_ceil(64), 1, 1]);
+        }
+        let trace_time = t0.elapsed();
+        self.cursor += len;
+        self.positions_since_change += len;
+        let pass_done = self.cursor == self.pass_len;
+        if pass_done {
+            self.cursor = 0;
+        }
+        if self.positions_since_change % self.pass_len == 0 {
+            self.samples += 1;
+        }
+        let [w, h] = self.size();
+        let pixels = match &self.dissolve {
+            // Values past the image are skipped: count the positions that name pixels.
+            Some(d) => dissolve_pixels_in(d, first, len, w as u64 * h as u64),
+            None => len,
+        };
+        StepReport {
+            pixels,
+            eye_rays: pixels * if jitter_pairs { 2 } else { 1 },
+            trace_time,
+            frame_done: pass_done,
+            slice: Some(SliceSpan { first, len }),
+            camera_version: self.camera_version,
+            idle: false,
+        }
+    }
+
+    /// The frame buffer as an image (each pixel the mean of its samples): what is on screen.
+    pub fn read_image(&self, ctx: &GpuContext) -> Image {
+        let [w, h] = self.size();
+        let f = self.dispatcher.read_frame(ctx);
+        let pixels = f[..(w * h) as usize]
+            .iter()
+            .map(|p| if p[3] > 0.0 { [p[0] / p[3], p[1] / p[3], p[2] / p[3]] } else { [0.0; 3] })
+            .collect();
+        Image { width: w, height: h, pixels }
+    }
+
+    /// The raw output buffer of the last traced pixels (rgb radiance, alpha 2 × loop
+    /// iterations + eye hit), for tests that compare modes bit for bit.
+    pub fn read_output(&mut self, ctx: &GpuContext) -> Vec<[f32; 4]> {
+        let [w, h] = self.size();
+        let (out, _) = self.dispatcher.read(ctx);
+        let out = out[..(w * h) as usize].to_vec();
+        self.max_loop_iterations = out.iter().map(|p| p[3] as u32 >> 1).max().unwrap_or(0);
+        if self.max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
+            log::warn!(
+                "an invocation ran {} shader loop iterations; lavapipe stops loops after {LAVAPIPE_LOOP_LIMIT}",
+                self.max_loop_iterations
+            );
+        }
+        out
+    }
+}
+
+/// How many of the dissolve's positions `[first, first + len)` name a pixel of the image.
+fn dissolve_pixels_in(d: &Dissolve, first: u64, len: u64, pixels: u64) -> u64 {
+    let mut s = d.state_at(first);
+    let mut n = 0;
+    for _ in 0..len {
+        n += ((s as u64) <= pixels) as u64;
+        s = d.step(s);
+    }
+    n
+}
+
+fn make_dispatcher(ctx: &GpuContext, scene: &GpuScene, variant: Variant, capacity: [u32; 2]) -> Dispatcher {
+    let pixels = capacity[0] as u64 * capacity[1] as u64;
+    let [tx, ty] = tile_grid(capacity[0], capacity[1]);
+    let work_len = pixels.max(tx as u64 * ty as u64 + 1).max(Dissolve::new(pixels).jumps().len() as u64);
+    let modes = ModeBuffers { work_len, frame_len: pixels };
+    Dispatcher::with_modes(ctx, scene, Kernel::Render, variant, "render", pixels, &[], modes)
+}
+
+/// The passes over each pixel: one, or a split bundle's (see `BUNDLE_SAMPLES_PER_PASS`).
+fn passes(scene: &Scene) -> Vec<[u32; 4]> {
+    match scene.trace.shadows {
+        ShadowMode::Bundle { samples, .. } if scene.lights.iter().any(|l| l.radius > 0.0) => (0..samples)
+            .step_by(BUNDLE_SAMPLES_PER_PASS as usize)
+            .map(|k0| {
+                let end = k0 + BUNDLE_SAMPLES_PER_PASS;
+                [k0, end, (k0 == 0) as u32, (end >= samples) as u32]
+            })
+            .collect(),
+        _ => vec![Tile::whole([0; 4]).pass_range],
+    }
+}
+
+// render_queue's workgroup is one tile.
+const _: () = assert!(TILE_W * TILE_H == 64);
+
+impl Schedule {
+    /// The workers P a schedule is built for by default on `ctx`'s device: lavapipe's threads
+    /// (its pool is one thread per core), or a GPU's many workgroups in flight.
+    pub fn default_workers(ctx: &GpuContext) -> u32 {
+        if ctx.info.device_type == wgpu::DeviceType::Cpu {
+            std::thread::available_parallelism().map_or(2, |n| n.get() as u32)
+        } else {
+            256
+        }
+    }
+}
