@@ -1,25 +1,33 @@
 // The two ways of handing out work (../PAPER §3, src/render): both end in `trace_pixel`.
 
-// Chunk a workgroup took from the queue (shared so the whole workgroup walks it).
+// Chunk a workgroup took from the queue (shared so the whole workgroup walks it), the most loop
+// iterations any of its invocations has run, and the most one tile has cost any of them.
 var<workgroup> wg_chunk: u32;
+var<workgroup> wg_iters: atomic<u32>;
+var<workgroup> wg_tile_cost: atomic<u32>;
 
 // Conventional mode: workgroups of one 32×2 tile take chunks of tiles through one atomic
 // counter (`queue[0]`) from the host's boundary array `work_buf` (chunk c = tiles
-// [work_buf[c], work_buf[c+1])), until the queue is empty or this workgroup has traced its
-// budget of tiles. The budget keeps every invocation well inside lavapipe's loop limit (its
-// loops share one counter per invocation group for the whole dispatch) and lets the host split a
-// frame into waves it can cancel between; the counter carries over from wave to wave.
-// tile.work = (chunks, tile budget per workgroup, tile columns, _).
+// [work_buf[c], work_buf[c+1]), at most MAX_CHUNK_TILES), until the queue is empty, this
+// workgroup has traced its budget of tiles, or one more chunk at the dearest tile cost seen
+// could bring it near lavapipe's loop limit (its loops share one counter per invocation group
+// for the whole dispatch). The host runs waves of workgroups until the counter passes the last
+// chunk, and can cancel a frame between waves.
+// tile.work = (chunks, tile budget per workgroup, tile columns, loop budget).
 @compute @workgroup_size(TILE_W, TILE_H, 1)
-fn render_queue(@builtin(local_invocation_id) lid: vec3u) {
+fn render_queue(@builtin(local_invocation_id) lid: vec3u, @builtin(local_invocation_index) li: u32) {
     loop_iters = 0u;
     var taken = 0u;
     loop {
-        if taken >= tile.work.y {
-            break;
-        }
-        if lid.x == 0u && lid.y == 0u {
-            wg_chunk = atomicAdd(&queue[0], 1u);
+        // Every invocation's counts of the last chunk are in; one decides for all.
+        workgroupBarrier();
+        if li == 0u {
+            let room = atomicLoad(&wg_iters) + MAX_CHUNK_TILES * atomicLoad(&wg_tile_cost) < tile.work.w;
+            // (Not `select`: it would evaluate, and so take, a chunk either way.)
+            wg_chunk = NO_HIT;
+            if room && taken < tile.work.y {
+                wg_chunk = atomicAdd(&queue[0], 1u);
+            }
         }
         let c = workgroupUniformLoad(&wg_chunk);
         if c >= tile.work.x {
@@ -28,13 +36,16 @@ fn render_queue(@builtin(local_invocation_id) lid: vec3u) {
         let t0 = work_buf[c];
         let t1 = work_buf[c + 1u];
         for (var t = t0; t < t1; t++) {
+            let before = loop_iters;
             loop_iters += 1u;
             let x = (t % tile.work.z) * TILE_W + lid.x;
             let y = (t / tile.work.z) * TILE_H + lid.y;
             if x < params.eye_grid.x && y < params.eye_grid.y {
                 trace_pixel(x, y);
             }
+            atomicMax(&wg_tile_cost, loop_iters - before);
         }
+        atomicMax(&wg_iters, loop_iters);
         taken += t1 - t0;
     }
 }

@@ -231,7 +231,8 @@ impl Dispatcher {
             })
         };
         let work_buf = storage(ctx, "work", modes.work_len * 4, wgpu::BufferUsages::COPY_DST);
-        let queue_buf = storage(ctx, "queue", 16, wgpu::BufferUsages::COPY_DST);
+        let queue_buf =
+            storage(ctx, "queue", 16, wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC);
         let frame_buf = storage(
             ctx,
             "frame",
@@ -307,6 +308,23 @@ impl Dispatcher {
     /// Restarts the tile queue (takes effect before the next submitted dispatch).
     pub fn reset_queue(&self, ctx: &GpuContext) {
         ctx.queue.write_buffer(&self.queue_buf, 0, &[0u8; 16]);
+    }
+
+    /// The tile queue's counter: chunks taken so far (past the last chunk once the queue is
+    /// empty).
+    pub fn read_queue(&self, ctx: &GpuContext) -> u32 {
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&self.queue_buf, 0, &self.readback, 0, 16);
+        ctx.queue.submit([enc.finish()]);
+        let slice = self.readback.slice(..16);
+        slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the readback buffer"));
+        ctx.wait();
+        let n = {
+            let data = slice.get_mapped_range().expect("readback buffer is mapped");
+            bytemuck::cast_slice::<u8, u32>(&data[..16])[0]
+        };
+        self.readback.unmap();
+        n
     }
 
     /// Zeroes the frame buffer (no samples anywhere).

@@ -154,6 +154,11 @@ impl Tile {
 pub const TILE_W: u32 = 32;
 pub const TILE_H: u32 = 2;
 
+/// The most tiles a chunk of the conventional queue holds: a schedule's larger chunks (RTRT's
+/// with few workers: 351 tiles for P = 2 at 1280×720) are cut into pieces this size, so that one
+/// chunk stays well inside lavapipe's loop limit (docs/interactive.md).
+pub const MAX_CHUNK_TILES: u32 = 16;
+
 /// `Tile::sample[1]` flags: the pixel's last pass writes the frame buffer …
 pub const FRAME_WRITE: u32 = 1;
 /// … adding its sample to the sum (progressive refinement; alpha counts samples) …
@@ -432,6 +437,7 @@ pub fn wgsl_constants() -> String {
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
     s += &c("TILE_W", TILE_W);
     s += &c("TILE_H", TILE_H);
+    s += &c("MAX_CHUNK_TILES", MAX_CHUNK_TILES);
     s += &c("FRAME_WRITE", FRAME_WRITE);
     s += &c("FRAME_ACCUMULATE", FRAME_ACCUMULATE);
     s += &c("FRAME_BLEND", FRAME_BLEND);

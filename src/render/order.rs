@@ -5,7 +5,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-/// RTRT's default: the image is cut into this many chunks (at 512², 4 pixels each).
+/// RTRT's default: the image is cut into about this many chunks (at 512², 4 pixels each).
 pub const RTRT_CHUNKS: u64 = 65536;
 
 /// How the frameless mode orders pixels.
@@ -124,11 +124,13 @@ pub fn hilbert_d2xy(side: u32, d: u64) -> (u32, u32) {
     (x as u32, y as u32)
 }
 
-/// The chunk size RTRT's default gives for a padded square of `cells` pixels: the smallest
-/// power of 4 that cuts it into at most [`RTRT_CHUNKS`] chunks.
-pub fn auto_chunk(cells: u64) -> u32 {
+/// The chunk size RTRT's default gives for an image of `pixels` pixels: the smallest power of 4
+/// that cuts it into at most [`RTRT_CHUNKS`] chunks. (RTRT's images were power-of-2 squares;
+/// counting the image, not its padded square, keeps chunks small on wide images: 4×4 at
+/// 1280×720 rather than 8×8.)
+pub fn auto_chunk(pixels: u64) -> u32 {
     let mut c = 1u64;
-    while cells / c > RTRT_CHUNKS {
+    while pixels.div_ceil(c) > RTRT_CHUNKS {
         c *= 4;
     }
     c as u32
@@ -137,7 +139,7 @@ pub fn auto_chunk(cells: u64) -> u32 {
 fn hilbert_order(width: u32, height: u32, chunk: u32, procs: u32) -> Vec<u32> {
     let side = width.max(height).max(1).next_power_of_two();
     let cells = side as u64 * side as u64;
-    let chunk = if chunk == 0 { auto_chunk(cells) } else { chunk } as u64;
+    let chunk = if chunk == 0 { auto_chunk(width as u64 * height as u64) } else { chunk } as u64;
     let chunk = chunk.min(cells);
     let chunks = cells / chunk;
     let procs = (procs.max(1) as u64).min(chunks);
@@ -333,6 +335,7 @@ mod tests {
     fn chunks_are_square_blocks() {
         // 512², the default: 65 536 chunks of 4 pixels, each a 2×2 block.
         assert_eq!(auto_chunk(512 * 512), 4);
+        assert_eq!(auto_chunk(1280 * 720), 16);
         assert_eq!(auto_chunk(2048 * 2048), 64);
         let t = PixelOrder::Hilbert { chunk: 16, procs: 4 }.table(64, 64).unwrap();
         for c in t.chunks(16) {

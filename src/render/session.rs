@@ -10,7 +10,7 @@ use crate::accel::Grid;
 use crate::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
 use crate::gpu::layout::{
     self, Params, Tile, BUNDLE_SAMPLES_PER_PASS, FRAME_ACCUMULATE, FRAME_BLEND, FRAME_JITTER_PAIRS,
-    FRAME_WRITE, LAVAPIPE_LOOP_LIMIT, ORDER_DISSOLVE, ORDER_TABLE, TILE_H, TILE_W,
+    FRAME_WRITE, LAVAPIPE_LOOP_LIMIT, MAX_CHUNK_TILES, ORDER_DISSOLVE, ORDER_TABLE, TILE_H, TILE_W,
 };
 use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::GpuContext;
@@ -20,14 +20,20 @@ use glam::DVec3;
 use std::time::{Duration, Instant};
 
 /// Tiles a workgroup of the conventional queue traces before it exits (plus at most one
-/// chunk): keeps its invocations far from lavapipe's loop limit (a pixel of the default scene
-/// runs some tens to a few hundred loop iterations) and lets a frame be split into waves.
+/// chunk): what lets a frame be split into waves that input can cancel between.
 pub const TILE_BUDGET: u32 = 16;
 
-/// The largest chunk a workgroup takes: a schedule's larger chunks (RTRT's with few workers:
-/// 351 tiles for P = 2 at 1280×720) are cut into pieces of at most this many tiles, so no
-/// invocation traces more than `TILE_BUDGET + MAX_CHUNK_TILES` pixels in one dispatch.
-pub const MAX_CHUNK_TILES: u32 = 16;
+/// Workgroups per wave for a frame of `tiles` tiles cut into about `waves` waves (each
+/// workgroup traces up to [`TILE_BUDGET`] tiles; fewer where the loop budget stops it, and the
+/// host then runs more waves until the queue is empty).
+pub fn wave_groups(tiles: u32, waves: u32) -> u32 {
+    tiles.div_ceil(waves.max(1)).div_ceil(TILE_BUDGET).max(1)
+}
+
+/// A workgroup of the queue takes no further chunk once its busiest invocation, plus one more
+/// chunk at the dearest tile it has seen, would pass this many loop iterations: half of
+/// lavapipe's limit, leaving the other half as margin for a tile dearer than any before.
+pub const QUEUE_LOOP_BUDGET: u32 = LAVAPIPE_LOOP_LIMIT / 2;
 
 /// `b` with every chunk longer than `max` tiles cut into pieces of `max` (the last shorter).
 pub fn cap_chunks(b: &[u32], max: u32) -> Vec<u32> {
@@ -102,7 +108,7 @@ pub struct Session {
     samples: u32,
     // Conventional: the frame in flight.
     chunks: u32,
-    waves_left: u32,
+    frame_in_flight: bool,
     wave_groups: u32,
     // Frameless: the position in the current pass, and where the last change happened.
     cursor: u64,
@@ -127,7 +133,10 @@ impl Session {
         let params = layout::params(&scene, &grid, &packed, origin);
         let gpu_scene = GpuScene::upload_packed(ctx, &packed, params)?;
         if settings.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(format!("{} has no f64 shader support (SHADER_F64): use --precision f32", ctx.info.name));
+            return Err(format!(
+                "{} has no f64 shader support (SHADER_F64): use --precision f32",
+                ctx.info.name
+            ));
         }
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
@@ -145,7 +154,7 @@ impl Session {
             camera_version: 0,
             samples: 0,
             chunks: 0,
-            waves_left: 0,
+            frame_in_flight: false,
             wave_groups: 0,
             cursor: 0,
             pass_len: 0,
@@ -222,7 +231,10 @@ impl Session {
         if [width, height] == self.size() {
             return Ok(());
         }
-        if width > self.capacity[0] || height > self.capacity[1] || width as u64 * height as u64 > self.capacity_pixels() {
+        if width > self.capacity[0]
+            || height > self.capacity[1]
+            || width as u64 * height as u64 > self.capacity_pixels()
+        {
             self.capacity = [width.max(self.capacity[0]), height.max(self.capacity[1])];
             self.dispatcher = make_dispatcher(ctx, &self.gpu_scene, self.variant, self.capacity);
         }
@@ -274,7 +286,7 @@ impl Session {
     fn restart(&mut self) {
         self.camera_version += 1;
         self.samples = 0;
-        self.waves_left = 0;
+        self.frame_in_flight = false;
         self.positions_since_change = 0;
     }
 
@@ -288,13 +300,15 @@ impl Session {
                 let b = cap_chunks(&schedule.boundaries(tx * ty, workers), MAX_CHUNK_TILES);
                 self.chunks = b.len() as u32 - 1;
                 self.dispatcher.write_work(ctx, &b);
-                self.waves_left = 0;
+                self.frame_in_flight = false;
             }
             Mode::Frameless { order, .. } => {
                 let pixels = w as u64 * h as u64;
                 if order == PixelOrder::Dissolve {
                     if !Dissolve::fits(pixels) {
-                        return Err(format!("the dissolve order handles at most 2^26 - 1 pixels; {w}x{h} has {pixels}"));
+                        return Err(format!(
+                            "the dissolve order handles at most 2^26 - 1 pixels; {w}x{h} has {pixels}"
+                        ));
                     }
                     let d = Dissolve::new(pixels);
                     self.dispatcher.write_work(ctx, &d.jumps());
@@ -344,50 +358,44 @@ impl Session {
         let [w, h] = self.size();
         let [tx, ty] = tile_grid(w, h);
         let tiles = tx * ty;
-        let new_frame = self.waves_left == 0;
+        let new_frame = !self.frame_in_flight;
         if new_frame {
-            // A new frame: the queue restarts; enough waves that every tile is taken (each
-            // workgroup traces at least TILE_BUDGET tiles unless the queue runs dry).
-            let per_wave = tiles.div_ceil(self.settings.waves.max(1));
-            self.wave_groups = per_wave.div_ceil(TILE_BUDGET).max(1);
-            self.waves_left = tiles.div_ceil(self.wave_groups * TILE_BUDGET);
+            self.wave_groups = wave_groups(tiles, self.settings.waves);
         }
         let k = self.samples;
         let jitter = refinement_jitter(k);
         let split = self.passes.len() > 1;
         let t0 = Instant::now();
+        let mut done = true;
         for &pass in &self.passes {
             let tile = Tile {
                 pass_range: pass,
-                work: [self.chunks, TILE_BUDGET, tx, 0],
+                work: [self.chunks, TILE_BUDGET, tx, QUEUE_LOOP_BUDGET],
                 sample: [k, 0, 0, 0],
                 jitter: [jitter[0], jitter[1], 0.0, 0.0],
                 ..Tile::default()
             };
-            if split {
-                // A split bundle: every pass walks the whole queue in one dispatch (waves would
-                // interleave passes); the passes add up per pixel.
+            if split || new_frame {
                 self.dispatcher.reset_queue(ctx);
-                self.dispatcher.run(ctx, "render_queue", tile, [tiles.div_ceil(TILE_BUDGET), 1, 1]);
-            } else {
-                // One wave of this frame; the queue's counter carries over between waves.
-                if new_frame {
-                    self.dispatcher.reset_queue(ctx);
-                }
+            }
+            loop {
+                // One wave; the queue's counter carries over between waves. A split bundle's
+                // passes each walk the whole queue here (waves would interleave passes).
                 self.dispatcher.run(ctx, "render_queue", tile, [self.wave_groups, 1, 1]);
+                done = self.dispatcher.read_queue(ctx) >= self.chunks;
+                if done || !split {
+                    break;
+                }
             }
         }
-        if split {
-            self.waves_left = 1;
-        }
-        self.waves_left -= 1;
+        self.frame_in_flight = !done;
         let mut r = StepReport {
             eye_rays: 0,
             trace_time: t0.elapsed(),
             camera_version: self.camera_version,
             ..Default::default()
         };
-        if self.waves_left == 0 {
+        if done {
             // The frame is whole: into the frame buffer (a first sample replaces, later add).
             let flags = if k == 0 { FRAME_WRITE } else { FRAME_WRITE | FRAME_ACCUMULATE };
             let t1 = Instant::now();

@@ -1,0 +1,268 @@
+//! The dispatch modes (src/render): every schedule and pixel order covers every pixel exactly
+//! once on the GPU, and the conventional frame, the frameless pass and the headless bands give
+//! the same picture bit for bit.
+mod common;
+
+use irt::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
+use irt::gpu::layout::MAX_CHUNK_TILES;
+use irt::gpu::layout::{Tile, FRAME_ACCUMULATE, FRAME_WRITE, ORDER_DISSOLVE, ORDER_TABLE};
+use irt::gpu::shaders::{Kernel, Variant};
+use irt::image::Image;
+use irt::render::order::Dissolve;
+use irt::render::schedule::tile_grid;
+use irt::render::session::{cap_chunks, wave_groups, QUEUE_LOOP_BUDGET, TILE_BUDGET};
+use irt::render::{Mode, PixelOrder, Schedule, Session, Settings};
+use irt::scene::{Scene, ShadowMode};
+
+fn small_default(w: u32, h: u32) -> Scene {
+    let mut s = irt::scene::default_scene();
+    (s.camera.width, s.camera.height) = (w, h);
+    s
+}
+
+/// A dispatcher over `scene` whose frame buffer counts visits: every traced pixel adds 1 to
+/// its alpha (FRAME_ACCUMULATE on a cleared buffer).
+fn counting_dispatcher(ctx: &irt::gpu::GpuContext, scene: &Scene, work: &[u32]) -> Dispatcher {
+    let grid = irt::accel::Grid::build(scene);
+    let gs = GpuScene::upload_at(ctx, scene, &grid, scene.camera.eye).unwrap();
+    let n = scene.camera.width as u64 * scene.camera.height as u64;
+    let d = Dispatcher::with_modes(
+        ctx,
+        &gs,
+        Kernel::Render,
+        Variant::for_scene(scene, false),
+        "render",
+        n,
+        &[],
+        ModeBuffers { work_len: work.len() as u64, frame_len: n },
+    );
+    d.write_work(ctx, work);
+    d.clear_frame(ctx);
+    d
+}
+
+fn visit_counts(ctx: &irt::gpu::GpuContext, d: &Dispatcher) -> Vec<u32> {
+    d.read_frame(ctx).iter().map(|p| p[3] as u32).collect()
+}
+
+const COUNT: [u32; 4] = [0, FRAME_WRITE | FRAME_ACCUMULATE, 0, 0];
+
+#[test]
+fn tile_queue_covers_every_pixel_once() {
+    let ctx = common::gpu();
+    for (w, h) in [(1, 1), (33, 3), (100, 37), (257, 129)] {
+        let scene = small_default(w, h);
+        let [tx, ty] = tile_grid(w, h);
+        let tiles = tx * ty;
+        for schedule in Schedule::ALL {
+            for workers in [1, 2, 7] {
+                let b = cap_chunks(&schedule.boundaries(tiles, workers), MAX_CHUNK_TILES);
+                let d = counting_dispatcher(&ctx, &scene, &b);
+                d.reset_queue(&ctx);
+                // The loop budget as the session sets it, and one so small that workgroups stop
+                // after a chunk or two: the host's extra waves must still take every tile.
+                for (waves, budget) in [(1, QUEUE_LOOP_BUDGET), (3, QUEUE_LOOP_BUDGET), (2, 600)] {
+                    d.clear_frame(&ctx);
+                    d.reset_queue(&ctx);
+                    let groups = wave_groups(tiles, waves);
+                    let chunks = b.len() as u32 - 1;
+                    let mut runs = 0;
+                    while d.read_queue(&ctx) < chunks {
+                        let tile = Tile {
+                            work: [chunks, TILE_BUDGET, tx, budget],
+                            sample: COUNT,
+                            ..Tile::whole([0; 4])
+                        };
+                        d.run(&ctx, "render_queue", tile, [groups, 1, 1]);
+                        runs += 1;
+                        assert!(runs <= tiles, "the queue makes no progress");
+                    }
+                    let counts = visit_counts(&ctx, &d);
+                    let bad = counts.iter().filter(|&&c| c != 1).count();
+                    assert_eq!(
+                        bad, 0,
+                        "{w}x{h} {schedule} P={workers} waves={waves}: {bad} pixels not traced exactly once"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn frameless_pass_covers_every_pixel_once() {
+    let ctx = common::gpu();
+    for (w, h) in [(1, 1), (1, 70), (70, 1), (513, 257)] {
+        let scene = small_default(w, h);
+        for order in [PixelOrder::default(), PixelOrder::Random, PixelOrder::Dissolve] {
+            let n = w as u64 * h as u64;
+            let dissolve = (order == PixelOrder::Dissolve).then(|| Dissolve::new(n));
+            let work = match &dissolve {
+                Some(d) => d.jumps(),
+                None => order.table(w, h).unwrap(),
+            };
+            let d = counting_dispatcher(&ctx, &scene, &work);
+            let pass = order.pass_len(w, h);
+            for slice in [7u64, 4096] {
+                d.clear_frame(&ctx);
+                let mut first = 0;
+                while first < pass {
+                    let len = slice.min(pass - first);
+                    let (kind, bits, state) = match &dissolve {
+                        Some(dz) => (ORDER_DISSOLVE, dz.bits, dz.state_at(first)),
+                        None => (ORDER_TABLE, 0, 0),
+                    };
+                    let tile = Tile {
+                        work: [first as u32, len as u32, kind, bits],
+                        sample: [0, COUNT[1], state, 0],
+                        ..Tile::whole([0; 4])
+                    };
+                    d.run(&ctx, "render_slice", tile, [(len as u32).div_ceil(64), 1, 1]);
+                    first += len;
+                }
+                let counts = visit_counts(&ctx, &d);
+                let bad = counts.iter().filter(|&&c| c != 1).count();
+                assert_eq!(bad, 0, "{w}x{h} {order} S={slice}: {bad} pixels not traced exactly once");
+            }
+        }
+    }
+}
+
+/// The host sequence of pixels an order visits in one pass.
+fn visits(order: PixelOrder, w: u32, h: u32) -> Vec<u32> {
+    match order.table(w, h) {
+        Some(t) => t,
+        None => {
+            let n = w as u64 * h as u64;
+            let d = Dissolve::new(n);
+            let mut s = 1u32;
+            let mut out = Vec::new();
+            for _ in 0..d.period() {
+                if (s as u64) <= n {
+                    out.push(s - 1);
+                }
+                s = d.step(s);
+            }
+            out
+        }
+    }
+}
+
+#[test]
+fn every_order_spreads_over_the_image() {
+    // After half a pass every 16×16 block has been visited: the image updates all over, not in
+    // a sweep. (A random order leaves a given block untouched with probability 2^-256; the
+    // default Hilbert order deals 2×2 chunks at 512² and 4×4 at 1280×720, 16 or more per
+    // block, 2^-16 each; the orders are seeded, so this is exact, not a matter of luck.)
+    for (w, h) in [(512, 512), (1280, 720), (513, 257)] {
+        for order in PixelOrder::ALL {
+            let v = visits(order, w, h);
+            assert_eq!(v.len(), (w * h) as usize);
+            // Whole blocks only (a sliver at the right or bottom edge holds too few pixels).
+            let (bx, by) = (w / 16, h / 16);
+            let mut touched = vec![false; (bx * by) as usize];
+            for &p in &v[..v.len() / 2] {
+                let (x, y) = (p % w / 16, p / w / 16);
+                if x < bx && y < by {
+                    touched[(y * bx + x) as usize] = true;
+                }
+            }
+            let untouched = touched.iter().filter(|t| !**t).count();
+            assert_eq!(
+                untouched,
+                0,
+                "{order} at {w}x{h}: {untouched} of {} blocks untouched after half a pass",
+                bx * by
+            );
+        }
+    }
+}
+
+fn bands(ctx: &irt::gpu::GpuContext, scene: &Scene) -> Image {
+    common::render_gpu(ctx, scene)
+}
+
+fn session_image(ctx: &irt::gpu::GpuContext, scene: &Scene, mode: Mode) -> Image {
+    let mut s = Session::new(ctx, scene, Settings { mode, ..Settings::default() }).unwrap();
+    s.complete_pass(ctx);
+    let out = s.read_output(ctx);
+    // The queue's workgroups trace many pixels each: their invocations stay below the budget
+    // plus one chunk; the slices' below a quarter of the limit, as every headless render.
+    let limit = irt::gpu::layout::LAVAPIPE_LOOP_LIMIT;
+    assert!(s.max_loop_iterations < limit * 3 / 4, "{mode}: {} loop iterations", s.max_loop_iterations);
+    drop(out);
+    s.read_image(ctx)
+}
+
+fn assert_same(what: &str, a: &Image, b: &Image) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let diff =
+        a.pixels.iter().zip(&b.pixels).filter(|(x, y)| x.map(f32::to_bits) != y.map(f32::to_bits)).count();
+    assert_eq!(diff, 0, "{what}: {diff} pixels differ");
+}
+
+#[test]
+fn every_mode_gives_the_headless_picture_bit_for_bit() {
+    let ctx = common::gpu();
+    let mut soft = small_default(96, 72);
+    soft.trace.shadows = ShadowMode::Bundle { samples: 32, rotate: true };
+    for (name, scene) in [("default", small_default(131, 67)), ("bundle:32 (split passes)", soft)] {
+        let want = bands(&ctx, &scene);
+        for mode in [
+            Mode::conventional(),
+            Mode::Conventional { schedule: Schedule::Guided, workers: 3 },
+            Mode::Conventional { schedule: Schedule::Fixed { tiles: 1 }, workers: 1 },
+            Mode::frameless(),
+            Mode::Frameless {
+                order: PixelOrder::Random,
+                slice: 999,
+                present_every: 0,
+                blend: None,
+                jitter_pairs: false,
+            },
+            Mode::Frameless {
+                order: PixelOrder::Dissolve,
+                slice: 4096,
+                present_every: 0,
+                blend: None,
+                jitter_pairs: false,
+            },
+        ] {
+            assert_same(&format!("{name}, {mode}"), &session_image(&ctx, &scene, mode), &want);
+        }
+    }
+}
+
+#[test]
+fn a_moved_camera_is_what_the_next_frame_or_pass_shows() {
+    let ctx = common::gpu();
+    let scene = small_default(120, 90);
+    let mut moved = scene.clone();
+    moved.camera.eye += glam::DVec3::new(1.5, 0.5, -0.5);
+    let still = bands(&ctx, &scene);
+    for mode in [Mode::conventional(), Mode::frameless()] {
+        let settings = Settings { mode, waves: 4, ..Settings::default() };
+        // What the moved camera looks like from this session's upload (positions are relative
+        // to the eye the scene was uploaded at, so compare with the same upload).
+        let mut fresh = Session::new(&ctx, &scene, settings.clone()).unwrap();
+        fresh.set_camera(&ctx, &moved.camera);
+        fresh.complete_pass(&ctx);
+        let want = fresh.read_image(&ctx);
+        let changed = want.pixels.iter().zip(&still.pixels).filter(|(a, b)| a != b).count();
+        assert!(changed > want.pixels.len() / 2, "{mode}: the camera moved ({changed} pixels changed)");
+
+        let mut s = Session::new(&ctx, &scene, settings).unwrap();
+        // Part of a frame / pass with the old camera, then the camera moves.
+        s.step(&ctx);
+        s.step(&ctx);
+        s.set_camera(&ctx, &moved.camera);
+        assert_eq!(s.samples(), 0);
+        // Until one whole visit since the change: conventional, the rest of the frame is
+        // cancelled and a new one traced; frameless, the slices carry on where they were, each
+        // with the new camera, until every pixel has been visited once since the change.
+        while s.samples() == 0 {
+            s.step(&ctx);
+        }
+        assert_same(&format!("{mode} after a camera change"), &s.read_image(&ctx), &want);
+    }
+}
