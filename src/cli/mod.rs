@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
     about = "Interactive ray tracer on Vulkan compute (Parker et al., I3D 1999)",
     long_about = "irt traces scenes with WGSL compute shaders on any Vulkan device — by default \
 Mesa's lavapipe, which runs Vulkan on the CPU. Without a SCENE it draws the built-in default \
-scene.\n\nExamples:\n  irt render --out default.png\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt render --shadows bundle:16 --out soft.png\n  irt tradeoff --out-dir tradeoff\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
+scene.\n\nExamples:\n  irt render --out default.png\n  irt render --out default.exr\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt render --shadows bundle:16 --out soft.png\n  irt tradeoff --out-dir tradeoff\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -33,7 +33,7 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum Command {
-    /// Render a scene to a PNG (headless).
+    /// Render a scene to a PNG or OpenEXR image (headless).
     Render(render::RenderArgs),
     /// Show the Vulkan adapters and the one irt would use.
     Info(info::InfoArgs),
@@ -146,14 +146,14 @@ pub fn open_device_with(args: &DeviceArgs, cache: &CacheSetting) -> Result<GpuCo
     Ok(GpuContext::with_cache(&AdapterChoice::from_arg_or_env(args.adapter.as_deref()), cache)?)
 }
 
-/// Fails early (before minutes of tracing) when the PNG could not be written.
+/// Fails early (before minutes of tracing) when a file could not be written at `out`.
 pub fn check_output_path(out: &Path) -> Result<()> {
     let dir = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     if !dir.is_dir() {
         bail!("output directory '{}' does not exist", dir.display());
     }
     if out.is_dir() {
-        bail!("output '{}' is a directory; give a .png file name", out.display());
+        bail!("output '{}' is a directory; give a file name", out.display());
     }
     Ok(())
 }

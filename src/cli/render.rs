@@ -4,6 +4,7 @@ use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use irt::gpu::{RenderOptions, Renderer};
+use irt::image::OutputFormat;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -11,7 +12,8 @@ use std::time::Instant;
 pub struct RenderArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
-    /// Output PNG (8-bit sRGB), written atomically.
+    /// Output image, written atomically; the extension picks the format: .png (8-bit sRGB) or
+    /// .exr (OpenEXR: linear radiance as 32-bit float RGB, values above 1 kept).
     #[arg(long, short, default_value = "irt.png")]
     pub out: PathBuf,
     /// Print rays traced by kind (eye, reflection, refraction, shadow) and the eye rays that hit.
@@ -27,11 +29,13 @@ pub struct RenderArgs {
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
+    // The output is checked first: a mistyped name should not wait for the scene to load.
+    check_output_path(&args.out)?;
+    let format = OutputFormat::from_path(&args.out).map_err(anyhow::Error::msg)?;
     let mut scene = load_scene(&args.scene)?;
     if args.spd_rules {
         irt::io::nff::apply_spd_rules(&mut scene);
     }
-    check_output_path(&args.out)?;
     let ctx = open_device(&args.device)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
     let opts = RenderOptions {
@@ -56,9 +60,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     // Never expected (the extreme-scene suite checks it), but never silently written either.
     let bad = frame.image.non_finite();
     if bad > 0 {
-        log::warn!("{bad} pixel channels are NaN or infinite (written black or clamped)");
+        let written = match format {
+            OutputFormat::Png => "written black or clamped",
+            OutputFormat::Exr => "written as they are",
+        };
+        log::warn!("{bad} pixel channels are NaN or infinite ({written})");
     }
-    frame.image.save_png(&args.out).with_context(|| format!("writing {}", args.out.display()))?;
+    frame.image.save_as(&args.out, format).with_context(|| format!("writing {}", args.out.display()))?;
     eprintln!(
         "wrote {} ({w}x{h}, {} primitives, {:.2} s on {})",
         args.out.display(),
