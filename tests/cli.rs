@@ -216,3 +216,34 @@ fn upper_case_extensions_choose_the_format_too() {
     assert!(bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]), "not an OpenEXR file");
     assert_eq!((read_exr(&exr).width, read_exr(&exr).height), (16, 8));
 }
+
+/// Without $XDG_RUNTIME_DIR (containers, CI, ssh), Mesa's device-select layer probing for a
+/// Wayland compositor made libwayland print "error: XDG_RUNTIME_DIR is invalid or not set in the
+/// environment." on every command (src/gpu/instance.rs). Newer Mesa probes only when
+/// $WAYLAND_DISPLAY is set, older Mesa always: both cases.
+#[test]
+fn no_runtime_dir_complaint_without_xdg_runtime_dir() {
+    let tmpdir = tmp("runtime-tmp");
+    std::fs::create_dir_all(&tmpdir).unwrap();
+    for display in [None, Some("wayland-0")] {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_irt"));
+        cmd.arg("info")
+            .env("IRT_CACHE_DIR", "off")
+            .env("TMPDIR", &tmpdir)
+            .env_remove("XDG_RUNTIME_DIR")
+            .env_remove("WAYLAND_SOCKET");
+        match display {
+            Some(d) => cmd.env("WAYLAND_DISPLAY", d),
+            None => cmd.env_remove("WAYLAND_DISPLAY"),
+        };
+        let out = cmd.output().expect("irt runs");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "WAYLAND_DISPLAY={display:?}: {stderr}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("irt uses:"));
+        assert!(!stderr.contains("XDG_RUNTIME_DIR"), "WAYLAND_DISPLAY={display:?}:\n{stderr}");
+    }
+    // What made it quiet: a private runtime directory in $TMPDIR.
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tmpdir.join(format!("irt-runtime-{}", unsafe { libc::geteuid() }));
+    assert_eq!(std::fs::metadata(&dir).expect("the private runtime dir").permissions().mode() & 0o777, 0o700);
+}

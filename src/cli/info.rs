@@ -11,9 +11,7 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: InfoArgs) -> Result<()> {
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-    desc.backends = wgpu::Backends::VULKAN;
-    let instance = wgpu::Instance::new(desc);
+    let instance = irt::gpu::vulkan_instance();
     let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
     println!("Vulkan adapters:");
     for a in &adapters {
