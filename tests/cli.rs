@@ -154,3 +154,96 @@ fn nff_errors_name_the_place() {
     let out = irt(&["render", path.to_str().unwrap(), "--out", tmp("bad.png").to_str().unwrap()]);
     fails_with(&out, &["bad.nff:8:1:", "unknown command `q`"]);
 }
+
+/// Decodes an OpenEXR file irt wrote into linear RGB pixels.
+fn read_exr(path: &std::path::Path) -> irt::image::Image {
+    let img = image::open(path).expect("a readable OpenEXR file");
+    assert!(matches!(img, image::DynamicImage::ImageRgb32F(_)), "not RGB f32: {:?}", img.color());
+    let img = img.into_rgb32f();
+    let (width, height) = img.dimensions();
+    irt::image::Image { width, height, pixels: img.pixels().map(|p| p.0).collect() }
+}
+
+#[test]
+fn exr_output_is_the_linear_radiance_behind_the_png() {
+    let (exr, png) = (tmp("radiance.exr"), tmp("radiance.png"));
+    for path in [&exr, &png] {
+        let _ = std::fs::remove_file(path);
+        let out = irt(&["render", "--width", "32", "--height", "24", "--out", path.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let linear = read_exr(&exr);
+    assert_eq!((linear.width, linear.height), (32, 24));
+    // The same frame: the PNG is exactly the sRGB encoding of the EXR's floats.
+    let png = image::open(&png).expect("a readable PNG").to_rgb8();
+    assert_eq!(png.into_raw(), linear.to_srgb8());
+    // Linear, not display values: the sRGB curve maps mid-grey 0.5 to 0.735, so an encoded image
+    // would be brighter on average.
+    let mean = linear.pixels.iter().flatten().map(|&c| c as f64).sum::<f64>() / (32.0 * 24.0 * 3.0);
+    let srgb_mean = linear.to_srgb8().iter().map(|&c| c as f64 / 255.0).sum::<f64>() / (32.0 * 24.0 * 3.0);
+    assert!(mean < srgb_mean, "mean {mean} vs sRGB mean {srgb_mean}");
+}
+
+#[test]
+fn unsupported_output_extension_is_refused_before_rendering() {
+    for name in ["x.jpg", "x"] {
+        let path = tmp(name);
+        let _ = std::fs::remove_file(&path);
+        let out = irt(&["render", "--width", "8", "--height", "8", "--out", path.to_str().unwrap()]);
+        fails_with(&out, &["error:", name, ".png", ".exr"]);
+        assert!(!path.exists(), "{} was created", path.display());
+    }
+    fails_with(
+        &irt(&["render", "--width", "8", "--height", "8", "--out", tmp("x.jpg").to_str().unwrap()]),
+        &["unsupported image format .jpg"],
+    );
+    // Refused before the scene is even read.
+    fails_with(&irt(&["render", "no/such/scene.toml", "--out", "x.jpg"]), &["x.jpg"]);
+}
+
+#[test]
+fn upper_case_extensions_choose_the_format_too() {
+    let (png, exr) = (tmp("UPPER.PNG"), tmp("UPPER.EXR"));
+    for path in [&png, &exr] {
+        let _ = std::fs::remove_file(path);
+        let out = irt(&["render", "--width", "16", "--height", "8", "--out", path.to_str().unwrap()]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let bytes = std::fs::read(&png).unwrap();
+    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
+    assert_eq!(image::load_from_memory(&bytes).unwrap().to_rgb8().dimensions(), (16, 8));
+    let bytes = std::fs::read(&exr).unwrap();
+    assert!(bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]), "not an OpenEXR file");
+    assert_eq!((read_exr(&exr).width, read_exr(&exr).height), (16, 8));
+}
+
+/// Without $XDG_RUNTIME_DIR (containers, CI, ssh), Mesa's device-select layer probing for a
+/// Wayland compositor made libwayland print "error: XDG_RUNTIME_DIR is invalid or not set in the
+/// environment." on every command (src/gpu/instance.rs). Newer Mesa probes only when
+/// $WAYLAND_DISPLAY is set, older Mesa always: both cases.
+#[test]
+fn no_runtime_dir_complaint_without_xdg_runtime_dir() {
+    let tmpdir = tmp("runtime-tmp");
+    std::fs::create_dir_all(&tmpdir).unwrap();
+    for display in [None, Some("wayland-0")] {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_irt"));
+        cmd.arg("info")
+            .env("IRT_CACHE_DIR", "off")
+            .env("TMPDIR", &tmpdir)
+            .env_remove("XDG_RUNTIME_DIR")
+            .env_remove("WAYLAND_SOCKET");
+        match display {
+            Some(d) => cmd.env("WAYLAND_DISPLAY", d),
+            None => cmd.env_remove("WAYLAND_DISPLAY"),
+        };
+        let out = cmd.output().expect("irt runs");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "WAYLAND_DISPLAY={display:?}: {stderr}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("irt uses:"));
+        assert!(!stderr.contains("XDG_RUNTIME_DIR"), "WAYLAND_DISPLAY={display:?}:\n{stderr}");
+    }
+    // What made it quiet: a private runtime directory in $TMPDIR.
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tmpdir.join(format!("irt-runtime-{}", unsafe { libc::geteuid() }));
+    assert_eq!(std::fs::metadata(&dir).expect("the private runtime dir").permissions().mode() & 0o777, 0o700);
+}

@@ -78,9 +78,7 @@ impl GpuContext {
     /// Opens the device with compiled pipelines cached as `cache` says, where the adapter
     /// supports `Features::PIPELINE_CACHE`; silently without where it does not.
     pub fn with_cache(choice: &AdapterChoice, cache: &CacheSetting) -> Result<Self, ContextError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::VULKAN;
-        let instance = wgpu::Instance::new(desc);
+        let instance = super::vulkan_instance();
         let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
         if adapters.is_empty() {
             return Err(ContextError::NoVulkan);

@@ -1,0 +1,95 @@
+//! `irt render`: one frame of a scene, written to an image file.
+
+use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
+use anyhow::{Context, Result};
+use clap::Args;
+use irt::gpu::{RenderOptions, Renderer};
+use irt::image::OutputFormat;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Output image, written atomically; the extension picks the format: .png (8-bit sRGB) or
+    /// .exr (OpenEXR: linear radiance as 32-bit float RGB, values above 1 kept).
+    #[arg(long, short, default_value = "irt.png")]
+    pub out: PathBuf,
+    /// Print rays traced by kind (eye, reflection, refraction, shadow) and the eye rays that hit.
+    #[arg(long)]
+    pub stats: bool,
+    /// SPD's testing rules, to compare --stats with the published ray counts: eye rays through
+    /// the pixel corners ((W+1)x(H+1) rays, each pixel the mean of its corners), depth at most 5,
+    /// a reflection ray at every reflective hit, hard shadows. See docs/nff.md.
+    #[arg(long, conflicts_with = "shadows")]
+    pub spd_rules: bool,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    // The output is checked first: a mistyped name should not wait for the scene to load.
+    check_output_path(&args.out)?;
+    let format = OutputFormat::from_path(&args.out).map_err(anyhow::Error::msg)?;
+    let mut scene = load_scene(&args.scene)?;
+    if args.spd_rules {
+        irt::io::nff::apply_spd_rules(&mut scene);
+    }
+    let ctx = open_device(&args.device)?;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let opts = RenderOptions {
+        count_rays: args.stats,
+        corner_rays: args.spd_rules,
+        f64: args.scene.f64(),
+        ..Default::default()
+    };
+    let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
+    let bar = indicatif::ProgressBar::new(h as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} tracing {pos}/{len} rows [{bar:30}] {elapsed_precise}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let t = Instant::now();
+    let frame = renderer.render(&ctx, &mut |done, _| bar.set_position(done as u64));
+    let elapsed = t.elapsed();
+    bar.finish_and_clear();
+    // Never expected (the extreme-scene suite checks it), but never silently written either.
+    let bad = frame.image.non_finite();
+    if bad > 0 {
+        let written = match format {
+            OutputFormat::Png => "written black or clamped",
+            OutputFormat::Exr => "written as they are",
+        };
+        log::warn!("{bad} pixel channels are NaN or infinite ({written})");
+    }
+    frame.image.save_as(&args.out, format).with_context(|| format!("writing {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} ({w}x{h}, {} primitives, {:.2} s on {})",
+        args.out.display(),
+        scene.primitive_count(),
+        elapsed.as_secs_f64(),
+        ctx.info.name
+    );
+    if args.stats {
+        let r = frame.rays;
+        println!(
+            "rays: eye {} ({} hit)  reflection {}  refraction {}  shadow {}  total {}",
+            r.eye,
+            frame.eye_hits,
+            r.reflection,
+            r.refraction,
+            r.shadow,
+            r.total()
+        );
+        println!(
+            "shader loop iterations: at most {} per pixel and pass (lavapipe's limit is {})",
+            frame.max_loop_iterations,
+            irt::gpu::layout::LAVAPIPE_LOOP_LIMIT
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,57 @@
+//! `irt stability`: the GPU's error against the f64 reference as the scene moves away from the
+//! origin; table + plot.
+
+use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
+use anyhow::{Context, Result};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct StabilityArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Where table.md and plot.svg go (created if missing).
+    #[arg(long, default_value = "stability")]
+    pub out_dir: PathBuf,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+pub fn run(args: StabilityArgs) -> Result<()> {
+    let mut scene_args = args.scene;
+    // The f64 reference renders every distance: keep it small unless told.
+    if scene_args.width.is_none() && scene_args.height.is_none() {
+        scene_args.width = Some(160);
+        scene_args.height = Some(120);
+    }
+    let scene = load_scene(&scene_args)?;
+    std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
+    let ctx = open_device(&args.device)?;
+    let bar = indicatif::ProgressBar::new(irt::stability::DISTANCES.len() as u64);
+    let mut rows = Vec::new();
+    for d in irt::stability::DISTANCES {
+        bar.set_message(format!("{d:e}"));
+        rows.push(irt::stability::measure(&ctx, &scene, d).map_err(anyhow::Error::msg)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let name = scene_args.name_or("default scene");
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let table = format!(
+        "Scene: {name}, {w}x{h}, moved along (1, 0.8, -0.6); device: {}; {}; command: `irt stability{}`\n\n{}",
+        ctx.info.name,
+        machine_line(),
+        command_args(),
+        irt::stability::markdown_table(&rows)
+    );
+    print!("{table}");
+    irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
+    irt::stability::plot_svg(
+        &rows,
+        &format!("GPU (f32, f64) vs f64 reference: {name}"),
+        &args.out_dir.join("plot.svg"),
+    )
+    .map_err(anyhow::Error::msg)?;
+    eprintln!("wrote {}/table.md and plot.svg", args.out_dir.display());
+    Ok(())
+}

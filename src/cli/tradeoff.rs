@@ -1,0 +1,89 @@
+//! `irt tradeoff`: every shadow mode's time and error against an f64 ground truth; table + plot.
+
+use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Args)]
+pub struct TradeoffArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Where table.md and plot.svg go (created if missing).
+    #[arg(long, default_value = "tradeoff")]
+    pub out_dir: PathBuf,
+    /// Ground truth: STRATA² stratified shadow rays per light and shading point (32 → 1024,
+    /// about 30 s on 2 cores for the default scene; docs/tradeoff.md uses 64 → 4096).
+    #[arg(long, default_value_t = 32)]
+    pub strata: u32,
+    /// Timed frames per mode (median reported).
+    #[arg(long, default_value_t = 3)]
+    pub frames: u32,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+pub fn run(args: TradeoffArgs) -> Result<()> {
+    let mut scene_args = args.scene;
+    // Half the default scene's size unless told: the f64 ground truth traces `strata²` rays per
+    // shading point on the CPU.
+    if scene_args.width.is_none() && scene_args.height.is_none() {
+        scene_args.width = Some(320);
+        scene_args.height = Some(240);
+    }
+    let scene = load_scene(&scene_args)?;
+    if scene.lights.iter().all(|l| l.radius == 0.0) {
+        bail!("every light is a point light (radius 0): soft shadows equal hard ones; give the lights a radius (--light-radius R)");
+    }
+    if !(1..=256).contains(&args.strata) {
+        bail!("--strata {} must be between 1 and 256", args.strata);
+    }
+    std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
+    let ctx = open_device(&args.device)?;
+    let name = scene_args.name_or("default scene");
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    eprintln!(
+        "ground truth: {w}x{h}, {} shadow rays per light and shading point, f64 on the CPU...",
+        args.strata * args.strata
+    );
+    let t = Instant::now();
+    let truth = irt::reference::Reference::new(&scene).with_ground_truth(args.strata).render().0;
+    let truth = irt::image::Image {
+        width: truth.width,
+        height: truth.height,
+        pixels: truth.pixels.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
+    };
+    eprintln!("ground truth took {:.1} s", t.elapsed().as_secs_f64());
+    truth.save_png(&args.out_dir.join("ground-truth.png"))?;
+    let modes = irt::tradeoff::modes();
+    let bar = indicatif::ProgressBar::new(modes.len() as u64);
+    let mut rows = Vec::new();
+    for mode in modes {
+        bar.set_message(mode.to_string());
+        rows.push(
+            irt::tradeoff::measure(&ctx, &scene, mode, &truth, args.frames).map_err(anyhow::Error::msg)?,
+        );
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let header = format!(
+        "Scene: {name}, {w}x{h}, light radius {}; device: {}; ground truth {}² stratified rays (f64 CPU); {}; command: `irt tradeoff{}`\n\n",
+        scene.lights.iter().map(|l| l.radius.to_string()).collect::<Vec<_>>().join(", "),
+        ctx.info.name,
+        args.strata,
+        machine_line(),
+        command_args(),
+    );
+    let table = header + &irt::tradeoff::markdown_table(&rows);
+    print!("{table}");
+    irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
+    irt::tradeoff::plot_svg(
+        &rows,
+        &format!("shadow modes on {name}: error vs time"),
+        &args.out_dir.join("plot.svg"),
+    )
+    .map_err(anyhow::Error::msg)?;
+    eprintln!("wrote {}/table.md, plot.svg, ground-truth.png", args.out_dir.display());
+    Ok(())
+}
