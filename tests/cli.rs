@@ -247,3 +247,41 @@ fn no_runtime_dir_complaint_without_xdg_runtime_dir() {
     let dir = tmpdir.join(format!("irt-runtime-{}", unsafe { libc::geteuid() }));
     assert_eq!(std::fs::metadata(&dir).expect("the private runtime dir").permissions().mode() & 0o777, 0o700);
 }
+
+#[test]
+fn interactive_modes_render_the_same_file_headless() {
+    let bands = tmp("modes-bands.png");
+    let size = ["--width", "160", "--height", "100"];
+    let run = |extra: &[&str], out: &PathBuf| {
+        let mut a = vec!["render", "--out", out.to_str().unwrap()];
+        a.extend_from_slice(&size);
+        a.extend_from_slice(extra);
+        let o = irt(&a);
+        assert!(o.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out).unwrap()
+    };
+    let want = run(&[], &bands);
+    for extra in [
+        &["--mode", "conventional"][..],
+        &["--mode", "conventional", "--schedule", "guided", "--workers", "3"],
+        &["--mode", "frameless"],
+        &["--mode", "frameless", "--order", "dissolve", "--slice", "1000"],
+    ] {
+        assert!(run(extra, &tmp("modes-other.png")) == want, "{extra:?} wrote a different image");
+    }
+}
+
+#[test]
+fn bad_mode_arguments_are_named() {
+    let out = tmp("never.png");
+    let o = irt(&["render", "--mode", "frameless", "--slice", "0", "--out", out.to_str().unwrap()]);
+    fails_with(&o, &["--slice 0"]);
+    let o = irt(&["render", "--mode", "frameless", "--order", "hilbert:8", "--out", out.to_str().unwrap()]);
+    fails_with(&o, &["power of 4"]);
+    let o =
+        irt(&["render", "--mode", "conventional", "--schedule", "fixed:0", "--out", out.to_str().unwrap()]);
+    fails_with(&o, &["fixed:0"]);
+    let o = irt(&["render", "--mode", "diagonal", "--out", out.to_str().unwrap()]);
+    fails_with(&o, &["conventional", "frameless"]);
+    assert!(!out.exists());
+}

@@ -148,32 +148,40 @@ fn visits(order: PixelOrder, w: u32, h: u32) -> Vec<u32> {
     }
 }
 
+/// The fraction of a pass after which every whole 16×16 block of the image has been visited.
+fn fraction_until_every_block_is_visited(v: &[u32], w: u32, h: u32) -> f64 {
+    let (bx, by) = (w / 16, h / 16);
+    let mut touched = vec![false; (bx * by) as usize];
+    let mut left = bx * by;
+    for (k, &p) in v.iter().enumerate() {
+        let (x, y) = (p % w / 16, p / w / 16);
+        if x < bx && y < by && !touched[(y * bx + x) as usize] {
+            touched[(y * bx + x) as usize] = true;
+            left -= 1;
+            if left == 0 {
+                return (k + 1) as f64 / v.len() as f64;
+            }
+        }
+    }
+    1.0
+}
+
 #[test]
 fn every_order_spreads_over_the_image() {
-    // After half a pass every 16×16 block has been visited: the image updates all over, not in
-    // a sweep. (A random order leaves a given block untouched with probability 2^-256; the
-    // default Hilbert order deals 2×2 chunks at 512² and 4×4 at 1280×720, 16 or more per
-    // block, 2^-16 each; the orders are seeded, so this is exact, not a matter of luck.)
+    // Every 16×16 block is visited early in a pass: the image updates all over, not in a
+    // sweep. The orders are seeded, so these fractions are exact, not luck. Random and the
+    // dissolve cover every block within a few percent of a pass; the Hilbert order deals
+    // 8×8-pixel chunks (its speed on SIMD lanes, docs/interactive.md), 4 to a block, so it
+    // needs longer: 0.77 of a pass at 512², 0.87 at 1280×720 when measured, bound 0.9 here.
     for (w, h) in [(512, 512), (1280, 720), (513, 257)] {
-        for order in PixelOrder::ALL {
+        for (order, bound) in
+            [(PixelOrder::default(), 0.9), (PixelOrder::Random, 0.05), (PixelOrder::Dissolve, 0.05)]
+        {
             let v = visits(order, w, h);
             assert_eq!(v.len(), (w * h) as usize);
-            // Whole blocks only (a sliver at the right or bottom edge holds too few pixels).
-            let (bx, by) = (w / 16, h / 16);
-            let mut touched = vec![false; (bx * by) as usize];
-            for &p in &v[..v.len() / 2] {
-                let (x, y) = (p % w / 16, p / w / 16);
-                if x < bx && y < by {
-                    touched[(y * bx + x) as usize] = true;
-                }
-            }
-            let untouched = touched.iter().filter(|t| !**t).count();
-            assert_eq!(
-                untouched,
-                0,
-                "{order} at {w}x{h}: {untouched} of {} blocks untouched after half a pass",
-                bx * by
-            );
+            let f = fraction_until_every_block_is_visited(&v, w, h);
+            eprintln!("{order} {w}x{h}: every 16x16 block visited after {f:.3} of a pass");
+            assert!(f <= bound, "{order} at {w}x{h}: every block visited only after {f:.3} of a pass");
         }
     }
 }

@@ -4,7 +4,8 @@ use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use irt::gpu::{RenderOptions, Renderer};
-use irt::image::OutputFormat;
+use irt::image::{Image, OutputFormat};
+use irt::render::{ModeArgs, Session, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -22,8 +23,13 @@ pub struct RenderArgs {
     /// SPD's testing rules, to compare --stats with the published ray counts: eye rays through
     /// the pixel corners ((W+1)x(H+1) rays, each pixel the mean of its corners), depth at most 5,
     /// a reflection ray at every reflective hit, hard shadows. See docs/nff.md.
-    #[arg(long, conflicts_with = "shadows")]
+    #[arg(long, conflicts_with_all = ["shadows", "mode"])]
     pub spd_rules: bool,
+    /// Without --mode the image is traced in bands of rows (the plain headless path); with it,
+    /// one complete frame (conventional) or pass (frameless) of the interactive modes, which
+    /// give the same picture bit for bit.
+    #[command(flatten)]
+    pub mode: ModeArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -36,14 +42,27 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.spd_rules {
         irt::io::nff::apply_spd_rules(&mut scene);
     }
+    let mode = args.mode.mode().map_err(anyhow::Error::msg)?;
     let ctx = open_device(&args.device)?;
-    let (w, h) = (scene.camera.width, scene.camera.height);
+    if let Some(mode) = mode {
+        if args.stats {
+            anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
+        }
+        let settings = Settings { mode, f64: args.scene.f64(), max_samples: 1, ..Settings::default() };
+        let mut session = Session::new(&ctx, &scene, settings).map_err(anyhow::Error::msg)?;
+        let t = Instant::now();
+        session.complete_pass(&ctx);
+        let elapsed = t.elapsed();
+        let image = session.read_image(&ctx);
+        return write(&args, format, &image, &scene, elapsed, &ctx, &mode.to_string());
+    }
     let opts = RenderOptions {
         count_rays: args.stats,
         corner_rays: args.spd_rules,
         f64: args.scene.f64(),
         ..Default::default()
     };
+    let h = scene.camera.height;
     let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
     let bar = indicatif::ProgressBar::new(h as u64);
     bar.set_style(
@@ -57,23 +76,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let frame = renderer.render(&ctx, &mut |done, _| bar.set_position(done as u64));
     let elapsed = t.elapsed();
     bar.finish_and_clear();
-    // Never expected (the extreme-scene suite checks it), but never silently written either.
-    let bad = frame.image.non_finite();
-    if bad > 0 {
-        let written = match format {
-            OutputFormat::Png => "written black or clamped",
-            OutputFormat::Exr => "written as they are",
-        };
-        log::warn!("{bad} pixel channels are NaN or infinite ({written})");
-    }
-    frame.image.save_as(&args.out, format).with_context(|| format!("writing {}", args.out.display()))?;
-    eprintln!(
-        "wrote {} ({w}x{h}, {} primitives, {:.2} s on {})",
-        args.out.display(),
-        scene.primitive_count(),
-        elapsed.as_secs_f64(),
-        ctx.info.name
-    );
+    write(&args, format, &frame.image, &scene, elapsed, &ctx, "bands")?;
     if args.stats {
         let r = frame.rays;
         println!(
@@ -91,5 +94,35 @@ pub fn run(args: RenderArgs) -> Result<()> {
             irt::gpu::layout::LAVAPIPE_LOOP_LIMIT
         );
     }
+    Ok(())
+}
+
+fn write(
+    args: &RenderArgs,
+    format: OutputFormat,
+    image: &Image,
+    scene: &irt::scene::Scene,
+    elapsed: std::time::Duration,
+    ctx: &irt::gpu::GpuContext,
+    how: &str,
+) -> Result<()> {
+    let (w, h) = (image.width, image.height);
+    // Never expected (the extreme-scene suite checks it), but never silently written either.
+    let bad = image.non_finite();
+    if bad > 0 {
+        let written = match format {
+            OutputFormat::Png => "written black or clamped",
+            OutputFormat::Exr => "written as they are",
+        };
+        log::warn!("{bad} pixel channels are NaN or infinite ({written})");
+    }
+    image.save_as(&args.out, format).with_context(|| format!("writing {}", args.out.display()))?;
+    eprintln!(
+        "wrote {} ({w}x{h}, {} primitives, {how}, {:.2} s on {})",
+        args.out.display(),
+        scene.primitive_count(),
+        elapsed.as_secs_f64(),
+        ctx.info.name
+    );
     Ok(())
 }

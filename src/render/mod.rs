@@ -11,10 +11,12 @@
 //! Both refine progressively while the camera rests: later samples are jittered and added up
 //! (the frame buffer holds sums and counts).
 
+pub mod args;
 pub mod order;
 pub mod schedule;
 pub mod session;
 
+pub use args::ModeArgs;
 pub use order::PixelOrder;
 pub use schedule::Schedule;
 pub use session::{Session, StepReport};
