@@ -220,6 +220,7 @@ fn every_mode_gives_the_headless_picture_bit_for_bit() {
             Mode::conventional(),
             Mode::Conventional { schedule: Schedule::Guided, workers: 3 },
             Mode::Conventional { schedule: Schedule::Fixed { tiles: 1 }, workers: 1 },
+            Mode::Conventional { schedule: Schedule::Plain, workers: 0 },
             Mode::frameless(),
             Mode::Frameless {
                 order: PixelOrder::Random,

@@ -19,6 +19,9 @@ pub enum Schedule {
     Factoring,
     /// Every chunk the same number of tiles.
     Fixed { tiles: u32 },
+    /// No queue: one plain dispatch of the whole frame, which lavapipe splits statically between
+    /// its threads (one contiguous half each). What the queue has to beat.
+    Plain,
 }
 
 impl Default for Schedule {
@@ -29,11 +32,17 @@ impl Default for Schedule {
 
 impl Schedule {
     /// Every schedule (with default parameters), for tables, benches and the HUD.
-    pub const ALL: [Schedule; 4] =
-        [Schedule::Rtrt { rounds: 40 }, Schedule::Guided, Schedule::Factoring, Schedule::Fixed { tiles: 16 }];
+    pub const ALL: [Schedule; 5] = [
+        Schedule::Rtrt { rounds: 40 },
+        Schedule::Guided,
+        Schedule::Factoring,
+        Schedule::Fixed { tiles: 16 },
+        Schedule::Plain,
+    ];
 
     /// The boundary array for `tiles` tiles and `workers` workers: b[0] = 0, strictly
-    /// increasing, last = `tiles`; chunk c is `[b[c], b[c+1])`.
+    /// increasing, last = `tiles`; chunk c is `[b[c], b[c+1])`. ([`Schedule::Plain`]: one
+    /// chunk, the whole frame.)
     pub fn boundaries(self, tiles: u32, workers: u32) -> Vec<u32> {
         let p = workers.max(1) as u64;
         let n = tiles as u64;
@@ -78,6 +87,7 @@ impl Schedule {
                     push(tiles.max(1) as u64, &mut done);
                 }
             }
+            Schedule::Plain => push(n, &mut done),
         }
         b
     }
@@ -90,6 +100,7 @@ impl fmt::Display for Schedule {
             Schedule::Guided => write!(f, "guided"),
             Schedule::Factoring => write!(f, "factoring"),
             Schedule::Fixed { tiles } => write!(f, "fixed:{tiles}"),
+            Schedule::Plain => write!(f, "plain"),
         }
     }
 }
@@ -112,8 +123,9 @@ impl FromStr for Schedule {
             "guided" if arg.is_none() => Ok(Schedule::Guided),
             "factoring" if arg.is_none() => Ok(Schedule::Factoring),
             "fixed" => Ok(Schedule::Fixed { tiles: num(16)? }),
+            "plain" if arg.is_none() => Ok(Schedule::Plain),
             _ => Err(format!(
-                "unknown schedule `{s}`: expected rtrt[:ROUNDS], guided, factoring or fixed[:TILES]"
+                "unknown schedule `{s}`: expected rtrt[:ROUNDS], guided, factoring, fixed[:TILES] or plain"
             )),
         }
     }

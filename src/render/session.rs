@@ -356,6 +356,9 @@ impl Session {
 
     fn step_conventional(&mut self, ctx: &GpuContext) -> StepReport {
         let [w, h] = self.size();
+        if let Mode::Conventional { schedule: Schedule::Plain, .. } = self.settings.mode {
+            return self.step_plain(ctx);
+        }
         let [tx, ty] = tile_grid(w, h);
         let tiles = tx * ty;
         let new_frame = !self.frame_in_flight;
@@ -389,25 +392,51 @@ impl Session {
             }
         }
         self.frame_in_flight = !done;
-        let mut r = StepReport {
-            eye_rays: 0,
-            trace_time: t0.elapsed(),
+        if done {
+            return self.finish_frame(ctx, t0.elapsed());
+        }
+        StepReport { trace_time: t0.elapsed(), camera_version: self.camera_version, ..Default::default() }
+    }
+
+    /// The whole frame in one dispatch per pass, no queue.
+    fn step_plain(&mut self, ctx: &GpuContext) -> StepReport {
+        let [w, h] = self.size();
+        let k = self.samples;
+        let jitter = refinement_jitter(k);
+        let t0 = Instant::now();
+        for &pass in &self.passes {
+            let tile = Tile {
+                rect: [0, 0, w, h],
+                pass_range: pass,
+                sample: [k, 0, 0, 0],
+                jitter: [jitter[0], jitter[1], 0.0, 0.0],
+                ..Tile::default()
+            };
+            self.dispatcher.run(ctx, "render", tile, [w.div_ceil(8), h.div_ceil(8), 1]);
+        }
+        let trace_time = t0.elapsed();
+        self.finish_frame(ctx, trace_time)
+    }
+
+    /// A conventional frame is whole: into the frame buffer (a first sample replaces, later
+    /// ones add).
+    fn finish_frame(&mut self, ctx: &GpuContext, trace_time: Duration) -> StepReport {
+        let [w, h] = self.size();
+        let k = self.samples;
+        let flags = if k == 0 { FRAME_WRITE } else { FRAME_WRITE | FRAME_ACCUMULATE };
+        let t1 = Instant::now();
+        let tile = Tile { sample: [k, flags, 0, 0], work: [w * h, 0, 0, 0], ..Tile::default() };
+        self.dispatcher.run(ctx, "resolve_frame", tile, [(w * h).div_ceil(64), 1, 1]);
+        self.samples += 1;
+        let pixels = w as u64 * h as u64;
+        StepReport {
+            pixels,
+            eye_rays: pixels,
+            trace_time: trace_time + t1.elapsed(),
+            frame_done: true,
             camera_version: self.camera_version,
             ..Default::default()
-        };
-        if done {
-            // The frame is whole: into the frame buffer (a first sample replaces, later add).
-            let flags = if k == 0 { FRAME_WRITE } else { FRAME_WRITE | FRAME_ACCUMULATE };
-            let t1 = Instant::now();
-            let tile = Tile { sample: [k, flags, 0, 0], work: [w * h, 0, 0, 0], ..Tile::default() };
-            self.dispatcher.run(ctx, "resolve_frame", tile, [(w * h).div_ceil(64), 1, 1]);
-            r.trace_time += t1.elapsed();
-            r.frame_done = true;
-            r.pixels = w as u64 * h as u64;
-            r.eye_rays = r.pixels;
-            self.samples += 1;
         }
-        r
     }
 
     fn step_frameless(&mut self, ctx: &GpuContext) -> StepReport {
