@@ -275,3 +275,83 @@ fn a_moved_camera_is_what_the_next_frame_or_pass_shows() {
         assert_same(&format!("{mode} after a camera change"), &s.read_image(&ctx), &want);
     }
 }
+
+fn rms(a: &Image, b: &Image) -> f64 {
+    let s: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(x, y)| (0..3).map(|k| (x[k] as f64 - y[k] as f64).powi(2)).sum::<f64>())
+        .sum();
+    (s / (3 * a.pixels.len()) as f64).sqrt()
+}
+
+#[test]
+fn refinement_converges_while_the_camera_rests() {
+    // Jittered samples add up: the error against a 64-sample picture falls as samples come in,
+    // in both modes, and a camera move starts again from one sample.
+    let ctx = common::gpu();
+    let scene = small_default(96, 72);
+    for mode in [Mode::conventional(), Mode::frameless()] {
+        let settings = Settings { mode, max_samples: 64, ..Settings::default() };
+        let mut s = Session::new(&ctx, &scene, settings.clone()).unwrap();
+        let mut images = Vec::new();
+        while !s.converged() {
+            s.step(&ctx);
+            if [1, 4, 16].contains(&s.samples()) && images.len() < s.samples().ilog(4) as usize + 1 {
+                images.push(s.read_image(&ctx));
+            }
+        }
+        assert_eq!(s.samples(), 64);
+        assert!(s.step(&ctx).idle, "{mode}: nothing to do once converged");
+        let converged = s.read_image(&ctx);
+        let errors: Vec<f64> = images.iter().map(|i| rms(i, &converged)).collect();
+        assert_eq!(errors.len(), 3);
+        assert!(errors[0] > 1.5 * errors[1] && errors[1] > 1.5 * errors[2], "{mode}: errors {errors:?}");
+        s.set_camera(&ctx, &{
+            let mut c = scene.camera.clone();
+            c.eye.x += 0.1;
+            c
+        });
+        assert_eq!(s.samples(), 0);
+        assert!(!s.converged());
+    }
+}
+
+#[test]
+fn frameless_blend_mixes_old_and_new() {
+    // The paper's blending (α = 0.25): after a pass at camera A and a pass at camera B, every
+    // pixel is (1 − α)·A + α·B.
+    let ctx = common::gpu();
+    let scene = small_default(64, 48);
+    let mut moved = scene.camera.clone();
+    moved.eye.y += 0.7;
+    let alpha = 0.25f32;
+    let mode = Mode::Frameless {
+        order: PixelOrder::default(),
+        slice: 500,
+        present_every: 0,
+        blend: Some(alpha),
+        jitter_pairs: false,
+    };
+    let mut s = Session::new(&ctx, &scene, Settings { mode, ..Settings::default() }).unwrap();
+    s.complete_pass(&ctx);
+    let a = s.read_image(&ctx);
+    let mut only_b =
+        Session::new(&ctx, &scene, Settings { mode: Mode::frameless(), ..Settings::default() }).unwrap();
+    only_b.set_camera(&ctx, &moved);
+    only_b.complete_pass(&ctx);
+    let b = only_b.read_image(&ctx);
+    s.set_camera(&ctx, &moved);
+    s.complete_pass(&ctx);
+    let got = s.read_image(&ctx);
+    let mut worst = 0f32;
+    for ((g, x), y) in got.pixels.iter().zip(&a.pixels).zip(&b.pixels) {
+        for k in 0..3 {
+            worst = worst.max((g[k] - ((1.0 - alpha) * x[k] + alpha * y[k])).abs());
+        }
+    }
+    // mix() in f32 on values ≤ a few units: a few ulps.
+    assert!(worst < 1e-5, "blend off by {worst}");
+    assert!(rms(&got, &b) > 1e-3, "the old camera still shows");
+}
