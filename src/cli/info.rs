@@ -21,6 +21,9 @@ pub fn run(args: InfoArgs) -> Result<()> {
     let ctx = open_device(&args.device)?;
     let i = &ctx.info;
     println!("irt uses: {} — driver {} {}", i.name, i.driver, i.driver_info);
+    if let Some(w) = ctx.old_driver_warning() {
+        println!("  warning: {w}");
+    }
     let f = ctx.adapter.features();
     println!(
         "  features: SHADER_F64 {}  TIMESTAMP_QUERY {}  PIPELINE_CACHE {}",

@@ -6,6 +6,18 @@ use std::fmt;
 /// Environment variable that picks an adapter when `--adapter` is not given.
 pub const ADAPTER_ENV: &str = "IRT_ADAPTER";
 
+/// The oldest Mesa whose lavapipe runs irt at full speed (Mesa 22.3 is 2–4x slower than 25.0).
+pub const MIN_FAST_MESA: u32 = 24;
+
+/// (major, minor) of the first "Mesa X.Y" in a driver string.
+pub fn mesa_version(driver_info: &str) -> Option<(u32, u32)> {
+    let rest = &driver_info[driver_info.find("Mesa ")? + 5..];
+    let mut parts = rest.split(|c: char| !c.is_ascii_digit());
+    let major = parts.next()?.parse().ok()?;
+    let minor = parts.next()?.parse().ok()?;
+    Some((major, minor))
+}
+
 /// Which Vulkan adapter to use.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum AdapterChoice {
@@ -140,7 +152,31 @@ impl GpuContext {
                 "off (this adapter lacks PIPELINE_CACHE; the driver's own shader cache still applies)".into()
             }
         };
-        Ok(GpuContext { adapter, device, queue, info, pipeline_cache, cache_status })
+        let ctx = GpuContext { adapter, device, queue, info, pipeline_cache, cache_status };
+        if let Some(w) = ctx.old_driver_warning() {
+            log::warn!("{w}");
+        }
+        Ok(ctx)
+    }
+
+    /// The Mesa version of a lavapipe device, from its driver string ("Mesa 25.0.7-2…"):
+    /// (major, minor), or `None` for other drivers.
+    pub fn mesa_version(&self) -> Option<(u32, u32)> {
+        mesa_version(&self.info.driver_info)
+    }
+
+    /// A warning for a lavapipe older than Mesa 24, which runs irt's kernels 2–4x slower than
+    /// 25.0 (docs/performance.md); `None` when the driver is new enough or not lavapipe.
+    pub fn old_driver_warning(&self) -> Option<String> {
+        match self.mesa_version() {
+            Some((major, minor)) if major < MIN_FAST_MESA && self.info.device_type == wgpu::DeviceType::Cpu => {
+                Some(format!(
+                    "lavapipe is Mesa {major}.{minor}: irt traces 2-4x slower than on Mesa {MIN_FAST_MESA} or \
+                     newer (Debian 12: scripts/setup.sh installs Mesa 25.0 from bookworm-backports)"
+                ))
+            }
+            _ => None,
+        }
     }
 
     /// The pipeline cache to pass to pipeline descriptors.
@@ -159,5 +195,16 @@ impl GpuContext {
     pub fn wait(&self) {
         // An error here means the device was lost; the next call reports it with context.
         let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn mesa_versions_are_read_from_driver_strings() {
+        assert_eq!(super::mesa_version("Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"), Some((25, 0)));
+        assert_eq!(super::mesa_version("Mesa 22.3.6 (LLVM 15.0.6)"), Some((22, 3)));
+        assert_eq!(super::mesa_version("NVIDIA 550.54"), None);
+        assert_eq!(super::mesa_version("Mesa "), None);
     }
 }
