@@ -355,3 +355,33 @@ fn frameless_blend_mixes_old_and_new() {
     assert!(worst < 1e-5, "blend off by {worst}");
     assert!(rms(&got, &b) > 1e-3, "the old camera still shows");
 }
+
+#[test]
+fn live_settings_give_what_a_fresh_session_gives() {
+    // Shadow mode (a rebuild), depth and mode switched on a running session: each picture is
+    // the one a session made with those settings gives; dropping an override restores the
+    // scene's own value.
+    let ctx = common::gpu();
+    let scene = small_default(80, 60);
+    let picture = |settings: &Settings| {
+        let mut s = Session::new(&ctx, &scene, settings.clone()).unwrap();
+        s.complete_pass(&ctx);
+        s.read_image(&ctx)
+    };
+    let base = Settings { max_samples: 1, ..Settings::default() };
+    let mut live = Session::new(&ctx, &scene, base.clone()).unwrap();
+    live.complete_pass(&ctx);
+    let first = live.read_image(&ctx);
+    for settings in [
+        Settings { shadows: Some(ShadowMode::Bundle { samples: 4, rotate: true }), ..base.clone() },
+        Settings { max_depth: Some(1), ..base.clone() },
+        Settings { mode: Mode::conventional(), max_depth: Some(2), ..base.clone() },
+        base.clone(),
+    ] {
+        live.apply(&ctx, settings.clone()).unwrap();
+        assert_eq!(live.samples(), 0, "a change restarts refinement");
+        live.complete_pass(&ctx);
+        assert_same(&format!("live {settings:?}"), &live.read_image(&ctx), &picture(&settings));
+    }
+    assert_same("back to the start", &live.read_image(&ctx), &first);
+}

@@ -90,6 +90,9 @@ pub fn refinement_jitter(k: u32) -> [f32; 2] {
 }
 
 pub struct Session {
+    /// The scene as given (settings are applied to a copy, so that dropping an override
+    /// restores the scene's own value).
+    base: Scene,
     scene: Scene,
     settings: Settings,
     /// Positions were packed relative to this point (the camera's eye when uploaded).
@@ -125,6 +128,7 @@ impl Session {
     /// Builds the grid, uploads the scene (positions relative to its camera's eye) and compiles
     /// the kernel for the scene and `settings`.
     pub fn new(ctx: &GpuContext, scene: &Scene, settings: Settings) -> Result<Self, String> {
+        let base = scene.clone();
         let mut scene = scene.clone();
         settings.apply_to(&mut scene);
         let grid = Grid::build(&scene);
@@ -142,6 +146,7 @@ impl Session {
         let capacity = [scene.camera.width, scene.camera.height];
         let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity);
         let mut s = Session {
+            base,
             passes: passes(&scene),
             scene,
             settings,
@@ -171,8 +176,14 @@ impl Session {
         &self.settings
     }
 
+    /// The scene as traced: settings applied, the current camera.
     pub fn scene(&self) -> &Scene {
         &self.scene
+    }
+
+    /// The scene as given to [`Session::new`] (its own camera: what "reset" goes back to).
+    pub fn base_scene(&self) -> &Scene {
+        &self.base
     }
 
     pub fn camera(&self) -> &Camera {
@@ -261,13 +272,15 @@ impl Session {
             || settings.light_radius != self.settings.light_radius
             || settings.f64 != self.settings.f64;
         if rebuild {
-            let mut fresh = Session::new(ctx, &self.scene, settings.clone())?;
-            fresh.set_size(ctx, self.scene.camera.width, self.scene.camera.height)?;
+            let base = Scene { camera: self.scene.camera.clone(), ..self.base.clone() };
+            let mut fresh = Session::new(ctx, &base, settings.clone())?;
+            fresh.base.camera = self.base.camera.clone();
             fresh.camera_version = self.camera_version + 1;
             *self = fresh;
             return Ok(());
         }
         self.settings = settings;
+        self.scene.trace = self.base.trace.clone();
         self.settings.apply_to(&mut self.scene);
         let mut p = self.gpu_scene.params;
         p.image[2] = self.scene.trace.max_depth;
