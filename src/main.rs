@@ -35,6 +35,8 @@ enum Command {
     Stability(StabilityArgs),
     /// Write any scene irt can load (TOML, glTF) as a native TOML scene, losslessly.
     Convert(ConvertArgs),
+    /// Open a window that traces the scene interactively (orbit, fly, live modes; H for the HUD).
+    View(irt::app::ViewArgs),
 }
 
 #[derive(Args)]
@@ -167,6 +169,7 @@ fn main() {
         Command::Tradeoff(a) => tradeoff(a),
         Command::Stability(a) => stability(a),
         Command::Convert(a) => convert(a),
+        Command::View(a) => irt::app::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
