@@ -422,11 +422,7 @@ impl Viewer {
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => self.resize(size),
-            WindowEvent::RedrawRequested => {
-                if self.redraw(event_loop)? {
-                    self.window.request_redraw();
-                }
-            }
+            WindowEvent::RedrawRequested if self.redraw(event_loop)? => self.window.request_redraw(),
             WindowEvent::ModifiersChanged(m) => self.input.mods = m.state(),
             WindowEvent::CursorMoved { position, .. } => {
                 if let Some(old) = self.input.cursor {
@@ -802,7 +798,7 @@ impl Viewer {
             self.present()?;
         }
         if let Some(n) = self.args.frames {
-            if present && self.presents % 100 == 0 {
+            if present && self.presents.is_multiple_of(100) {
                 eprintln!("irt view: {}/{n} pictures", self.presents);
             }
             if self.presents >= n as u64 {
