@@ -352,12 +352,15 @@ fn mouse_drag_and_keys_change_the_picture_and_escape_exits() {
     v.exits_cleanly(Duration::from_secs(20));
 }
 
-/// (c) The window resized to 1×1 and back neither crashes nor hangs; Escape still exits 0.
+/// (c) The window resized to 1×1 and back neither crashes nor hangs, the render follows the
+/// window's size, and Escape still exits 0.
 #[test]
 fn resize_to_one_pixel_and_back_survives() {
     let _serial = serial();
     let x = Xvfb::start();
-    let mut v = Viewer::start(&x, &["--size", "256x192"]);
+    let dir = TempDir::new("c");
+    let shot = dir.join("c.png");
+    let mut v = Viewer::start(&x, &["--size", "256x192", "--screenshot", shot.to_str().unwrap()]);
     let wid = window_id(&x);
     for (w, h) in [(1, 1), (256, 192), (1, 1), (300, 200)] {
         x.xdotool(&["windowsize", &wid, &w.to_string(), &h.to_string()], Duration::from_secs(10));
@@ -366,7 +369,14 @@ fn resize_to_one_pixel_and_back_survives() {
         assert!(geometry.contains(&format!("Geometry: {w}x{h}")), "not resized to {w}x{h}: {geometry}");
         assert!(v.alive(), "irt view died after the resize to {w}x{h}");
     }
+    // The viewer followed: `C` prints the window's size, and the screenshot has it.
     x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+    x.xdotool(&["key", "c"], Duration::from_secs(10));
+    v.line_starting("width = 300", Duration::from_secs(20));
+    v.line_starting("height = 200", Duration::from_secs(5));
+    x.xdotool(&["key", "p"], Duration::from_secs(10));
+    v.line_starting("screenshot:", Duration::from_secs(30));
+    assert_eq!(decode(&shot).0, 300);
     x.xdotool(&["key", "Escape"], Duration::from_secs(10));
     v.exits_cleanly(Duration::from_secs(20));
 }

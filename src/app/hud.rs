@@ -143,14 +143,13 @@ fn si(x: f64) -> String {
 /// Draws the HUD into `ctx`; returns the changes asked for and the HUD's rectangle (points).
 pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>) {
     let mut req = HudRequest::default();
-    let frame = egui::Frame::window(&ctx.global_style()).fill(egui::Color32::from_black_alpha(200));
+    let frame = egui::Frame::window(&ctx.global_style()).fill(egui::Color32::from_black_alpha(170));
     let shown = egui::Window::new("irt")
         .frame(frame)
         .default_pos([8.0, 8.0])
         .resizable(false)
         .collapsible(true)
         .show(ctx, |ui| {
-            ui.style_mut().spacing.item_spacing.y = 2.0;
             ui.label(format!("device: {}", v.adapter));
             if v.cpu_device {
                 ui.colored_label(

@@ -37,6 +37,8 @@ pub const FRAME_BUDGET: Duration = Duration::from_millis(16);
 pub const HOLD_LIMIT: Duration = Duration::from_millis(250);
 /// "Moving" lasts this long after the last camera change (for the lower resolution).
 const MOVING_GRACE: Duration = Duration::from_millis(200);
+/// Presents that may follow egui's repaint requests after an input event.
+const EGUI_FOLLOWUPS: u32 = 10;
 /// A tap of a movement key moves at least this long's worth.
 const TAP: Duration = Duration::from_millis(50);
 
@@ -230,6 +232,8 @@ struct Viewer {
     other_mode: Mode,
     /// A redraw should present even if nothing was traced (HUD input, resize).
     dirty: bool,
+    /// Presents left that may follow egui's own repaint requests (after input).
+    egui_followups: u32,
     retry_at: Option<Instant>,
     start: Instant,
     last_tick: Instant,
@@ -332,6 +336,15 @@ impl Viewer {
         let controller = CameraController::new(&scene.camera, scene_bounds(&scene));
 
         let egui_ctx = egui::Context::default();
+        // A compact HUD: it shares the window with the picture.
+        egui_ctx.global_style_mut(|style| {
+            for font in style.text_styles.values_mut() {
+                font.size = (font.size * 0.85).round();
+            }
+            style.spacing.item_spacing = egui::vec2(6.0, 2.0);
+            style.spacing.button_padding = egui::vec2(3.0, 0.0);
+            style.spacing.interact_size.y = 16.0;
+        });
         let max_side = ctx.device.limits().max_texture_dimension_2d as usize;
         let state = egui_winit::State::new(
             egui_ctx.clone(),
@@ -367,6 +380,7 @@ impl Viewer {
             pending: None,
             other_mode,
             dirty: true,
+            egui_followups: EGUI_FOLLOWUPS,
             retry_at: None,
             start: now,
             last_tick: now,
@@ -415,8 +429,11 @@ impl Viewer {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
         let egui_response = self.egui.state.on_window_event(&self.window, &event);
-        if egui_response.repaint && self.hud_visible {
+        // (egui asks to repaint after a redraw too: that is no news.)
+        let news = !matches!(event, WindowEvent::RedrawRequested);
+        if egui_response.repaint && news && self.hud_visible {
             self.dirty = true;
+            self.egui_followups = EGUI_FOLLOWUPS;
             self.window.request_redraw();
         }
         match event {
@@ -466,12 +483,20 @@ impl Viewer {
                 self.dirty = true;
                 self.window.request_redraw();
             }
-            WindowEvent::KeyboardInput { event, .. } => {
+            WindowEvent::KeyboardInput { event, is_synthetic, .. } => {
+                log::debug!(
+                    "key {:?} {:?} repeat {} synthetic {is_synthetic}",
+                    event.logical_key,
+                    event.state,
+                    event.repeat
+                );
                 let down = event.state == ElementState::Pressed;
                 if let PhysicalKey::Code(code) = event.physical_key {
                     self.movement_key(code, down);
                 }
-                if down && !event.repeat {
+                // Synthetic presses (keys already held when the window gains the focus) only
+                // update what is held.
+                if down && !event.repeat && !is_synthetic {
                     self.key(event_loop, &event.logical_key, event.physical_key)?;
                 }
                 self.window.request_redraw();
@@ -985,7 +1010,11 @@ impl Viewer {
         self.stats.present(now, now - t0);
         self.last_present = now;
         self.presents += 1;
-        self.dirty = repaint;
+        // egui asks for another pass after input (a popup opening, a window settling). Its
+        // numbers change every present and its window sizes itself to them, so it would ask
+        // for ever: follow up only a few times after real input.
+        self.dirty = repaint && self.egui_followups > 0;
+        self.egui_followups = self.egui_followups.saturating_sub(1);
         if let Some(r) = request {
             if r != HudRequest::default() {
                 self.apply_hud(r);
