@@ -35,7 +35,7 @@ enum Command {
     Stability(StabilityArgs),
     /// Write any scene irt can load (TOML, glTF) as a native TOML scene, losslessly.
     Convert(ConvertArgs),
-    /// Open a window that traces the scene interactively (orbit, fly, live modes; H for the HUD).
+    // about and long help come from ViewArgs (a doc comment here would replace them).
     View(irt::app::ViewArgs),
 }
 

@@ -255,7 +255,8 @@ fn differing_pixels(a: &[u8], b: &[u8]) -> usize {
 /// (a) `--frames 3 --screenshot`: exit 0 and the PNG equals the library's headless render of the
 /// same camera bit for bit (same shaders, same device, same sample sequence: tolerance zero).
 /// Conventional: 3 pictures are 3 whole frames (3 refinement samples). Frameless with one sample:
-/// once the pass is done the picture is the pass, however many slices each present took.
+/// once the pass is done the picture is the pass, however many slices each present took; and
+/// that one-sample picture is also what `irt render` writes.
 #[test]
 fn scripted_screenshot_matches_headless_render() {
     let _serial = serial();
@@ -288,6 +289,19 @@ fn scripted_screenshot_matches_headless_render() {
         let want = headless(settings, w, h, passes);
         let diff = differing_pixels(&got, &want);
         assert_eq!(diff, 0, "{extra:?}: {diff} of {} pixels differ from the headless render", w * h);
+        if passes == 1 {
+            // One sample: also what `irt render` writes at that size.
+            let out = dir.join("render.png");
+            let status = Command::new(env!("CARGO_BIN_EXE_irt"))
+                .args(["render", "--width", "256", "--height", "192", "--out", out.to_str().unwrap()])
+                .env("IRT_CACHE_DIR", "off")
+                .stderr(Stdio::null())
+                .status()
+                .unwrap();
+            assert!(status.success());
+            let (_, _, rendered) = decode(&out);
+            assert_eq!(differing_pixels(&got, &rendered), 0, "{extra:?}: differs from `irt render`");
+        }
         // Not a black or blank picture.
         assert!(got.chunks(3).filter(|p| p.iter().any(|&c| c > 20)).count() > (w * h / 2) as usize);
     }

@@ -34,7 +34,12 @@ pub const KEYS: &[(&str, &str)] = &[
     ("Esc, Q", "quit (Q quits unless the right button is held)"),
 ];
 
-const LONG_ABOUT: &str = "Open a window that traces the scene again and again as you move the camera.
+/// `irt view`'s one-line help.
+pub const ABOUT: &str =
+    "Open a window that traces the scene interactively (orbit, fly, live modes; H for the HUD)";
+
+/// `irt view --help`'s description (the keys follow it).
+pub const LONG_ABOUT: &str = "Open a window that traces the scene again and again as you move the camera.
 
 The picture refines while the camera rests (jittered samples add up, up to --max-samples). Two ways \
 of handing out the work (the paper's, see docs): conventional (tiles from a queue; the frame is \
@@ -46,7 +51,8 @@ On lavapipe (Vulkan on the CPU, the default device) expect a few frames per seco
 `[` lowers the resolution, and \"lower resolution while moving\" in the HUD halves it during motion.
 
 Scripted use: `irt view --frames N --screenshot FILE` shows N pictures, writes the last one as a PNG \
-and exits 0 (the image equals `irt render` of the same camera after as many samples).
+and exits 0. With one sample (--max-samples 1, or --mode conventional --frames 1) the PNG equals \
+`irt render` at the same size bit for bit.
 
 Examples:
   irt view
@@ -63,7 +69,7 @@ fn keys_help() -> String {
 }
 
 #[derive(clap::Args, Clone, Debug)]
-#[command(long_about = LONG_ABOUT, after_long_help = keys_help())]
+#[command(about = ABOUT, long_about = LONG_ABOUT, after_long_help = keys_help())]
 pub struct ViewArgs {
     /// Scene file (.toml, .gltf, .glb, .nff); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
