@@ -86,6 +86,10 @@ pub struct ViewArgs {
     /// Frameless slice size S in pixels per dispatch.
     #[arg(long, value_name = "S")]
     pub slice: Option<u32>,
+    /// Frameless: present after exactly N slices (0: as many slices as fit in one display
+    /// interval, ~16 ms, at least one).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub present_every: u32,
     /// Shadow mode (overrides the scene's): hard, bundle:K, shell (see `irt render --help`).
     #[arg(long, value_name = "MODE")]
     pub shadows: Option<ShadowMode>,
@@ -140,17 +144,27 @@ pub fn parse_scale(s: &str) -> Result<u32, String> {
 }
 
 impl ViewArgs {
-    /// The session settings these arguments ask for.
-    pub fn settings(&self) -> Settings {
-        let mut mode = self.mode;
-        if let Mode::Frameless { order, slice, .. } = &mut mode {
+    /// The frameless mode with `--order`, `--slice` and `--present-every` applied.
+    pub fn frameless(&self) -> Mode {
+        let mut mode = Mode::frameless();
+        if let Mode::Frameless { order, slice, present_every, .. } = &mut mode {
             if let Some(o) = self.order {
                 *order = o;
             }
             if let Some(s) = self.slice {
                 *slice = s.max(1);
             }
+            *present_every = self.present_every;
         }
+        mode
+    }
+
+    /// The session settings these arguments ask for.
+    pub fn settings(&self) -> Settings {
+        let mode = match self.mode {
+            Mode::Frameless { .. } => self.frameless(),
+            conventional => conventional,
+        };
         Settings {
             mode,
             shadows: self.shadows,

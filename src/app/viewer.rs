@@ -329,7 +329,7 @@ impl Viewer {
         traced.camera.height = rh;
         let settings = args.settings();
         let other_mode = match settings.mode {
-            Mode::Conventional { .. } => Mode::frameless(),
+            Mode::Conventional { .. } => args.frameless(),
             Mode::Frameless { .. } => Mode::conventional(),
         };
         let session = Session::new(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
