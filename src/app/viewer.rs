@@ -4,10 +4,11 @@
 //! Each redraw: input → camera → [`Session::step`] → present (→ the next redraw unless the
 //! picture converged and nothing moves; then the loop waits for events).
 //! - conventional: one wave per redraw, so input is read between waves; the picture is
-//!   presented when the frame is whole. New camera input cancels the frame in flight unless that
-//!   would keep the screen from changing for longer than [`HOLD_LIMIT`] or two frame times
-//!   (then the frame is finished first): on a CPU device a continuous drag would otherwise cancel
-//!   every frame and show nothing until the mouse stops.
+//!   presented when the frame is whole. New camera input cancels the frame in flight if it is
+//!   at most one wave in and no frame was cancelled since the last present; otherwise the frame
+//!   is finished first. A sporadic move so shows up to a frame sooner, while a continuous drag
+//!   (on a CPU device, input comes faster than waves) cannot cancel every frame and freeze the
+//!   screen: it shows a picture at least every frame time plus one wave.
 //! - frameless: slices until about one display interval ([`FRAME_BUDGET`]) is spent (at least
 //!   one; or exactly `present_every` slices when that is set), then a present.
 
@@ -33,8 +34,6 @@ use winit::window::{Window, WindowId};
 
 /// Frameless: slices per present fill about one display interval.
 pub const FRAME_BUDGET: Duration = Duration::from_millis(16);
-/// Conventional: the longest a camera change may keep the screen unchanged by cancelling frames.
-pub const HOLD_LIMIT: Duration = Duration::from_millis(250);
 /// "Moving" lasts this long after the last camera change (for the lower resolution).
 const MOVING_GRACE: Duration = Duration::from_millis(200);
 /// Presents that may follow egui's repaint requests after an input event.
@@ -237,11 +236,10 @@ struct Viewer {
     retry_at: Option<Instant>,
     start: Instant,
     last_tick: Instant,
-    last_present: Instant,
-    /// Conventional: waves run for the frame in flight, and how long the last whole frame took.
+    /// Conventional: waves run for the frame in flight; whether a frame was cancelled since the
+    /// last present.
     waves_in_flight: u32,
-    frame_started: Option<Instant>,
-    last_frame_time: Duration,
+    cancelled: bool,
     presents: u64,
     stats: Stats,
     ages: SliceAges,
@@ -384,10 +382,8 @@ impl Viewer {
             retry_at: None,
             start: now,
             last_tick: now,
-            last_present: now,
             waves_in_flight: 0,
-            frame_started: None,
-            last_frame_time: Duration::ZERO,
+            cancelled: false,
             presents: 0,
             stats: Stats::default(),
             ages,
@@ -437,7 +433,7 @@ impl Viewer {
             self.window.request_redraw();
         }
         match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::CloseRequested | WindowEvent::Destroyed => event_loop.exit(),
             WindowEvent::Resized(size) => self.resize(size),
             WindowEvent::RedrawRequested if self.redraw(event_loop)? => self.window.request_redraw(),
             WindowEvent::ModifiersChanged(m) => self.input.mods = m.state(),
@@ -748,9 +744,8 @@ impl Viewer {
         }
         let moving = self.last_move.is_some_and(|t| now - t < MOVING_GRACE);
         let conventional = matches!(self.session.settings().mode, Mode::Conventional { .. });
-        let hold_limit = HOLD_LIMIT.max(2 * self.last_frame_time);
-        let hold =
-            conventional && changed && self.waves_in_flight > 0 && now - self.last_present >= hold_limit;
+        let in_flight = conventional && self.waves_in_flight > 0;
+        let hold = changed && in_flight && (self.waves_in_flight > 1 || self.cancelled);
 
         // Render size.
         let div = if self.lowres_moving && moving { (self.scale * 2).min(8) } else { self.scale };
@@ -765,32 +760,26 @@ impl Viewer {
         }
         if changed && !hold {
             self.session.set_camera(&self.ctx, &camera);
+            self.cancelled |= in_flight;
             self.waves_in_flight = 0;
         }
 
         // Trace.
-        let mut present = false;
+        let mut present;
         let mut idle = false;
         let t0 = Instant::now();
         match self.session.settings().mode {
             Mode::Conventional { .. } => {
-                if self.waves_in_flight == 0 {
-                    self.frame_started = Some(now);
-                }
                 let r = self.session.step(&self.ctx);
-                self.record(&r);
                 idle = r.idle;
-                self.waves_in_flight += 1;
-                if r.frame_done {
-                    self.waves_in_flight = 0;
-                    if let Some(t) = self.frame_started.take() {
-                        self.last_frame_time = t.elapsed();
-                    }
-                    present = true;
+                if !r.idle {
+                    self.record(&r);
+                    self.waves_in_flight += 1;
                 }
-                if r.idle {
+                if r.frame_done || r.idle {
                     self.waves_in_flight = 0;
                 }
+                present = r.frame_done;
             }
             Mode::Frameless { present_every, .. } => {
                 let mut slices = 0;
@@ -1008,8 +997,8 @@ impl Viewer {
         }
         let now = Instant::now();
         self.stats.present(now, now - t0);
-        self.last_present = now;
         self.presents += 1;
+        self.cancelled = false;
         // egui asks for another pass after input (a popup opening, a window settling). Its
         // numbers change every present and its window sizes itself to them, so it would ask
         // for ever: follow up only a few times after real input.
