@@ -29,34 +29,64 @@ pub struct Bounds {
     pub radius: f64,
 }
 
-/// The box around every primitive of `scene` (spheres, triangles, cones with their rims), as
-/// (min, max); `None` for a scene without primitives.
-pub fn scene_box(scene: &Scene) -> Option<(DVec3, DVec3)> {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    let mut add = |p: DVec3, r: f64| {
-        lo = lo.min(p - DVec3::splat(r));
-        hi = hi.max(p + DVec3::splat(r));
-    };
-    for s in &scene.spheres {
-        add(s.center, s.radius);
-    }
-    for m in &scene.meshes {
-        for &i in m.indices.iter().flatten() {
-            add(m.positions[i as usize], 0.0);
-        }
-    }
-    for c in &scene.cones {
-        // A rim lies within its radius of its centre: a sphere around each end covers the cone.
-        add(c.base, c.base_radius);
-        add(c.apex, c.apex_radius);
-    }
-    (lo.x <= hi.x).then_some((lo, hi))
+/// An axis-aligned box (min, max).
+pub type Box3 = (DVec3, DVec3);
+
+fn union(a: Option<Box3>, b: Box3) -> Option<Box3> {
+    Some(match a {
+        Some((lo, hi)) => (lo.min(b.0), hi.max(b.1)),
+        None => b,
+    })
 }
 
-/// The sphere around [`scene_box`] (a unit sphere around the camera's focus for an empty scene).
+/// The boxes of the scene's objects: each sphere, each mesh (the used vertices) and each cone
+/// (a sphere around each rim covers it).
+pub fn object_boxes(scene: &Scene) -> Vec<Box3> {
+    let mut boxes = Vec::new();
+    for s in &scene.spheres {
+        boxes.push((s.center - DVec3::splat(s.radius), s.center + DVec3::splat(s.radius)));
+    }
+    for m in &scene.meshes {
+        let b =
+            m.indices.iter().flatten().map(|&i| m.positions[i as usize]).fold(None, |b, p| union(b, (p, p)));
+        boxes.extend(b);
+    }
+    for c in &scene.cones {
+        let r0 = DVec3::splat(c.base_radius);
+        let r1 = DVec3::splat(c.apex_radius);
+        boxes.push(((c.base - r0).min(c.apex - r1), (c.base + r0).max(c.apex + r1)));
+    }
+    boxes
+}
+
+/// The box around every primitive of `scene`; `None` for a scene without primitives.
+pub fn scene_box(scene: &Scene) -> Option<Box3> {
+    object_boxes(scene).into_iter().fold(None, union)
+}
+
+/// A flat box (thinner than 1/1000 of its size along one axis): a ground plane or a wall.
+fn is_flat((lo, hi): Box3) -> bool {
+    let e = hi - lo;
+    e.min_element() <= 1e-3 * e.max_element()
+}
+
+/// What `F` frames and the fly speed is scaled to: the sphere around the scene's objects,
+/// leaving out a flat object (a ground plane) more than twice as large as all the others
+/// together, which would otherwise shrink the objects on it to a few pixels. A unit sphere
+/// around the camera's focus for an empty scene.
 pub fn scene_bounds(scene: &Scene) -> Bounds {
-    match scene_box(scene) {
+    let boxes = object_boxes(scene);
+    let size = |(lo, hi): Box3| (hi - lo).max_element();
+    let solid = boxes.iter().copied().filter(|&b| !is_flat(b)).fold(None, union);
+    let kept = boxes
+        .iter()
+        .copied()
+        .filter(|&b| match solid {
+            Some(s) => !is_flat(b) || size(b) <= 2.0 * size(s),
+            None => true,
+        })
+        .fold(None, union);
+    match kept {
         Some((lo, hi)) => {
             let radius = 0.5 * (hi - lo).length();
             Bounds { center: 0.5 * (lo + hi), radius: if radius > 0.0 { radius } else { 1.0 } }
@@ -432,6 +462,37 @@ mod tests {
         }
         let b = scene_bounds(&scene);
         assert!(b.radius > 0.0 && b.radius.is_finite());
+    }
+
+    /// The default scene's ground quad is left out of what `F` frames (the objects on it are
+    /// not), unless it is alone.
+    #[test]
+    fn a_large_ground_plane_is_not_framed() {
+        let mut scene = crate::scene::default_scene();
+        let whole = scene_box(&scene).unwrap();
+        let b = scene_bounds(&scene);
+        assert!(b.radius < 0.5 * (whole.1 - whole.0).length() / 2.0, "{b:?} vs {whole:?}");
+        for s in &scene.spheres {
+            assert!((s.center - b.center).length() + s.radius <= b.radius * (1.0 + 1e-12));
+        }
+        scene.spheres.clear();
+        scene.cones.clear();
+        let ground: Vec<_> = scene.meshes.iter().filter(|m| is_flat(object_boxes_of(m))).cloned().collect();
+        assert!(!ground.is_empty(), "the default scene has a ground quad");
+        scene.meshes = ground;
+        let g = scene_bounds(&scene);
+        let gb = scene_box(&scene).unwrap();
+        assert!((g.radius - 0.5 * (gb.1 - gb.0).length()).abs() < 1e-12, "alone, the ground is framed");
+    }
+
+    fn object_boxes_of(m: &crate::scene::Mesh) -> Box3 {
+        let scene = Scene {
+            meshes: vec![m.clone()],
+            spheres: vec![],
+            cones: vec![],
+            ..crate::scene::default_scene()
+        };
+        scene_box(&scene).unwrap()
     }
 
     /// What `C` prints loads back, through the project's TOML loader, to the same camera.
