@@ -138,7 +138,10 @@ impl Renderer {
         while y < rows {
             let band = BAND_ROWS.min(rows - y);
             for &pass in &self.passes {
-                self.dispatcher.dispatch_tile(ctx, Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() });
+                self.dispatcher.dispatch_tile(
+                    ctx,
+                    Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() },
+                );
             }
             y += band;
             progress(y, rows);

@@ -138,7 +138,10 @@ mod tests {
     fn every_schedule_covers_every_tile_once() {
         for n in [1, 2, 3, 7, 64, 100, 1000, 4096, 14400, 65537] {
             for p in [1, 2, 3, 8, 64, 1000] {
-                for s in Schedule::ALL.into_iter().chain([Schedule::Rtrt { rounds: 1 }, Schedule::Fixed { tiles: 1 }]) {
+                for s in Schedule::ALL
+                    .into_iter()
+                    .chain([Schedule::Rtrt { rounds: 1 }, Schedule::Fixed { tiles: 1 }])
+                {
                     check(&s.boundaries(n, p), n);
                 }
             }

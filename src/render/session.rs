@@ -127,7 +127,10 @@ impl Session {
         let params = layout::params(&scene, &grid, &packed, origin);
         let gpu_scene = GpuScene::upload_packed(ctx, &packed, params)?;
         if settings.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(format!("{} has no f64 shader support (SHADER_F64): use --precision f32", ctx.info.name));
+            return Err(format!(
+                "{} has no f64 shader support (SHADER_F64): use --precision f32",
+                ctx.info.name
+            ));
         }
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
@@ -222,7 +225,10 @@ impl Session {
         if [width, height] == self.size() {
             return Ok(());
         }
-        if width > self.capacity[0] || height > self.capacity[1] || width as u64 * height as u64 > self.capacity_pixels() {
+        if width > self.capacity[0]
+            || height > self.capacity[1]
+            || width as u64 * height as u64 > self.capacity_pixels()
+        {
             self.capacity = [width.max(self.capacity[0]), height.max(self.capacity[1])];
             self.dispatcher = make_dispatcher(ctx, &self.gpu_scene, self.variant, self.capacity);
         }
@@ -294,7 +300,9 @@ impl Session {
                 let pixels = w as u64 * h as u64;
                 if order == PixelOrder::Dissolve {
                     if !Dissolve::fits(pixels) {
-                        return Err(format!("the dissolve order handles at most 2^26 - 1 pixels; {w}x{h} has {pixels}"));
+                        return Err(format!(
+                            "the dissolve order handles at most 2^26 - 1 pixels; {w}x{h} has {pixels}"
+                        ));
                     }
                     let d = Dissolve::new(pixels);
                     self.dispatcher.write_work(ctx, &d.jumps());
