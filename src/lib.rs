@@ -5,6 +5,7 @@
 //! independent f64 tracer of the same equations, the oracle of every test.
 
 pub mod accel;
+pub mod app;
 pub mod gpu;
 pub mod image;
 pub mod io;

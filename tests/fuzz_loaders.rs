@@ -358,7 +358,7 @@ fn mutate_json(rng: &mut Rng, doc: &mut Value, dir: &Path) {
 /// A GLB from its JSON and binary chunks, padded as the format requires.
 fn glb(json_text: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
     let mut json_chunk = json_text.to_vec();
-    while json_chunk.len() % 4 != 0 {
+    while !json_chunk.len().is_multiple_of(4) {
         json_chunk.push(b' ');
     }
     let mut out = Vec::new();

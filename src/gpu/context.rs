@@ -91,7 +91,31 @@ impl GpuContext {
     /// supports `Features::PIPELINE_CACHE`; silently without where it does not.
     pub fn with_cache(choice: &AdapterChoice, cache: &CacheSetting) -> Result<Self, ContextError> {
         let instance = super::vulkan_instance();
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        Self::open(&instance, choice, cache, None)
+    }
+
+    /// Opens the device on an adapter of `instance` that can present to `surface` (a window's,
+    /// made from the same instance, which was built with the window's display handle); otherwise
+    /// as [`GpuContext::with_cache`].
+    pub fn for_surface(
+        instance: &wgpu::Instance,
+        surface: &wgpu::Surface<'_>,
+        choice: &AdapterChoice,
+        cache: &CacheSetting,
+    ) -> Result<Self, ContextError> {
+        Self::open(instance, choice, cache, Some(surface))
+    }
+
+    fn open(
+        instance: &wgpu::Instance,
+        choice: &AdapterChoice,
+        cache: &CacheSetting,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<Self, ContextError> {
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+        if let Some(surface) = surface {
+            adapters.retain(|a| a.is_surface_supported(surface));
+        }
         if adapters.is_empty() {
             return Err(ContextError::NoVulkan);
         }

@@ -493,7 +493,7 @@ impl Session {
         if pass_done {
             self.cursor = 0;
         }
-        if self.positions_since_change % self.pass_len == 0 {
+        if self.positions_since_change.is_multiple_of(self.pass_len) {
             self.samples += 1;
         }
         let [w, h] = self.size();

@@ -1,0 +1,318 @@
+//! The HUD: what the loop measured ([`Stats`]) and the live switches, drawn with egui. The
+//! drawing returns what the user asked for ([`HudRequest`]); the viewer applies it.
+
+use super::age::AgeStats;
+use super::KEYS;
+use crate::render::{Mode, PixelOrder};
+use crate::scene::ShadowMode;
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+/// How far back the rates look.
+const WINDOW: Duration = Duration::from_secs(1);
+
+/// Rates over the last second of steps and presents, and smoothed per-event times.
+#[derive(Debug, Default)]
+pub struct Stats {
+    /// (when, eye rays, pixels, trace time) per step.
+    steps: VecDeque<(Instant, u64, u64, Duration)>,
+    presents: VecDeque<Instant>,
+    /// Mean trace time of one step and of one present (blit + HUD + present), smoothed.
+    pub step_ms: f64,
+    pub present_ms: f64,
+    /// Steps run for the last present.
+    pub steps_per_present: u32,
+    steps_since_present: u32,
+}
+
+fn smooth(old: f64, new: f64) -> f64 {
+    if old == 0.0 {
+        new
+    } else {
+        0.8 * old + 0.2 * new
+    }
+}
+
+impl Stats {
+    pub fn step(&mut self, now: Instant, eye_rays: u64, pixels: u64, trace: Duration) {
+        self.steps.push_back((now, eye_rays, pixels, trace));
+        self.step_ms = smooth(self.step_ms, trace.as_secs_f64() * 1e3);
+        self.steps_since_present += 1;
+        self.prune(now);
+    }
+
+    pub fn present(&mut self, now: Instant, took: Duration) {
+        self.presents.push_back(now);
+        self.present_ms = smooth(self.present_ms, took.as_secs_f64() * 1e3);
+        self.steps_per_present = self.steps_since_present;
+        self.steps_since_present = 0;
+        self.prune(now);
+    }
+
+    fn prune(&mut self, now: Instant) {
+        while self.steps.front().is_some_and(|s| now - s.0 > WINDOW) {
+            self.steps.pop_front();
+        }
+        while self.presents.front().is_some_and(|&t| now - t > WINDOW) {
+            self.presents.pop_front();
+        }
+    }
+
+    /// Presents per second over the last second.
+    pub fn fps(&self, now: Instant) -> f64 {
+        self.presents.iter().filter(|&&t| now - t <= WINDOW).count() as f64 / WINDOW.as_secs_f64()
+    }
+
+    /// (eye rays per wall second, eye rays per second of tracing, pixel updates per wall second)
+    /// over the last second.
+    pub fn rates(&self, now: Instant) -> (f64, f64, f64) {
+        let recent = self.steps.iter().filter(|s| now - s.0 <= WINDOW);
+        let (mut rays, mut pixels, mut trace) = (0u64, 0u64, Duration::ZERO);
+        for s in recent {
+            rays += s.1;
+            pixels += s.2;
+            trace += s.3;
+        }
+        let wall = WINDOW.as_secs_f64();
+        let per_trace = if trace.is_zero() { 0.0 } else { rays as f64 / trace.as_secs_f64() };
+        (rays as f64 / wall, per_trace, pixels as f64 / wall)
+    }
+}
+
+/// The shadow modes of keys 1..4.
+pub const SHADOW_CHOICES: [&str; 4] = ["hard", "bundle:4", "bundle:16", "shell"];
+
+/// Resolution scale divisors of `[` / `]`.
+pub const SCALES: [u32; 3] = [1, 2, 4];
+
+pub fn scale_name(div: u32) -> String {
+    if div == 1 {
+        "1".into()
+    } else {
+        format!("1/{div}")
+    }
+}
+
+/// What the HUD shows this present.
+pub struct HudView<'a> {
+    pub adapter: &'a str,
+    pub cpu_device: bool,
+    pub mode: Mode,
+    pub shadows: ShadowMode,
+    pub max_depth: u32,
+    pub render: [u32; 2],
+    pub window: [u32; 2],
+    /// The resolution scale chosen, and the one in effect (lower while moving).
+    pub scale: u32,
+    pub effective_scale: u32,
+    pub lowres_moving: bool,
+    pub samples: u32,
+    pub max_samples: u32,
+    pub converged: bool,
+    pub age: Option<AgeStats>,
+    pub speed: f64,
+    pub status: &'a str,
+    pub now: Instant,
+    pub stats: &'a Stats,
+}
+
+/// What the user changed in the HUD.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HudRequest {
+    pub mode: Option<&'static str>,
+    pub order: Option<PixelOrder>,
+    pub shadows: Option<ShadowMode>,
+    pub max_depth: Option<u32>,
+    pub scale: Option<u32>,
+    pub lowres_moving: Option<bool>,
+    pub frame: bool,
+    pub reset: bool,
+    pub screenshot: bool,
+}
+
+fn si(x: f64) -> String {
+    if x >= 1e6 {
+        format!("{:.2} M", x / 1e6)
+    } else if x >= 1e3 {
+        format!("{:.1} k", x / 1e3)
+    } else {
+        format!("{x:.0} ")
+    }
+}
+
+/// Draws the HUD into `ctx`; returns the changes asked for and the HUD's rectangle (points).
+pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>) {
+    let mut req = HudRequest::default();
+    let frame = egui::Frame::window(&ctx.global_style()).fill(egui::Color32::from_black_alpha(170));
+    let shown = egui::Window::new("irt")
+        .frame(frame)
+        .default_pos([8.0, 8.0])
+        .resizable(false)
+        .collapsible(true)
+        .show(ctx, |ui| {
+            ui.label(format!("device: {}", v.adapter));
+            if v.cpu_device {
+                ui.colored_label(
+                    egui::Color32::from_rgb(255, 200, 80),
+                    "CPU device (lavapipe): expect a few frames per second",
+                );
+            }
+            ui.separator();
+            let (rays, rays_tracing, pixels) = v.stats.rates(v.now);
+            egui::Grid::new("numbers").num_columns(2).spacing([12.0, 2.0]).show(ui, |ui| {
+                ui.label("trace");
+                ui.label(format!(
+                    "{:.1} ms/step, {} steps/picture",
+                    v.stats.step_ms, v.stats.steps_per_present
+                ));
+                ui.end_row();
+                ui.label("present");
+                ui.label(format!("{:.1} ms (blit + HUD + present)", v.stats.present_ms));
+                ui.end_row();
+                ui.label("frame rate");
+                ui.label(format!("{:.1} pictures/s", v.stats.fps(v.now)));
+                ui.end_row();
+                ui.label("eye rays/s");
+                ui.label(format!("{}/s ({}/s while tracing)", si(rays), si(rays_tracing)));
+                ui.end_row();
+                ui.label("pixel updates");
+                ui.label(format!("{}/s", si(pixels)));
+                ui.end_row();
+                if let Some(a) = v.age {
+                    ui.label("pixel age");
+                    ui.label(format!("mean {:.0} ms, p90 {:.0} ms", a.mean * 1e3, a.p90 * 1e3));
+                    ui.end_row();
+                }
+                ui.label("samples");
+                let conv = if v.converged { " (converged)" } else { "" };
+                let limit = if v.max_samples > 0 { format!(" / {}", v.max_samples) } else { String::new() };
+                ui.label(format!("{}{limit}{conv}", v.samples));
+                ui.end_row();
+                ui.label("render");
+                ui.label(format!(
+                    "{}x{} of {}x{} (scale {})",
+                    v.render[0],
+                    v.render[1],
+                    v.window[0],
+                    v.window[1],
+                    scale_name(v.effective_scale)
+                ));
+                ui.end_row();
+                ui.label("mode");
+                ui.label(v.mode.to_string());
+                ui.end_row();
+                ui.label("fly speed");
+                ui.label(format!("{:.3} units/s", v.speed));
+                ui.end_row();
+            });
+            if v.effective_scale != v.scale {
+                ui.colored_label(
+                    egui::Color32::from_rgb(120, 220, 255),
+                    format!("moving: {} res", scale_name(v.effective_scale / v.scale)),
+                );
+            }
+            ui.separator();
+            ui.horizontal(|ui| {
+                ui.label("mode");
+                let mut name = v.mode.name();
+                egui::ComboBox::from_id_salt("mode").selected_text(name).show_ui(ui, |ui| {
+                    ui.selectable_value(&mut name, "conventional", "conventional");
+                    ui.selectable_value(&mut name, "frameless", "frameless");
+                });
+                if name != v.mode.name() {
+                    req.mode = Some(name);
+                }
+                if let Mode::Frameless { order, .. } = v.mode {
+                    let mut o = order;
+                    egui::ComboBox::from_id_salt("order").selected_text(o.to_string()).show_ui(ui, |ui| {
+                        for choice in [PixelOrder::default(), PixelOrder::Random, PixelOrder::Dissolve] {
+                            ui.selectable_value(&mut o, choice, choice.to_string());
+                        }
+                    });
+                    if o != order {
+                        req.order = Some(o);
+                    }
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.label("shadows");
+                let mut s = v.shadows;
+                egui::ComboBox::from_id_salt("shadows").selected_text(s.to_string()).show_ui(ui, |ui| {
+                    for name in SHADOW_CHOICES {
+                        let choice: ShadowMode = name.parse().expect("valid shadow mode");
+                        ui.selectable_value(&mut s, choice, name);
+                    }
+                });
+                if s != v.shadows {
+                    req.shadows = Some(s);
+                }
+                ui.label("depth");
+                if ui.small_button("-").clicked() {
+                    req.max_depth = Some(v.max_depth.saturating_sub(1).max(1));
+                }
+                ui.label(v.max_depth.to_string());
+                if ui.small_button("+").clicked() {
+                    req.max_depth = Some(v.max_depth + 1);
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.label("scale");
+                let mut s = v.scale;
+                egui::ComboBox::from_id_salt("scale").selected_text(scale_name(s)).show_ui(ui, |ui| {
+                    for choice in SCALES {
+                        ui.selectable_value(&mut s, choice, scale_name(choice));
+                    }
+                });
+                if s != v.scale {
+                    req.scale = Some(s);
+                }
+                let mut low = v.lowres_moving;
+                ui.checkbox(&mut low, "lower resolution while moving");
+                if low != v.lowres_moving {
+                    req.lowres_moving = Some(low);
+                }
+            });
+            ui.horizontal(|ui| {
+                req.frame = ui.button("frame scene (F)").clicked();
+                req.reset = ui.button("reset camera (R)").clicked();
+                req.screenshot = ui.button("screenshot (P)").clicked();
+            });
+            if !v.status.is_empty() {
+                ui.label(v.status);
+            }
+            egui::CollapsingHeader::new("keys").default_open(false).show(ui, |ui| {
+                egui::Grid::new("keys").num_columns(2).spacing([12.0, 0.0]).show(ui, |ui| {
+                    for (k, what) in KEYS {
+                        ui.monospace(*k);
+                        ui.label(*what);
+                        ui.end_row();
+                    }
+                });
+            });
+        });
+    (req, shown.map(|r| r.response.rect))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates_cover_the_last_second() {
+        let mut s = Stats::default();
+        let t0 = Instant::now();
+        for i in 0..10 {
+            s.step(t0 + Duration::from_millis(100 * i), 1000, 500, Duration::from_millis(50));
+            s.present(t0 + Duration::from_millis(100 * i), Duration::from_millis(5));
+        }
+        let now = t0 + Duration::from_millis(950);
+        let (rays, tracing, pixels) = s.rates(now);
+        assert_eq!(rays, 10_000.0);
+        assert_eq!(pixels, 5_000.0);
+        assert!((tracing - 20_000.0).abs() < 1e-6);
+        assert_eq!(s.fps(now), 10.0);
+        assert_eq!(s.steps_per_present, 1);
+        // Two seconds later nothing is recent.
+        assert_eq!(s.fps(now + Duration::from_secs(2)), 0.0);
+    }
+}

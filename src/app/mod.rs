@@ -1,0 +1,224 @@
+//! `irt view`: the interactive window. A thin layer over [`crate::render::Session`]: a winit
+//! window with a wgpu surface on the same device, the session's frame buffer blitted to it
+//! ([`blit`]), a camera controller ([`camera`], pure math), an egui HUD ([`hud`]) and the loop
+//! ([`viewer`]). `--frames N --screenshot FILE` is its headless-like twin for scripts and tests.
+
+pub mod age;
+pub mod blit;
+pub mod camera;
+pub mod hud;
+pub mod viewer;
+
+use crate::render::{Mode, PixelOrder, Settings};
+use crate::scene::{Scene, ShadowMode};
+use anyhow::{bail, Context, Result};
+use std::path::PathBuf;
+
+/// Every key and mouse binding, as the HUD and `irt view --help` show it.
+pub const KEYS: &[(&str, &str)] = &[
+    ("left drag", "orbit around the focus point"),
+    ("right drag", "look around (fly); Q/E move down/up while held"),
+    ("W A S D", "fly forward / left / back / right"),
+    ("E", "fly up"),
+    ("wheel", "fly speed x1.25 per notch"),
+    ("Shift / Ctrl", "move x4 faster / x0.25 finer"),
+    ("F", "frame the scene (fit its bounding sphere)"),
+    ("R", "reset to the scene's camera"),
+    ("C", "print the camera as a TOML [camera] table on stdout"),
+    ("M", "switch conventional / frameless"),
+    ("1 2 3 4", "shadows hard / bundle:4 / bundle:16 / shell"),
+    ("+ / -", "max ray depth up / down"),
+    ("[ / ]", "resolution scale down / up (1, 1/2, 1/4)"),
+    ("H", "HUD on / off"),
+    ("P", "screenshot PNG (--screenshot FILE, else irt-YYYYmmdd-HHMMSS.png, UTC)"),
+    ("Esc, Q", "quit (Q quits unless the right button is held)"),
+];
+
+/// `irt view`'s one-line help.
+pub const ABOUT: &str =
+    "Open a window that traces the scene interactively (orbit, fly, live modes; H for the HUD)";
+
+/// `irt view --help`'s description (the keys follow it).
+pub const LONG_ABOUT: &str = "Open a window that traces the scene again and again as you move the camera.
+
+The picture refines while the camera rests (jittered samples add up, up to --max-samples). Two ways \
+of handing out the work (the paper's, see docs): conventional (tiles from a queue; the frame is \
+shown when it is whole) and frameless (slices of pixels in a fixed order, each traced with the newest \
+camera, shown continuously). The HUD (H) shows where the time goes and switches modes, shadows, depth \
+and resolution live.
+
+On lavapipe (Vulkan on the CPU, the default device) expect a few frames per second at full size; \
+`[` lowers the resolution, and \"lower resolution while moving\" in the HUD halves it during motion.
+
+Scripted use: `irt view --frames N --screenshot FILE` shows N pictures, writes the last one as a PNG \
+and exits 0. With one sample (--max-samples 1, or --mode conventional --frames 1) the PNG equals \
+`irt render` at the same size bit for bit.
+
+Examples:
+  irt view
+  irt view scenes/spd/balls_s2.nff --mode conventional --size 800x600
+  irt view --shadows bundle:16 --scale 1/2
+  irt view --frames 3 --screenshot shot.png --size 256x192";
+
+fn keys_help() -> String {
+    let mut s = String::from("Keys and mouse:\n");
+    for (k, what) in KEYS {
+        s += &format!("  {k:<14}{what}\n");
+    }
+    s
+}
+
+#[derive(clap::Args, Clone, Debug)]
+#[command(about = ABOUT, long_about = LONG_ABOUT, after_long_help = keys_help())]
+pub struct ViewArgs {
+    /// Scene file (.toml, .gltf, .glb, .nff); the built-in default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Window size in pixels, WxH (default: the scene camera's size, at least 320x240).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<[u32; 2]>,
+    /// How work is handed out: frameless (slices of pixels, shown continuously) or conventional
+    /// (tiles, the frame shown whole). M switches in the window.
+    #[arg(long, value_name = "MODE", default_value = "frameless")]
+    pub mode: Mode,
+    /// Frameless pixel order: hilbert[:CHUNK|auto[:PROCS]], random or dissolve.
+    #[arg(long, value_name = "ORDER")]
+    pub order: Option<PixelOrder>,
+    /// Frameless slice size S in pixels per dispatch.
+    #[arg(long, value_name = "S")]
+    pub slice: Option<u32>,
+    /// Frameless: present after exactly N slices (0: as many slices as fit in one display
+    /// interval, ~16 ms, at least one).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub present_every: u32,
+    /// Shadow mode (overrides the scene's): hard, bundle:K, shell (see `irt render --help`).
+    #[arg(long, value_name = "MODE")]
+    pub shadows: Option<ShadowMode>,
+    /// Maximum ray depth (overrides the scene's; eye ray = 1).
+    #[arg(long, value_name = "N")]
+    pub max_depth: Option<u32>,
+    /// Refinement stops after this many samples per pixel (0: never); the window then waits.
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub max_samples: u32,
+    /// Resolution scale of the render against the window: 1, 1/2 or 1/4.
+    #[arg(long, value_name = "SCALE", default_value = "1", value_parser = parse_scale)]
+    pub scale: u32,
+    /// Start with the HUD hidden (H shows it).
+    #[arg(long)]
+    pub no_hud: bool,
+    /// Show N pictures (each after at least one step), write the screenshot and exit 0.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u32>,
+    /// Where P (and --frames) writes the PNG, atomically; otherwise irt-YYYYmmdd-HHMMSS.png (UTC)
+    /// in the current directory.
+    #[arg(long, value_name = "FILE")]
+    pub screenshot: Option<PathBuf>,
+    /// Vulkan adapter: "lavapipe" (default), "gpu" (best hardware GPU), or part of a device
+    /// name. Also read from $IRT_ADAPTER.
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+    /// Do not read or write the on-disk pipeline cache (also: IRT_CACHE_DIR=off).
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+/// `WxH` with both at least 1.
+pub fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let bad = || format!("size `{s}`: expected WxH, e.g. 640x480");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if w == 0 || h == 0 || w > crate::scene::MAX_IMAGE_SIDE || h > crate::scene::MAX_IMAGE_SIDE {
+        return Err(format!("size `{s}`: each side must be 1 to {}", crate::scene::MAX_IMAGE_SIDE));
+    }
+    Ok([w, h])
+}
+
+/// `1`, `1/2` or `1/4` (also `0.5`, `0.25`) as the divisor 1, 2 or 4.
+pub fn parse_scale(s: &str) -> Result<u32, String> {
+    match s.trim() {
+        "1" | "1/1" | "1.0" => Ok(1),
+        "1/2" | "0.5" => Ok(2),
+        "1/4" | "0.25" => Ok(4),
+        _ => Err(format!("scale `{s}`: expected 1, 1/2 or 1/4")),
+    }
+}
+
+impl ViewArgs {
+    /// The frameless mode with `--order`, `--slice` and `--present-every` applied.
+    pub fn frameless(&self) -> Mode {
+        let mut mode = Mode::frameless();
+        if let Mode::Frameless { order, slice, present_every, .. } = &mut mode {
+            if let Some(o) = self.order {
+                *order = o;
+            }
+            if let Some(s) = self.slice {
+                *slice = s.max(1);
+            }
+            *present_every = self.present_every;
+        }
+        mode
+    }
+
+    /// The session settings these arguments ask for.
+    pub fn settings(&self) -> Settings {
+        let mode = match self.mode {
+            Mode::Frameless { .. } => self.frameless(),
+            conventional => conventional,
+        };
+        Settings {
+            mode,
+            shadows: self.shadows,
+            max_depth: self.max_depth,
+            max_samples: self.max_samples,
+            ..Settings::default()
+        }
+    }
+
+    /// The scene (file or built-in), checked as `irt render` checks it.
+    pub fn load_scene(&self) -> Result<Scene> {
+        let scene = match &self.scene {
+            Some(path) => crate::io::load(path)?,
+            None => crate::scene::default_scene(),
+        };
+        let origin = self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+        let mut checked = scene.clone();
+        self.settings().apply_to(&mut checked);
+        checked.validate().with_context(|| format!("{origin} cannot be rendered"))?;
+        if scene.primitive_count() == 0 {
+            bail!("{origin} has no primitives: nothing to render");
+        }
+        Ok(scene)
+    }
+
+    /// The window's size: `--size`, else the scene camera's (at least 320×240).
+    pub fn window_size(&self, scene: &Scene) -> [u32; 2] {
+        self.size.unwrap_or([scene.camera.width.max(320), scene.camera.height.max(240)])
+    }
+
+    /// The name the window's title shows.
+    pub fn scene_name(&self) -> String {
+        self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string())
+    }
+}
+
+/// `irt view`: runs the window until it is closed (or `--frames` are shown).
+pub fn run(args: ViewArgs) -> Result<()> {
+    viewer::run(args)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_and_scales_parse() {
+        assert_eq!(parse_size("256x192"), Ok([256, 192]));
+        assert_eq!(parse_size("1X1"), Ok([1, 1]));
+        assert!(parse_size("0x10").is_err());
+        assert!(parse_size("640").is_err());
+        assert!(parse_size("axb").is_err());
+        assert_eq!(parse_scale("1/2"), Ok(2));
+        assert_eq!(parse_scale("0.25"), Ok(4));
+        assert!(parse_scale("1/3").is_err());
+    }
+}

@@ -1,0 +1,439 @@
+//! `irt view` as a user meets it: a real window under Xvfb (started by each test on a free
+//! display), real input from xdotool, screenshots compared with the library's headless render.
+//! Needs Xvfb and xdotool (scripts/setup.sh installs both); tests run one at a time (one X
+//! server and one viewer each, on a 2-core machine) and every wait has a deadline; children are
+//! killed when a test ends, however it ends.
+
+mod common;
+
+use irt::render::{Mode, Session, Settings};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{self, Receiver};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// One test at a time: each has its own X server and a viewer using both cores.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A directory removed when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> TempDir {
+        let dir =
+            PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("viewer-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+    fn join(&self, p: &str) -> PathBuf {
+        self.0.join(p)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A child process killed (and reaped) when dropped.
+struct Kid(Child);
+
+impl Drop for Kid {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// An Xvfb server on a display of its own (Xvfb picks a free one and reports it when ready),
+/// and an XDG_RUNTIME_DIR (mode 0700) for its clients. Stopped with SIGTERM so that it removes its
+/// lock file and socket.
+struct Xvfb {
+    server: Option<Child>,
+    display: String,
+    runtime: TempDir,
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let Some(mut server) = self.server.take() else { return };
+        let _ = Command::new("kill").args(["-TERM", &server.id().to_string()]).status();
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = server.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = server.kill();
+        let _ = server.wait();
+    }
+}
+
+impl Xvfb {
+    fn start() -> Xvfb {
+        let child = Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn();
+        let mut server = match child {
+            Ok(c) => c,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                panic!("Xvfb is not installed: run scripts/setup.sh (it installs Xvfb and xdotool)")
+            }
+            Err(e) => panic!("cannot start Xvfb: {e}"),
+        };
+        let ready = lines(server.stdout.take().unwrap());
+        let runtime = TempDir::new("xdg");
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&runtime.0, std::fs::Permissions::from_mode(0o700)).unwrap();
+        // Stopped by Drop from here on, whatever happens next.
+        let mut x = Xvfb { server: Some(server), display: String::new(), runtime };
+        // The display number, written once the server accepts connections.
+        let n = ready.recv_timeout(Duration::from_secs(20)).expect("Xvfb reports its display within 20 s");
+        let n = n.trim();
+        assert!(n.parse::<u32>().is_ok(), "Xvfb reported display `{n}`");
+        x.display = format!(":{n}");
+        x
+    }
+
+    fn command(&self, program: &str) -> Command {
+        let mut c = Command::new(program);
+        c.env("DISPLAY", &self.display)
+            .env("XDG_RUNTIME_DIR", &self.runtime.0)
+            .env_remove("WAYLAND_DISPLAY")
+            .env("IRT_CACHE_DIR", "off");
+        c
+    }
+
+    /// Runs xdotool with `args`, at most `limit`; its stdout.
+    fn xdotool(&self, args: &[&str], limit: Duration) -> String {
+        let mut child = Kid(self
+            .command("xdotool")
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("xdotool: {e} (run scripts/setup.sh)")));
+        let deadline = Instant::now() + limit;
+        loop {
+            if let Some(status) = child.0.try_wait().unwrap() {
+                let mut out = String::new();
+                use std::io::Read;
+                child.0.stdout.take().unwrap().read_to_string(&mut out).unwrap();
+                assert!(status.success(), "xdotool {args:?} failed: {status}");
+                return out;
+            }
+            assert!(Instant::now() < deadline, "xdotool {args:?} took longer than {limit:?}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+/// A running `irt view` with its stdout and stderr lines.
+struct Viewer {
+    kid: Kid,
+    stdout: Receiver<String>,
+    stderr: Receiver<String>,
+    stderr_seen: Vec<String>,
+}
+
+fn lines(r: impl std::io::Read + Send + 'static) -> Receiver<String> {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(r).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
+impl Viewer {
+    fn start(x: &Xvfb, args: &[&str]) -> Viewer {
+        let mut child = x
+            .command(env!("CARGO_BIN_EXE_irt"))
+            .arg("view")
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("irt runs");
+        let stdout = lines(child.stdout.take().unwrap());
+        let stderr = lines(child.stderr.take().unwrap());
+        Viewer { kid: Kid(child), stdout, stderr, stderr_seen: Vec::new() }
+    }
+
+    fn pid(&self) -> u32 {
+        self.kid.0.id()
+    }
+
+    fn drain_stderr(&mut self) {
+        while let Ok(l) = self.stderr.try_recv() {
+            self.stderr_seen.push(l);
+        }
+    }
+
+    fn alive(&mut self) -> bool {
+        self.kid.0.try_wait().unwrap().is_none()
+    }
+
+    /// Waits for the exit (at most `limit`) and asserts it was a clean exit 0.
+    fn exits_cleanly(&mut self, limit: Duration) {
+        let deadline = Instant::now() + limit;
+        let status = loop {
+            if let Some(s) = self.kid.0.try_wait().unwrap() {
+                break s;
+            }
+            assert!(Instant::now() < deadline, "irt view did not exit within {limit:?}");
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        std::thread::sleep(Duration::from_millis(100));
+        self.drain_stderr();
+        let err = self.stderr_seen.join("\n");
+        assert!(status.success(), "irt view exited with {status}; stderr:\n{err}");
+        assert!(!err.contains("panicked"), "irt view panicked:\n{err}");
+        assert!(!err.contains("XDG_RUNTIME_DIR"), "the Wayland probe's message leaked:\n{err}");
+    }
+
+    /// The next stdout line starting with `prefix`, within `limit`.
+    fn line_starting(&mut self, prefix: &str, limit: Duration) -> String {
+        let deadline = Instant::now() + limit;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.stdout.recv_timeout(left) {
+                Ok(l) if l.starts_with(prefix) => return l,
+                Ok(_) => {}
+                Err(_) => {
+                    self.drain_stderr();
+                    panic!("no `{prefix}` line within {limit:?}; stderr:\n{}", self.stderr_seen.join("\n"));
+                }
+            }
+        }
+    }
+}
+
+/// The window of the viewer, once it is mapped.
+fn window_id(x: &Xvfb) -> String {
+    let out = x.xdotool(&["search", "--sync", "--onlyvisible", "--name", "^irt"], Duration::from_secs(60));
+    out.lines().next().expect("a window id").trim().to_string()
+}
+
+fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
+    let img = image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8();
+    (img.width(), img.height(), img.into_raw())
+}
+
+/// The default scene at `w`×`h`, traced headless by the library for `passes` pictures.
+fn headless(settings: Settings, w: u32, h: u32, passes: u32) -> Vec<u8> {
+    let ctx = common::gpu();
+    let mut scene = irt::scene::default_scene();
+    scene.camera.width = w;
+    scene.camera.height = h;
+    let mut s = Session::new(&ctx, &scene, settings).unwrap();
+    for _ in 0..passes {
+        s.complete_pass(&ctx);
+    }
+    s.read_image(&ctx).to_srgb8()
+}
+
+fn differing_pixels(a: &[u8], b: &[u8]) -> usize {
+    a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p != q).count()
+}
+
+/// (a) `--frames 3 --screenshot`: exit 0 and the PNG equals the library's headless render of the
+/// same camera bit for bit (same shaders, same device, same sample sequence: tolerance zero).
+/// Conventional: 3 pictures are 3 whole frames (3 refinement samples). Frameless with one sample:
+/// once the pass is done the picture is the pass, however many slices each present took; and
+/// that one-sample picture is also what `irt render` writes.
+#[test]
+fn scripted_screenshot_matches_headless_render() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("a");
+    let (w, h) = (256, 192);
+    let cases: [(&[&str], Settings, u32); 2] = [
+        (&["--mode", "conventional"], Settings { mode: Mode::conventional(), ..Settings::default() }, 3),
+        (
+            &["--mode", "frameless", "--max-samples", "1", "--frames", "12"],
+            Settings { mode: Mode::frameless(), max_samples: 1, ..Settings::default() },
+            1,
+        ),
+    ];
+    for (extra, settings, passes) in cases {
+        let shot = dir.join("a.png");
+        let _ = std::fs::remove_file(&shot);
+        let shot_arg = shot.to_str().unwrap();
+        let mut args = vec!["--size", "256x192", "--screenshot", shot_arg];
+        args.extend_from_slice(extra);
+        if !extra.contains(&"--frames") {
+            args.extend_from_slice(&["--frames", "3"]);
+        }
+        let t = Instant::now();
+        let mut v = Viewer::start(&x, &args);
+        v.exits_cleanly(Duration::from_secs(120));
+        eprintln!("{extra:?}: {:.1} s", t.elapsed().as_secs_f64());
+        let (sw, sh, got) = decode(&shot);
+        assert_eq!((sw, sh), (w, h));
+        let want = headless(settings, w, h, passes);
+        let diff = differing_pixels(&got, &want);
+        assert_eq!(diff, 0, "{extra:?}: {diff} of {} pixels differ from the headless render", w * h);
+        if passes == 1 {
+            // One sample: also what `irt render` writes at that size.
+            let out = dir.join("render.png");
+            let status = Command::new(env!("CARGO_BIN_EXE_irt"))
+                .args(["render", "--width", "256", "--height", "192", "--out", out.to_str().unwrap()])
+                .env("IRT_CACHE_DIR", "off")
+                .stderr(Stdio::null())
+                .status()
+                .unwrap();
+            assert!(status.success());
+            let (_, _, rendered) = decode(&out);
+            assert_eq!(differing_pixels(&got, &rendered), 0, "{extra:?}: differs from `irt render`");
+        }
+        // Not a black or blank picture.
+        assert!(got.chunks(3).filter(|p| p.iter().any(|&c| c > 20)).count() > (w * h / 2) as usize);
+    }
+}
+
+/// Presses P until two screenshots a second apart are the same (the picture has converged with
+/// --max-samples 1), within `limit`; the picture.
+fn settled_screenshot(x: &Xvfb, v: &mut Viewer, shot: &Path, limit: Duration) -> Vec<u8> {
+    let deadline = Instant::now() + limit;
+    let mut last: Option<Vec<u8>> = None;
+    loop {
+        x.xdotool(&["key", "p"], Duration::from_secs(10));
+        v.line_starting("screenshot:", Duration::from_secs(30));
+        let (_, _, img) = decode(shot);
+        let blank = img.chunks(3).all(|p| p == [0, 0, 0]);
+        if !blank && last.as_ref() == Some(&img) {
+            return img;
+        }
+        last = Some(img);
+        assert!(Instant::now() < deadline, "the picture did not settle within {limit:?}");
+        std::thread::sleep(Duration::from_millis(1000));
+    }
+}
+
+/// (b) Real input moves the camera: a left drag and a `w` change the picture; Escape exits 0.
+#[test]
+fn mouse_drag_and_keys_change_the_picture_and_escape_exits() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("b");
+    let shot = dir.join("b.png");
+    let mut v = Viewer::start(
+        &x,
+        &[
+            "--size",
+            "256x192",
+            "--mode",
+            "conventional",
+            "--max-samples",
+            "1",
+            "--no-hud",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ],
+    );
+    let wid = window_id(&x);
+    x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+    let before = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
+    x.xdotool(&["mousemove", "--window", &wid, "128", "96"], Duration::from_secs(10));
+    x.xdotool(&["mousedown", "1"], Duration::from_secs(10));
+    for dx in [10, 20, 30, 40, 60] {
+        x.xdotool(&["mousemove", "--window", &wid, &(128 + dx).to_string(), "100"], Duration::from_secs(10));
+        std::thread::sleep(Duration::from_millis(30));
+    }
+    x.xdotool(&["mouseup", "1"], Duration::from_secs(10));
+    x.xdotool(&["key", "w"], Duration::from_secs(10));
+    let after = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
+    let diff = differing_pixels(&before, &after);
+    assert!(diff > before.len() / 3 / 20, "only {diff} pixels changed after the drag and `w`");
+    assert!(v.alive());
+    x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+    v.exits_cleanly(Duration::from_secs(20));
+}
+
+/// (c) The window resized to 1×1 and back neither crashes nor hangs, the render follows the
+/// window's size, and Escape still exits 0.
+#[test]
+fn resize_to_one_pixel_and_back_survives() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("c");
+    let shot = dir.join("c.png");
+    let mut v = Viewer::start(&x, &["--size", "256x192", "--screenshot", shot.to_str().unwrap()]);
+    let wid = window_id(&x);
+    for (w, h) in [(1, 1), (256, 192), (1, 1), (300, 200)] {
+        x.xdotool(&["windowsize", &wid, &w.to_string(), &h.to_string()], Duration::from_secs(10));
+        std::thread::sleep(Duration::from_millis(1500));
+        let geometry = x.xdotool(&["getwindowgeometry", &wid], Duration::from_secs(10));
+        assert!(geometry.contains(&format!("Geometry: {w}x{h}")), "not resized to {w}x{h}: {geometry}");
+        assert!(v.alive(), "irt view died after the resize to {w}x{h}");
+    }
+    // The viewer followed: `C` prints the window's size, and the screenshot has it.
+    x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+    x.xdotool(&["key", "c"], Duration::from_secs(10));
+    v.line_starting("width = 300", Duration::from_secs(20));
+    v.line_starting("height = 200", Duration::from_secs(5));
+    x.xdotool(&["key", "p"], Duration::from_secs(10));
+    v.line_starting("screenshot:", Duration::from_secs(30));
+    assert_eq!(decode(&shot).0, 300);
+    x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+    v.exits_cleanly(Duration::from_secs(20));
+}
+
+fn rss_kib(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// (d) 1000 pictures at 64×48 (HUD on, refinement never stopping): resident memory at the end is
+/// at most 16 MiB above what it was at picture 200 (checked: leaking 64 KiB a picture fails it).
+#[test]
+fn soak_1000_pictures_keeps_memory_flat() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let t = Instant::now();
+    let mut v = Viewer::start(&x, &["--size", "64x48", "--frames", "1000", "--max-samples", "0"]);
+    let pid = v.pid();
+    let (mut at200, mut last) = (None, None);
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while v.alive() {
+        assert!(Instant::now() < deadline, "1000 pictures took over 120 s");
+        let rss = rss_kib(pid);
+        while let Ok(l) = v.stderr.try_recv() {
+            if l.contains(" 200/1000 pictures") {
+                at200 = rss;
+            }
+            v.stderr_seen.push(l);
+        }
+        if rss.is_some() {
+            last = rss;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    v.exits_cleanly(Duration::from_secs(5));
+    let at200 = at200.unwrap_or_else(|| panic!("no progress line for picture 200: {:?}", v.stderr_seen));
+    let last = last.expect("RSS sampled");
+    eprintln!(
+        "RSS at picture 200: {} MiB, at the end: {} MiB, {:.1} s",
+        at200 / 1024,
+        last / 1024,
+        t.elapsed().as_secs_f64()
+    );
+    assert!(last <= at200 + 16 * 1024, "RSS grew from {at200} KiB to {last} KiB over 800 pictures");
+}
