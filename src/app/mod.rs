@@ -9,7 +9,7 @@ pub mod camera;
 pub mod hud;
 pub mod viewer;
 
-use crate::render::{Mode, PixelOrder, Settings};
+use crate::render::{Mode, ModeArgs, Settings};
 use crate::scene::{Scene, ShadowMode};
 use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
@@ -76,16 +76,10 @@ pub struct ViewArgs {
     /// Window size in pixels, WxH (default: the scene camera's size, at least 320x240).
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub size: Option<[u32; 2]>,
-    /// How work is handed out: frameless (slices of pixels, shown continuously) or conventional
-    /// (tiles, the frame shown whole). M switches in the window.
-    #[arg(long, value_name = "MODE", default_value = "frameless")]
-    pub mode: Mode,
-    /// Frameless pixel order: hilbert[:CHUNK|auto[:PROCS]], random or dissolve.
-    #[arg(long, value_name = "ORDER")]
-    pub order: Option<PixelOrder>,
-    /// Frameless slice size S in pixels per dispatch.
-    #[arg(long, value_name = "S")]
-    pub slice: Option<u32>,
+    /// The dispatch mode (frameless unless --mode says otherwise; M switches in the window)
+    /// and its parameters, as `irt render` spells them.
+    #[command(flatten)]
+    pub mode: ModeArgs,
     /// Frameless: present after exactly N slices (0: as many slices as fit in one display
     /// interval, ~16 ms, at least one).
     #[arg(long, value_name = "N", default_value_t = 0)]
@@ -144,26 +138,28 @@ pub fn parse_scale(s: &str) -> Result<u32, String> {
 }
 
 impl ViewArgs {
-    /// The frameless mode with `--order`, `--slice` and `--present-every` applied.
+    /// The frameless mode with `--order`, `--slice`, `--blend`, `--jitter-pairs` and
+    /// `--present-every` applied (what M switches to).
     pub fn frameless(&self) -> Mode {
-        let mut mode = Mode::frameless();
-        if let Mode::Frameless { order, slice, present_every, .. } = &mut mode {
-            if let Some(o) = self.order {
-                *order = o;
-            }
-            if let Some(s) = self.slice {
-                *slice = s.max(1);
-            }
-            *present_every = self.present_every;
+        Mode::Frameless {
+            order: self.mode.order,
+            slice: self.mode.slice.max(1),
+            present_every: self.present_every,
+            blend: self.mode.blend,
+            jitter_pairs: self.mode.jitter_pairs,
         }
-        mode
+    }
+
+    /// The conventional mode with `--schedule` and `--workers` applied.
+    pub fn conventional(&self) -> Mode {
+        Mode::Conventional { schedule: self.mode.schedule, workers: self.mode.workers }
     }
 
     /// The session settings these arguments ask for.
     pub fn settings(&self) -> Settings {
-        let mode = match self.mode {
-            Mode::Frameless { .. } => self.frameless(),
-            conventional => conventional,
+        let mode = match self.mode.mode.as_deref() {
+            Some("conventional") => self.conventional(),
+            _ => self.frameless(),
         };
         Settings {
             mode,
@@ -181,6 +177,7 @@ impl ViewArgs {
             None => crate::scene::default_scene(),
         };
         let origin = self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+        self.mode.mode().map_err(anyhow::Error::msg)?;
         let mut checked = scene.clone();
         self.settings().apply_to(&mut checked);
         checked.validate().with_context(|| format!("{origin} cannot be rendered"))?;

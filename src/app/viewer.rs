@@ -317,7 +317,7 @@ impl Viewer {
         let settings = args.settings();
         let other_mode = match settings.mode {
             Mode::Conventional { .. } => args.frameless(),
-            Mode::Frameless { .. } => Mode::conventional(),
+            Mode::Frameless { .. } => args.conventional(),
         };
         let session = Session::new(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
         let controller = CameraController::new(&scene.camera, scene_bounds(&scene));

@@ -7,10 +7,12 @@ use clap::Args;
 pub struct ModeArgs {
     /// How work is handed out: conventional (32x2-pixel tiles from a queue, the frame shown
     /// whole) or frameless (a fixed pixel order traced in slices, each with the newest camera).
+    /// Without it `irt render` traces bands of rows and `irt view` starts frameless.
     #[arg(long, value_name = "MODE", value_parser = ["conventional", "frameless"])]
     pub mode: Option<String>,
     /// Conventional: chunk sizes of the tile queue: rtrt[:ROUNDS] (RTRT's shrinking chunks,
-    /// default 40 rounds), guided, factoring, fixed[:TILES].
+    /// default 40 rounds), guided, factoring, fixed[:TILES], or plain (no queue: one dispatch,
+    /// split statically between the device's threads).
     #[arg(long, value_name = "SCHEDULE", default_value_t = Schedule::default())]
     pub schedule: Schedule,
     /// Conventional: the workers P the schedule is built for (0: the device's, its thread
