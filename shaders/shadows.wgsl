@@ -184,10 +184,29 @@ fn ray_visibility(o: vec3f, q: vec3f, gap: f32) -> f32 {
     return 0.0;
 }
 
+// The light-buffer cell of direction `d` from the light's centre (`scene::shell_cell`): face by
+// the largest axis (+x, -x, +y, -y, +z, -z), then row-major on the face.
+fn shell_cell(d: vec3f) -> u32 {
+    let a = abs(d);
+    var face = 4u + select(1u, 0u, d.z > 0.0);
+    var uv = d.xy / a.z;
+    if a.x >= a.y && a.x >= a.z {
+        face = select(1u, 0u, d.x > 0.0);
+        uv = d.yz / a.x;
+    } else if a.y >= a.z {
+        face = 2u + select(1u, 0u, d.y > 0.0);
+        uv = d.xz / a.y;
+    }
+    let n = SHELL_CELL_RES;
+    let i = vec2u(clamp(vec2i((uv * 0.5 + 0.5) * f32(n)), vec2i(0), vec2i(i32(n) - 1)));
+    return face * n * n + i.y * n + i.x;
+}
+
 // Single-sample soft shadow (docs/shadows.md, Shell objects): one ray towards the light's
 // centre. A walk of the grid finds a mesh the segment passes through (spheres and cones need no
 // walk: their shells know from the distance alone); then every shell object of this light
-// (`section`: its first texel, see layout.rs) gives σ and `s` combines them, each object once.
+// (`section`: its first texel, see layout.rs) listed in the light-buffer cell of the ray's
+// direction gives σ and `s` combines them, each object once (objects not listed there give 1).
 fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) -> f32 {
     let to = c - o;
     let dist = length(to);
@@ -206,9 +225,12 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         }
     }
     var s = 1.0;
-    let count = texel(section).x;
-    for (var k = 0u; k < count; k++) {
+    let head = texel(section);
+    let range = texel(head.y + shell_cell(-l)).xy;
+    for (var j = 0u; j < range.y; j++) {
         loop_iters += 1u;
+        let at = range.x + j;
+        let k = texel(head.z + at / 4u)[at % 4u];
         let bound = ftexel(section + 1u + SHELL_OBJECT_TEXELS * k);
         let rec = texel(section + 2u + SHELL_OBJECT_TEXELS * k);
         var sigma = 1.0;

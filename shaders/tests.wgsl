@@ -225,3 +225,11 @@ fn k_surface_uv(@builtin(global_invocation_id) gid: vec3u) {
     }
     out_buf[i] = vec4f(1.0, surface_at(h, o, d).uv, 0.0);
 }
+
+// in: (d, _) -> (shell_cell(d) as f32 bits, 0, 0, 0)
+@compute @workgroup_size(8, 8, 1)
+fn k_shell_cell(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    out_buf[i] = vec4f(bitcast<f32>(shell_cell(test_in[i].xyz)), 0.0, 0.0, 0.0);
+}

@@ -242,11 +242,13 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   `unpack4x8unorm`'s order), four per texel, each texture starting at its first pixel.
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
-/// - shell sections (shell mode only), one per light (`scene::light_shells`): `[objects, 0, 0, 0]`,
+/// - shell sections (shell mode only), one per light (`scene::light_shells`):
+///   `[objects, first cell texel, first list texel, 0]`,
 ///   then per object `[bound centre.xyz, bound radius]`, `[prim, a, b, c]` where `prim` is the
 ///   `PrimRef` of a sphere or cone (its record is the bound for spheres) or of a mesh's first
 ///   triangle, with `a` its end triangle and `[b, c)` the texels of its contour edges; then the
-///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`.
+///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`; then the light buffer's cells (`scene::shell_cell`),
+///   `[first, count, 0, 0]` into the list, and the list: object indices, four per texel.
 pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     let mut t: Vec<[u32; 4]> = Vec::new();
     let sphere_base = 0u32;
@@ -356,11 +358,13 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     let mut shell_sections = vec![];
     if let ShadowMode::Shell { .. } = scene.trace.shadows {
         for light in &scene.lights {
-            let sh = light_shells(scene, light.position);
+            let sh = light_shells(scene, light.position, light.radius);
             let section = t.len() as u32;
             shell_sections.push(section);
             let edge_base = section + 1 + SHELL_OBJECT_TEXELS * sh.objects.len() as u32;
-            t.push([sh.objects.len() as u32, 0, 0, 0]);
+            let cell_base = edge_base + SHELL_EDGE_TEXELS * sh.edges.len() as u32;
+            let list_base = cell_base + sh.cells.len() as u32;
+            t.push([sh.objects.len() as u32, cell_base, list_base, 0]);
             for o in &sh.objects {
                 t.push(f4(o.center - origin, (o.radius as f32).to_bits()));
                 t.push(match o.shape {
@@ -377,6 +381,17 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
             for [a, b] in &sh.edges {
                 t.push(f4(*a - origin, 0));
                 t.push(f4(*b - origin, 0));
+            }
+            let mut first = 0u32;
+            for cell in &sh.cells {
+                t.push([first, cell.len() as u32, 0, 0]);
+                first += cell.len() as u32;
+            }
+            let list: Vec<u32> = sh.cells.concat();
+            for chunk in list.chunks(4) {
+                let mut texel = [0u32; 4];
+                texel[..chunk.len()].copy_from_slice(chunk);
+                t.push(texel);
             }
         }
     }
@@ -465,6 +480,7 @@ pub fn wgsl_constants() -> String {
     s += &c("CONE_TEXELS", CONE_TEXELS);
     s += &c("SHELL_OBJECT_TEXELS", SHELL_OBJECT_TEXELS);
     s += &c("SHELL_EDGE_TEXELS", SHELL_EDGE_TEXELS);
+    s += &c("SHELL_CELL_RES", crate::scene::SHELL_CELL_RES);
     s += &c("NO_NORMALS", NO_NORMALS);
     s += &c("UV_TEXELS", UV_TEXELS);
     s += &c("TEXTURE_TEXELS", TEXTURE_TEXELS);

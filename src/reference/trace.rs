@@ -126,7 +126,7 @@ impl<'a> Reference<'a> {
             },
             shells: match scene.trace.shadows {
                 ShadowMode::Shell { .. } => {
-                    scene.lights.iter().map(|l| light_shells(scene, l.position)).collect()
+                    scene.lights.iter().map(|l| light_shells(scene, l.position, l.radius)).collect()
                 }
                 _ => Vec::new(),
             },
@@ -397,7 +397,7 @@ impl<'a> Reference<'a> {
                 let shells = match self.scene.lights.iter().position(|x| x == light) {
                     Some(i) if i < self.shells.len() => &self.shells[i],
                     _ => {
-                        owned = light_shells(self.scene, light.position);
+                        owned = light_shells(self.scene, light.position, light.radius);
                         &owned
                     }
                 };
@@ -440,13 +440,13 @@ impl<'a> Reference<'a> {
 
     /// The triangles (indices into `Scene::triangles`) that the segment `o + t d`,
     /// `0 < t < t_max`, passes through: which meshes a shell shadow ray is inside of.
-    fn triangles_hit(&self, o: DVec3, d: DVec3, t_max: f64) -> Vec<u32> {
+    fn triangles_hit(&self, o: DVec3, d: DVec3, t_max: f64) -> Vec<PrimId> {
         let ns = self.scene.spheres.len() as PrimId;
         let nt = self.triangles.len() as PrimId;
         let mut hit = vec![];
         let mut visit = |id: PrimId| {
             if id >= ns && id < ns + nt && self.hit_prim(id, o, d).is_some_and(|(t, _)| t < t_max) {
-                hit.push((id - ns) as u32);
+                hit.push(id - ns);
             }
             false
         };
