@@ -432,8 +432,10 @@ fn cones_match_the_reference_in_every_mode() {
 }
 
 /// On each scene of docs/tradeoff.md, at a small size, the default shell mode is nearer the
-/// f64 ground truth than hard shadows are. Measured at this size (64x48, 16² ground truth):
-/// see the numbers printed; the tables of docs/tradeoff.md give them at 320x240.
+/// f64 ground truth than hard shadows are, by at least the factor of two. Measured at
+/// this size (64x48, 16² ground truth), RMSE hard → shell:disc:min: default 0.01641 → 0.00285
+/// (0.17×), scenes/shadows.toml 0.01646 → 0.00141 (0.09×), scenes/mesh.toml 0.01001 → 0.00077
+/// (0.08×); the tables of docs/tradeoff.md give them at 320x240.
 #[test]
 fn the_default_shell_mode_beats_hard_shadows_on_the_tradeoff_scenes() {
     let ctx = gpu();
@@ -452,7 +454,11 @@ fn the_default_shell_mode_beats_hard_shadows_on_the_tradeoff_scenes() {
         s.trace.shadows = "shell".parse().unwrap();
         let shell = compare(&render_gpu(&ctx, &s), &truth).rmse;
         println!("{name}: RMSE hard {hard:.5}, {} {shell:.5} ({:.2}x)", s.trace.shadows, shell / hard);
-        assert!(shell < hard, "{name}: {} RMSE {shell} is not below hard shadows' {hard}", s.trace.shadows);
+        assert!(
+            shell < 0.5 * hard,
+            "{name}: {} RMSE {shell} is not below half hard shadows' {hard}",
+            s.trace.shadows
+        );
     }
 }
 
