@@ -93,10 +93,11 @@ struct Hit {
     b2: f32,
 }
 
-// Nearest hit in (t_min, t_max) (`any_hit`: the first found, for shadow rays).
+// Nearest hit in (t_min, t_max) (`any_hit`: the first found, for shadow rays; `triangles_only`:
+// spheres and cones are passed by, for shell shadows, which decide those by their shells).
 // A hit is only final once it lies within the current cell's t-range; a hit further on is kept
 // as a candidate, so primitives spanning several cells need no mailbox.
-fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
+fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangles_only: bool) -> Hit {
     var best = Hit(t_max, NO_HIT, 0.0, 0.0);
     var s: Dda;
     if !dda_init(o, d, t_min, t_max, &s) {
@@ -116,8 +117,7 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
             for (var k = 0u; k < range.y; k++) {
                 loop_iters += 1u;
                 let r = prim_ref(range.x + k);
-                // Listed here only for its soft-shadow shell: it cannot be hit in this cell.
-                if (r & PRIM_SHELL_ONLY) != 0u {
+                if triangles_only && prim_kind(r) != PRIM_TRIANGLE {
                     continue;
                 }
                 let h = intersect_prim(r, o, d, t_min, best.t);
@@ -140,9 +140,9 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
 }
 
 fn trace_closest(o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> Hit {
-    return grid_walk(o, d, t_min, t_max, false);
+    return grid_walk(o, d, t_min, t_max, false, false);
 }
 
 fn occluded(o: vec3f, d: vec3f, t_max: f32) -> bool {
-    return grid_walk(o, d, 0.0, t_max, true).prim != NO_HIT;
+    return grid_walk(o, d, 0.0, t_max, true, false).prim != NO_HIT;
 }

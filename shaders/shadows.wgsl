@@ -33,19 +33,23 @@ fn falloff(f: u32, tau: f32) -> f32 {
     return t * t * (3.0 - 2.0 * t);
 }
 
-// Transparency of a sphere's shell for the segment o + t l, 0 < t < dist (the ray is known to
-// miss the sphere itself), and the t of closest approach.
+// σ of a shell whose occluder edge lies at signed distance x from the shadow ray (x > 0: the
+// ray passes outside the occluder) where the light's cone has radius b: the penumbra straddles
+// the hard shadow's edge, x from -b (σ = 0) to +b (σ = 1), τ = (1 + x/b)/2.
+fn straddle(f: u32, x: f32, b: f32) -> f32 {
+    return falloff(f, 0.5 + 0.5 * x / b);
+}
+
+// Transparency of a sphere's shell for the segment o + t l, 0 < t < dist, and the t of closest
+// approach: opaque inside radius - b, clear outside radius + b.
 fn sphere_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, center: vec3f, radius: f32) -> vec2f {
     let t = dot(center - o, l);
-    if t <= 0.0 || t >= dist {
+    let b = light_r * t / dist;
+    if t <= 0.0 || t >= dist || b <= 0.0 {
         return vec2f(1.0, t);
     }
     let d = length(center - (o + t * l));
-    let b = light_r * t / dist;
-    if b <= 0.0 || d >= radius + b {
-        return vec2f(1.0, t);
-    }
-    return vec2f(falloff(f, (d - radius) / b), t);
+    return vec2f(straddle(f, d - radius, b), t);
 }
 
 // Distance between the segment o + t l, t in [0, len] (l unit), and the segment a b, and the t
@@ -78,66 +82,68 @@ fn segment_distance(o: vec3f, l: vec3f, len: f32, a: vec3f, b: vec3f) -> vec2f {
     return vec2f(length((o + t * l) - (a + s * e)), t);
 }
 
-// Transparency of a triangle's shell (points within b of its edges) and the t of closest approach.
-fn triangle_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, p0: vec3f, p1: vec3f, p2: vec3f) -> vec2f {
-    // Cheap rejection: the segment passes farther from the triangle's bounding sphere than the
-    // widest shell (b < light_r), so no edge is within b of it.
-    let centre = (p0 + p1 + p2) / 3.0;
-    let radius = sqrt(max(max(dot(p0 - centre, p0 - centre), dot(p1 - centre, p1 - centre)), dot(p2 - centre, p2 - centre)));
-    let tc = clamp(dot(centre - o, l), 0.0, dist);
-    if length(centre - (o + tc * l)) > radius + light_r {
-        return vec2f(1.0, tc);
+// σ from the distance and t of the nearest occluder edge (`d`, from `segment_distance`), on
+// the occluder's side of it when `inside`. An edge at or behind the ray's origin (t = 0) has no
+// penumbra there.
+fn edge_shell(f: u32, inside: bool, d: vec2f, dist: f32, light_r: f32) -> f32 {
+    let b = light_r * d.y / dist;
+    if b <= 0.0 {
+        return select(1.0, 0.0, inside);
     }
+    return straddle(f, select(d.x, -d.x, inside), b);
+}
+
+// Nearest of three edges to the segment o + t l, t in [0, dist]: (distance, t).
+fn triangle_edges(o: vec3f, l: vec3f, dist: f32, p0: vec3f, p1: vec3f, p2: vec3f) -> vec2f {
     var best = segment_distance(o, l, dist, p0, p1);
     let e1 = segment_distance(o, l, dist, p1, p2);
     let e2 = segment_distance(o, l, dist, p2, p0);
     best = select(best, e1, e1.x < best.x);
-    best = select(best, e2, e2.x < best.x);
-    let t = best.y;
-    if t <= 0.0 || t >= dist {
-        return vec2f(1.0, t);
-    }
-    let b = light_r * t / dist;
-    if b <= 0.0 || best.x >= b {
-        return vec2f(1.0, t);
-    }
-    return vec2f(falloff(f, best.x / b), t);
+    return select(best, e2, e2.x < best.x);
 }
 
-// Transparency of a cone's shell and the t of closest approach to its axis segment. The gap is
-// the distance from that ray point to the cone's solid cross-section disc at the axis point
-// nearest to it: d - r(s) beside the cone, the distance to the end disc past its ends.
+// Transparency of a lone triangle's shell (a mesh of one triangle: its contour is its three
+// edges) and the t of closest approach; `inside`: the segment hits the triangle.
+fn triangle_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, inside: bool, p0: vec3f, p1: vec3f, p2: vec3f) -> vec2f {
+    let best = triangle_edges(o, l, dist, p0, p1, p2);
+    return vec2f(edge_shell(f, inside, best, dist, light_r), best.y);
+}
+
+// Transparency of a mesh's shell from its contour edges (texels [first, end), two per edge:
+// end points a, b) seen from the light; `inside`: the segment hits the mesh.
+fn mesh_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, inside: bool, first: u32, end: u32) -> f32 {
+    var best = vec2f(BIG, 0.0);
+    for (var e = first; e < end; e += SHELL_EDGE_TEXELS) {
+        loop_iters += 1u;
+        let d = segment_distance(o, l, dist, ftexel(e).xyz, ftexel(e + 1u).xyz);
+        best = select(best, d, d.x < best.x);
+    }
+    return edge_shell(f, inside, best, dist, light_r);
+}
+
+// Transparency of a cone's shell and the t of closest approach to its axis segment. The signed
+// distance is from that ray point to the edge of the cone's solid cross-section disc at the axis
+// point nearest to it: d - r(s) beside the cone (negative inside it, where the nearer end is
+// also an edge), the distance to the end disc past its ends.
 fn cone_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, base: vec3f, r0: f32, axis: vec3f, r1: f32) -> vec2f {
     let t = segment_distance(o, l, dist, base, base + axis).y;
-    if t <= 0.0 || t >= dist {
-        return vec2f(1.0, t);
-    }
     let b = light_r * t / dist;
-    let x = o + t * l;
-    let s = clamp(dot(x - base, axis) / dot(axis, axis), 0.0, 1.0);
-    let v = x - (base + s * axis);
-    let along = dot(v, normalize(axis));
-    let across = sqrt(max(0.0, dot(v, v) - along * along));
-    let out = max(0.0, across - mix(r0, r1, s));
-    let gap = sqrt(along * along + out * out);
-    if b <= 0.0 || gap >= b {
+    if t <= 0.0 || t >= dist || b <= 0.0 {
         return vec2f(1.0, t);
     }
-    return vec2f(falloff(f, gap / b), t);
-}
-
-fn prim_shell(r: u32, f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32) -> vec2f {
-    let i = prim_index(r);
-    if HAS_SPHERES && prim_kind(r) == PRIM_SPHERE {
-        let s = load_sphere(i);
-        return sphere_shell(f, o, l, dist, light_r, s.xyz, s.w);
-    }
-    if HAS_CONES && prim_kind(r) == PRIM_CONE {
-        let c = load_cone(i);
-        return cone_shell(f, o, l, dist, light_r, c.base, c.r0, c.axis, c.r1);
-    }
-    let tri = load_triangle(i);
-    return triangle_shell(f, o, l, dist, light_r, tri.p0, tri.p1, tri.p2);
+    let x = o + t * l;
+    let len = length(axis);
+    let s_raw = dot(x - base, axis) / (len * len);
+    let s = clamp(s_raw, 0.0, 1.0);
+    let v = x - (base + s * axis);
+    let along = dot(v, axis / len);
+    let across = sqrt(max(0.0, dot(v, v) - along * along));
+    let r = mix(r0, r1, s);
+    let out = max(0.0, across - r);
+    let gap = sqrt(along * along + out * out);
+    let depth = min(r - across, min(s_raw, 1.0 - s_raw) * len);
+    let inside = s_raw > 0.0 && s_raw < 1.0 && across < r;
+    return vec2f(straddle(f, select(gap, -depth, inside), b), t);
 }
 
 // PCG hash (Jarzynski & Olano 2020); the same as `scene::pixel_hash`.
@@ -178,9 +184,30 @@ fn ray_visibility(o: vec3f, q: vec3f, gap: f32) -> f32 {
     return 0.0;
 }
 
-// Single-sample soft shadow: one walk towards the light's centre through the shells. A shell is
-// counted in the cell whose t-range holds its closest approach, so `product` sees it once.
-fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
+// The light-buffer cell of direction `d` from the light's centre (`scene::shell_cell`): face by
+// the largest axis (+x, -x, +y, -y, +z, -z), then row-major on the face.
+fn shell_cell(d: vec3f) -> u32 {
+    let a = abs(d);
+    var face = 4u + select(1u, 0u, d.z > 0.0);
+    var uv = d.xy / a.z;
+    if a.x >= a.y && a.x >= a.z {
+        face = select(1u, 0u, d.x > 0.0);
+        uv = d.yz / a.x;
+    } else if a.y >= a.z {
+        face = 2u + select(1u, 0u, d.y > 0.0);
+        uv = d.xz / a.y;
+    }
+    let n = SHELL_CELL_RES;
+    let i = vec2u(clamp(vec2i((uv * 0.5 + 0.5) * f32(n)), vec2i(0), vec2i(i32(n) - 1)));
+    return face * n * n + i.y * n + i.x;
+}
+
+// Single-sample soft shadow (docs/shadows.md, Shell objects): one ray towards the light's
+// centre. A walk of the grid finds a mesh the segment passes through (spheres and cones need no
+// walk: their shells know from the distance alone); then every shell object of this light
+// (`section`: its first texel, see layout.rs) listed in the light-buffer cell of the ray's
+// direction gives σ and `s` combines them, each object once (objects not listed there give 1).
+fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) -> f32 {
     let to = c - o;
     let dist = length(to);
     ray_counts.w += 1u;
@@ -190,45 +217,40 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32) -> f32 {
     let l = to / dist;
     let f = params.shadow.w & 0xffu;
     let product = (params.shadow.w >> 8u) == 1u;
-    var s = 1.0;
-    var st: Dda;
-    if !dda_init(o, l, 0.0, dist, &st) {
-        return 1.0;
-    }
-    var t_cell = st.t_enter;
-    var macro_id = NO_HIT;
-    var macro_full = false;
-    loop {
-        loop_iters += 1u;
-        let m = macro_linear(st.cell);
-        if m != macro_id {
-            macro_id = m;
-            macro_full = macro_occupied(m);
+    var hit_tri = NO_HIT;
+    if HAS_TRIANGLES {
+        let h = grid_walk(o, l, 0.0, dist - gap, true, true);
+        if h.prim != NO_HIT {
+            hit_tri = prim_index(h.prim);
         }
-        let t_exit = dda_cell_exit(&st);
-        if macro_full {
-            let range = cell_range(cell_linear(st.cell));
-            for (var k = 0u; k < range.y; k++) {
-                loop_iters += 1u;
-                let r = prim_ref(range.x + k);
-                // A shell-only reference cannot be hit here; where the segment does hit that
-                // primitive, the cell holding the hit lists it as a full reference.
-                if (r & PRIM_SHELL_ONLY) == 0u && intersect_prim(r, o, l, 0.0, dist - gap).x != MISS {
-                    return 0.0;
-                }
-                let sh = prim_shell(r, f, o, l, dist, light_r);
-                if product {
-                    if real(sh.y) >= t_cell && real(sh.y) < t_exit {
-                        s *= sh.x;
-                    }
-                } else {
-                    s = min(s, sh.x);
-                }
+    }
+    var s = 1.0;
+    let head = texel(section);
+    let range = texel(head.y + shell_cell(-l)).xy;
+    for (var j = 0u; j < range.y; j++) {
+        loop_iters += 1u;
+        let at = range.x + j;
+        let k = texel(head.z + at / 4u)[at % 4u];
+        let bound = ftexel(section + 1u + SHELL_OBJECT_TEXELS * k);
+        let rec = texel(section + 2u + SHELL_OBJECT_TEXELS * k);
+        var sigma = 1.0;
+        if HAS_SPHERES && prim_kind(rec.x) == PRIM_SPHERE {
+            sigma = sphere_shell(f, o, l, dist, light_r, bound.xyz, bound.w).x;
+        } else if HAS_CONES && prim_kind(rec.x) == PRIM_CONE {
+            let cn = load_cone(prim_index(rec.x));
+            sigma = cone_shell(f, o, l, dist, light_r, cn.base, cn.r0, cn.axis, cn.r1).x;
+        } else {
+            // A mesh: its shell lies within its bounding sphere grown by the light's radius.
+            let inside = hit_tri >= prim_index(rec.x) && hit_tri < rec.y;
+            let tc = clamp(dot(bound.xyz - o, l), 0.0, dist);
+            if inside || length(bound.xyz - (o + tc * l)) < bound.w + light_r {
+                sigma = mesh_shell(f, o, l, dist, light_r, inside, rec.z, rec.w);
             }
         }
-        t_cell = t_exit;
-        if !dda_step(&st) {
-            break;
+        if product {
+            s *= sigma;
+        } else {
+            s = min(s, sigma);
         }
     }
     return s;
@@ -266,5 +288,5 @@ fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
         }
         return seen / f32(k);
     }
-    return shell_visibility(o, c, r, gap);
+    return shell_visibility(o, c, r, gap, bitcast<u32>(light.color.w));
 }

@@ -137,8 +137,8 @@ fn k_trace(@builtin(global_invocation_id) gid: vec3u) {
     out_buf[i] = vec4f(h.t, bitcast<f32>(h.prim), h.b1, h.b2);
 }
 
-// in: (o, dist), (l, light_r), (a, falloff), (b, radius), (c, _)
-// -> (falloff(f, radius) [radius read as tau], sphere_shell(centre a, radius), triangle_shell(a b c),
+// in: (o, dist), (l, light_r), (a, falloff), (b, radius), (c, inside 1/0)
+// -> (falloff(f, radius) [radius read as tau], sphere_shell(centre a, radius), triangle_shell(a b c, inside),
 //     segment_distance(o, l, dist, a, b)) as (σ, t) pairs
 @compute @workgroup_size(8, 8, 1)
 fn k_shell(@builtin(global_invocation_id) gid: vec3u) {
@@ -151,7 +151,7 @@ fn k_shell(@builtin(global_invocation_id) gid: vec3u) {
     let c = test_in[5u * i + 4u];
     let f = u32(a.w);
     let sphere = sphere_shell(f, o.xyz, l.xyz, o.w, l.w, a.xyz, b.w);
-    let tri = triangle_shell(f, o.xyz, l.xyz, o.w, l.w, a.xyz, b.xyz, c.xyz);
+    let tri = triangle_shell(f, o.xyz, l.xyz, o.w, l.w, c.w != 0.0, a.xyz, b.xyz, c.xyz);
     out_buf[2u * i] = vec4f(falloff(f, b.w), 0.0, sphere);
     out_buf[2u * i + 1u] = vec4f(tri, segment_distance(o.xyz, l.xyz, o.w, a.xyz, b.xyz));
 }
@@ -224,4 +224,12 @@ fn k_surface_uv(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     out_buf[i] = vec4f(1.0, surface_at(h, o, d).uv, 0.0);
+}
+
+// in: (d, _) -> (shell_cell(d) as f32 bits, 0, 0, 0)
+@compute @workgroup_size(8, 8, 1)
+fn k_shell_cell(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    out_buf[i] = vec4f(bitcast<f32>(shell_cell(test_in[i].xyz)), 0.0, 0.0, 0.0);
 }

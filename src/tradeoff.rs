@@ -7,13 +7,13 @@ use crate::metrics::{compare, ssim};
 use crate::scene::{Combine, Falloff, Scene, ShadowMode};
 use plotters::prelude::*;
 use std::path::Path;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// One mode's measurements.
 #[derive(Clone, Debug)]
 pub struct Row {
     pub mode: ShadowMode,
-    /// Median frame time (specialised pipeline, warm).
+    /// Median frame time (specialised pipeline, warm; modes interleaved, see [`measure_all`]).
     pub frame: Duration,
     pub mrays: f64,
     pub shadow_rays_per_pixel: f64,
@@ -38,33 +38,58 @@ pub fn modes() -> Vec<ShadowMode> {
     v
 }
 
-/// Renders `scene` in `mode` (median of `frames` warm frames) and compares it with `truth`.
-pub fn measure(
+/// Renders `scene` in every mode of `modes` and compares each with `truth`; times them
+/// interleaved: `frames` rounds, each timing one warm frame of every mode in turn, and each
+/// mode's median. On a shared, loaded machine the load then falls on all modes alike, so the
+/// ratios to hard shadows hold within one run even where absolute times drift.
+pub fn measure_all(
     ctx: &GpuContext,
     scene: &Scene,
-    mode: ShadowMode,
+    modes: &[ShadowMode],
     truth: &Image,
     frames: u32,
-) -> Result<Row, String> {
-    let mut s = scene.clone();
-    s.trace.shadows = mode;
-    let renderer = Renderer::new(ctx, &s, RenderOptions::default())?;
-    let image = renderer.render(ctx, &mut |_, _| {}).image;
-    let frame = renderer.median_frame_time(ctx, frames);
-    let rays = Renderer::new(ctx, &s, RenderOptions { count_rays: true, ..Default::default() })?
-        .render(ctx, &mut |_, _| {})
-        .rays;
-    let diff = compare(&image, truth);
-    let pixels = (s.camera.width * s.camera.height) as f64;
-    Ok(Row {
-        mode,
-        frame,
-        mrays: rays.total() as f64 / frame.as_secs_f64() / 1e6,
-        shadow_rays_per_pixel: rays.shadow as f64 / pixels,
-        rmse: diff.rmse,
-        max: diff.max,
-        ssim: ssim(&image, truth),
-    })
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<Row>, String> {
+    let mut prepared = vec![];
+    for &mode in modes {
+        progress(&format!("{mode}: first frame"));
+        let mut s = scene.clone();
+        s.trace.shadows = mode;
+        let renderer = Renderer::new(ctx, &s, RenderOptions::default())?;
+        let image = renderer.render(ctx, &mut |_, _| {}).image;
+        let rays = Renderer::new(ctx, &s, RenderOptions { count_rays: true, ..Default::default() })?
+            .render(ctx, &mut |_, _| {})
+            .rays;
+        prepared.push((mode, renderer, image, rays));
+    }
+    let mut times: Vec<Vec<Duration>> = vec![vec![]; prepared.len()];
+    for round in 0..frames.max(1) {
+        for (k, (mode, renderer, _, _)) in prepared.iter().enumerate() {
+            progress(&format!("round {}/{}: {mode}", round + 1, frames.max(1)));
+            let t = Instant::now();
+            renderer.render(ctx, &mut |_, _| {});
+            times[k].push(t.elapsed());
+        }
+    }
+    let pixels = (scene.camera.width * scene.camera.height) as f64;
+    Ok(prepared
+        .into_iter()
+        .zip(times)
+        .map(|((mode, _, image, rays), mut t)| {
+            t.sort();
+            let frame = t[t.len() / 2];
+            let diff = compare(&image, truth);
+            Row {
+                mode,
+                frame,
+                mrays: rays.total() as f64 / frame.as_secs_f64() / 1e6,
+                shadow_rays_per_pixel: rays.shadow as f64 / pixels,
+                rmse: diff.rmse,
+                max: diff.max,
+                ssim: ssim(&image, truth),
+            }
+        })
+        .collect())
 }
 
 /// The rows as a Markdown table, with each mode's time relative to hard shadows.

@@ -5,7 +5,7 @@
 //! rounding of the grid's planes and the shader's cell arithmetic, and the grid box is padded
 //! so that nothing lies exactly on its boundary (flat scenes get a real thickness).
 
-use crate::scene::{Scene, ShadowMode};
+use crate::scene::Scene;
 use glam::DVec3;
 use std::fmt;
 
@@ -18,9 +18,9 @@ pub enum PrimKind {
     Cone = 2,
 }
 
-/// A primitive reference as stored in the grid: kind in bits 30..32, [`PrimRef::SHELL_ONLY`] in
-/// bit 29, index into that kind's array (`Scene::spheres`, `Scene::triangles()`, `Scene::cones`)
-/// in bits 0..29.
+/// A primitive reference as stored in the grid: kind in bits 30..32, index into that kind's array (`Scene::spheres`, `Scene::triangles()`, `Scene::cones`)
+/// in bits 0..29 (bit 29 is free: shell mode no longer lists shell-only references, see
+/// docs/shadows.md, Shell objects).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(transparent)]
 pub struct PrimRef(pub u32);
@@ -28,10 +28,6 @@ pub struct PrimRef(pub u32);
 impl PrimRef {
     pub const INDEX_BITS: u32 = 29;
     pub const KIND_SHIFT: u32 = 30;
-    /// Set on references that a cell holds only because of the primitive's soft-shadow shell
-    /// (shell mode grows primitives by the light radius): shell walks use them, hit searches
-    /// skip them without intersecting.
-    pub const SHELL_ONLY: u32 = 1 << Self::INDEX_BITS;
     pub const MAX_INDEX: u32 = (1 << Self::INDEX_BITS) - 1;
     pub fn new(kind: PrimKind, index: u32) -> Self {
         assert!(index <= Self::MAX_INDEX);
@@ -46,9 +42,6 @@ impl PrimRef {
     }
     pub fn index(self) -> u32 {
         self.0 & Self::MAX_INDEX
-    }
-    pub fn shell_only(self) -> bool {
-        self.0 & Self::SHELL_ONLY != 0
     }
 }
 
@@ -142,18 +135,15 @@ impl Shape {
         }
     }
 
-    /// Whether the shape grown by `grow` overlaps the box. Triangles test the box grown instead
-    /// (a superset of the triangle grown by a ball, which is all a shell search needs).
-    fn overlaps(&self, b: &Aabb, grow: f64) -> bool {
+    /// Whether the shape overlaps the box.
+    fn overlaps(&self, b: &Aabb) -> bool {
         match *self {
             // Distance from the centre to the nearest point of the box.
             Shape::Sphere { center, radius } => {
-                center.clamp(b.lo, b.hi).distance_squared(center) <= (radius + grow) * (radius + grow)
+                center.clamp(b.lo, b.hi).distance_squared(center) <= radius * radius
             }
-            Shape::Triangle(p) => triangle_overlaps_box(p, &Aabb { lo: b.lo - grow, hi: b.hi + grow }),
-            Shape::Cone { base, r0, apex, r1 } => {
-                cone_overlaps_box(base, r0, apex, r1, &Aabb { lo: b.lo - grow, hi: b.hi + grow })
-            }
+            Shape::Triangle(p) => triangle_overlaps_box(p, b),
+            Shape::Cone { base, r0, apex, r1 } => cone_overlaps_box(base, r0, apex, r1, b),
         }
     }
 }
@@ -251,13 +241,9 @@ impl fmt::Display for GridStats {
 
 impl Grid {
     /// Builds the grid for every sphere, mesh triangle and cone of `scene` (which must be valid).
-    /// In `shell` shadow mode every primitive is inserted grown by the largest light radius,
-    /// so that shadow rays find the shells around it (docs/shadows.md).
+    /// The grid does not depend on the shadow mode: `shell` mode keeps its shells in a list of
+    /// objects of its own (docs/shadows.md, Shell objects), not in the cells.
     pub fn build(scene: &Scene) -> Grid {
-        let shell = match scene.trace.shadows {
-            ShadowMode::Shell { .. } => scene.lights.iter().map(|l| l.radius).fold(0.0, f64::max),
-            _ => 0.0,
-        };
         let shapes: Vec<(PrimRef, Shape)> = scene
             .spheres
             .iter()
@@ -279,10 +265,7 @@ impl Grid {
                 (PrimRef::new(PrimKind::Cone, i as u32), shape)
             }))
             .collect();
-        let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| {
-            let sb = s.bounds();
-            b.union(Aabb { lo: sb.lo - shell, hi: sb.hi + shell })
-        });
+        let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| b.union(s.bounds()));
         let (min, max) = padded(bounds);
         let res = resolution(max - min, shapes.len());
         let cell_size = (max - min) / DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64);
@@ -298,17 +281,15 @@ impl Grid {
         let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
         for (r, shape) in &shapes {
             let b = shape.bounds();
-            let (lo, hi) = (cell_of(b.lo - margin - shell), cell_of(b.hi + margin + shell));
+            let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {
                         let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
                         let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
                         let c = x + res[0] * (y + res[1] * z);
-                        if shape.overlaps(&cell, 0.0) {
+                        if shape.overlaps(&cell) {
                             pairs.push((c, *r));
-                        } else if shell > 0.0 && shape.overlaps(&cell, shell) {
-                            pairs.push((c, PrimRef(r.0 | PrimRef::SHELL_ONLY)));
                         }
                     }
                 }
@@ -375,7 +356,7 @@ impl Grid {
 
     pub fn stats(&self) -> GridStats {
         let counts = self.cell_start.windows(2).map(|w| w[1] - w[0]);
-        let mut prims: Vec<u32> = self.prim_refs.iter().map(|r| r.0 & !PrimRef::SHELL_ONLY).collect();
+        let mut prims: Vec<u32> = self.prim_refs.iter().map(|r| r.0).collect();
         prims.sort_unstable();
         prims.dedup();
         GridStats {
@@ -706,43 +687,22 @@ mod tests {
         assert!(g.cell_count() as u64 <= MAX_CELLS);
     }
 
-    /// Shell mode lists a primitive in every cell within the light radius of it; references
-    /// there only because of the shell are flagged so hit searches can skip them.
+    /// Shell mode's grid is hard mode's: no shell references crowd the cells near a mesh
+    /// (they made shell walks visit every triangle of a mesh from every nearby cell).
     #[test]
-    fn shell_mode_adds_flagged_references_around_primitives() {
+    fn the_grid_does_not_depend_on_the_shadow_mode() {
         use crate::scene::{Light, ShadowMode};
         let mut s = scene(vec![Sphere { center: DVec3::ZERO, radius: 0.5, material: 0 }], vec![]);
         s.lights = vec![Light { position: DVec3::splat(9.0), color: DVec3::ONE, radius: 1.0 }];
-        s.trace.shadows = ShadowMode::Shell { falloff: Default::default(), combine: Default::default() };
-        // Pad with small spheres far away so the grid has many cells.
         s.spheres.extend((0..200).map(|i| Sphere {
             center: DVec3::new(-4.0 + 0.04 * i as f64, 4.0, 4.0),
             radius: 0.01,
             material: 0,
         }));
-        let g = Grid::build(&s);
-        let sphere = PrimRef::new(PrimKind::Sphere, 0);
-        let at = |p: DVec3| {
-            let [x, y, z] = cell_containing(&g, p);
-            g.cell(x, y, z).iter().copied().find(|r| r.0 & !PrimRef::SHELL_ONLY == sphere.0)
-        };
-        assert_eq!(at(DVec3::new(0.45, 0.0, 0.0)), Some(sphere));
-        let shell = at(DVec3::new(0.0, -1.4, 0.0)).expect("listed in its shell");
-        assert!(shell.shell_only() && shell.index() == 0 && shell.kind() == PrimKind::Sphere);
-        for (i, r) in g.prim_refs.iter().enumerate() {
-            let c = g.cell_start.partition_point(|&st| st as usize <= i) - 1;
-            let (x, y, z) =
-                (c as u32 % g.res[0], c as u32 / g.res[0] % g.res[1], c as u32 / g.res[0] / g.res[1]);
-            let lo = g.min + DVec3::new(x as f64, y as f64, z as f64) * g.cell_size;
-            let d = DVec3::ZERO.clamp(lo, lo + g.cell_size).length();
-            if r.0 & !PrimRef::SHELL_ONLY == sphere.0 {
-                assert!(d <= 1.5 + 1e-2, "listed {d} from the centre");
-                // Within the insertion margin of the surface either is right.
-                if d > 0.5 + 1e-2 || d <= 0.5 {
-                    assert_eq!(r.shell_only(), d > 0.5, "flag at distance {d}");
-                }
-            }
-        }
+        let hard = Grid::build(&s);
+        s.trace.shadows = ShadowMode::Shell { falloff: Default::default(), combine: Default::default() };
+        let shell = Grid::build(&s);
+        assert!(hard.prim_refs == shell.prim_refs && hard.cell_start == shell.cell_start);
     }
 
     #[test]
@@ -769,7 +729,7 @@ mod tests {
             let (centre, size) = (rng.vec(-0.5, 1.5), rng.f() * 0.8 + 0.05);
             let c = random_cone(&mut rng, centre, size);
             let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
-            let hit = shape.overlaps(&Aabb { lo, hi }, 0.0);
+            let hit = shape.overlaps(&Aabb { lo, hi });
             let solid = (0..200).any(|_| {
                 let p = cone_point(&c, rng.f(), rng.f() * 7.0);
                 let axis_point =

@@ -87,8 +87,8 @@ pub struct SceneArgs {
     pub height: Option<u32>,
     /// Shadow mode (overrides the scene's [trace] shadows): hard, bundle:K (K rays to a
     /// precomputed point set on the light, rotated per pixel; bundle:K:fixed unrotated), or shell
-    /// (one ray through translucent shells; shell:FALLOFF:COMBINE with FALLOFF linear (default),
-    /// smoothstep or disc and COMBINE min (default) or product). See docs/shadows.md.
+    /// (one ray through translucent shells; shell:FALLOFF:COMBINE with FALLOFF disc (default),
+    /// smoothstep or linear and COMBINE min (default) or product). See docs/shadows.md.
     #[arg(long, value_name = "MODE")]
     pub shadows: Option<irt::scene::ShadowMode>,
     /// Radius of every light (overrides the scene; 0 is a point light, soft modes need > 0).

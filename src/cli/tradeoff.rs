@@ -17,8 +17,8 @@ pub struct TradeoffArgs {
     /// about 30 s on 2 cores for the default scene; docs/tradeoff.md uses 64 → 4096).
     #[arg(long, default_value_t = 32)]
     pub strata: u32,
-    /// Timed frames per mode (median reported).
-    #[arg(long, default_value_t = 3)]
+    /// Timed frames per mode, in rounds that time every mode once in turn (median reported).
+    #[arg(long, default_value_t = 5)]
     pub frames: u32,
     #[command(flatten)]
     pub device: DeviceArgs,
@@ -57,22 +57,28 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     eprintln!("ground truth took {:.1} s", t.elapsed().as_secs_f64());
     truth.save_png(&args.out_dir.join("ground-truth.png"))?;
     let modes = irt::tradeoff::modes();
-    let bar = indicatif::ProgressBar::new(modes.len() as u64);
-    let mut rows = Vec::new();
-    for mode in modes {
-        bar.set_message(mode.to_string());
-        rows.push(
-            irt::tradeoff::measure(&ctx, &scene, mode, &truth, args.frames).map_err(anyhow::Error::msg)?,
-        );
-        bar.inc(1);
-    }
+    // The machine is shared: its load (1-minute average at the start of the timing and at the
+    // end) says how far the absolute times can be trusted; the ratios hold either way.
+    let load = || {
+        std::fs::read_to_string("/proc/loadavg").ok().and_then(|s| s.split(' ').next().map(str::to_string))
+    };
+    let load_start = load();
+    let bar = indicatif::ProgressBar::new_spinner();
+    let rows = irt::tradeoff::measure_all(&ctx, &scene, &modes, &truth, args.frames, &mut |m| {
+        bar.set_message(m.to_string());
+        bar.tick();
+    })
+    .map_err(anyhow::Error::msg)?;
     bar.finish_and_clear();
     let header = format!(
-        "Scene: {name}, {w}x{h}, light radius {}; device: {}; ground truth {}² stratified rays (f64 CPU); {}; command: `irt tradeoff{}`\n\n",
+        "Scene: {name}, {w}x{h}, light radius {}; device: {}; ground truth {}² stratified rays (f64 CPU); {}, load {} → {}; {} interleaved rounds; command: `irt tradeoff{}`\n\n",
         scene.lights.iter().map(|l| l.radius.to_string()).collect::<Vec<_>>().join(", "),
         ctx.info.name,
         args.strata,
         machine_line(),
+        load_start.unwrap_or_else(|| "?".into()),
+        load().unwrap_or_else(|| "?".into()),
+        args.frames,
         command_args(),
     );
     let table = header + &irt::tradeoff::markdown_table(&rows);

@@ -7,7 +7,9 @@
 //! stored as their bits and `bitcast` back in the shader.
 
 use crate::accel::{Grid, PrimKind, PrimRef};
-use crate::scene::{bundle_samples, Filter, MaterialKind, Scene, ShadowMode, Wrap, MAX_LIGHTS};
+use crate::scene::{
+    bundle_samples, light_shells, Filter, MaterialKind, Scene, ShadowMode, ShellShape, Wrap, MAX_LIGHTS,
+};
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
@@ -22,6 +24,10 @@ pub const TRIANGLE_TEXELS: u32 = 3;
 pub const NORMAL_TEXELS: u32 = 3;
 pub const MATERIAL_TEXELS: u32 = 2;
 pub const CONE_TEXELS: u32 = 3;
+/// A shell object (shell shadow mode): bounding sphere, record.
+pub const SHELL_OBJECT_TEXELS: u32 = 2;
+/// A mesh's contour edge (shell shadow mode): its two end points.
+pub const SHELL_EDGE_TEXELS: u32 = 2;
 pub const UV_TEXELS: u32 = 2;
 /// Texture records: one texel each. Texture pixels: four RGBA8 pixels (one u32 each) per texel.
 pub const TEXTURE_TEXELS: u32 = 1;
@@ -73,7 +79,8 @@ pub fn material_code(kind: &MaterialKind) -> u32 {
 pub struct GpuLight {
     /// xyz position, w radius.
     pub position_radius: [f32; 4],
-    /// rgb intensity l_e, w unused.
+    /// rgb intensity l_e; w: in shell shadow mode, the bits of the u32 first texel of this
+    /// light's shell section ([`PackedScene::shell_sections`]), else 0.
     pub color: [f32; 4],
 }
 
@@ -201,6 +208,8 @@ pub struct PackedScene {
     pub prim_base: [u32; 4],
     pub aux_base: [u32; 4],
     pub grid_base: [u32; 4],
+    /// First texel of each light's shell section (shell shadow mode; empty otherwise).
+    pub shell_sections: Vec<u32>,
 }
 
 impl PackedScene {
@@ -233,6 +242,13 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   `unpack4x8unorm`'s order), four per texel, each texture starting at its first pixel.
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
+/// - shell sections (shell mode only), one per light (`scene::light_shells`):
+///   `[objects, first cell texel, first list texel, 0]`,
+///   then per object `[bound centre.xyz, bound radius]`, `[prim, a, b, c]` where `prim` is the
+///   `PrimRef` of a sphere or cone (its record is the bound for spheres) or of a mesh's first
+///   triangle, with `a` its end triangle and `[b, c)` the texels of its contour edges; then the
+///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`; then the light buffer's cells (`scene::shell_cell`),
+///   `[first, count, 0, 0]` into the list, and the list: object indices, four per texel.
 pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     let mut t: Vec<[u32; 4]> = Vec::new();
     let sphere_base = 0u32;
@@ -339,11 +355,52 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
             t.push([a[0], a[1], b[0], b[1]]);
         }
     }
+    let mut shell_sections = vec![];
+    if let ShadowMode::Shell { .. } = scene.trace.shadows {
+        for light in &scene.lights {
+            let sh = light_shells(scene, light.position, light.radius);
+            let section = t.len() as u32;
+            shell_sections.push(section);
+            let edge_base = section + 1 + SHELL_OBJECT_TEXELS * sh.objects.len() as u32;
+            let cell_base = edge_base + SHELL_EDGE_TEXELS * sh.edges.len() as u32;
+            let list_base = cell_base + sh.cells.len() as u32;
+            t.push([sh.objects.len() as u32, cell_base, list_base, 0]);
+            for o in &sh.objects {
+                t.push(f4(o.center - origin, (o.radius as f32).to_bits()));
+                t.push(match o.shape {
+                    ShellShape::Sphere(i) => [PrimRef::new(PrimKind::Sphere, i).0, 0, 0, 0],
+                    ShellShape::Cone(i) => [PrimRef::new(PrimKind::Cone, i).0, 0, 0, 0],
+                    ShellShape::Mesh { triangles, edges } => [
+                        PrimRef::new(PrimKind::Triangle, triangles[0]).0,
+                        triangles[1],
+                        edge_base + SHELL_EDGE_TEXELS * edges[0],
+                        edge_base + SHELL_EDGE_TEXELS * edges[1],
+                    ],
+                });
+            }
+            for [a, b] in &sh.edges {
+                t.push(f4(*a - origin, 0));
+                t.push(f4(*b - origin, 0));
+            }
+            let mut first = 0u32;
+            for cell in &sh.cells {
+                t.push([first, cell.len() as u32, 0, 0]);
+                first += cell.len() as u32;
+            }
+            let list: Vec<u32> = sh.cells.concat();
+            for chunk in list.chunks(4) {
+                let mut texel = [0u32; 4];
+                texel[..chunk.len()].copy_from_slice(chunk);
+                t.push(texel);
+            }
+        }
+    }
     PackedScene {
         texels: t,
         prim_base: [sphere_base, triangle_base, normal_base, material_base],
         aux_base: [cone_base, uv_base, texture_base, pixel_base],
         grid_base: [cell_base, ref_base, macro_base, bundle_base],
+        shell_sections,
     }
 }
 
@@ -352,9 +409,10 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
 pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -> Params {
     let cam = &scene.camera;
     let mut lights = [GpuLight::default(); MAX_LIGHTS];
-    for (g, l) in lights.iter_mut().zip(&scene.lights) {
+    for (i, (g, l)) in lights.iter_mut().zip(&scene.lights).enumerate() {
         g.position_radius = v4(l.position - origin, l.radius as f32);
-        g.color = v4(l.color, 0.0);
+        let section = packed.shell_sections.get(i).copied().unwrap_or(0);
+        g.color = v4(l.color, f32::from_bits(section));
     }
     let res = grid.res;
     let mut p = Params {
@@ -420,6 +478,9 @@ pub fn wgsl_constants() -> String {
     s += &c("NORMAL_TEXELS", NORMAL_TEXELS);
     s += &c("MATERIAL_TEXELS", MATERIAL_TEXELS);
     s += &c("CONE_TEXELS", CONE_TEXELS);
+    s += &c("SHELL_OBJECT_TEXELS", SHELL_OBJECT_TEXELS);
+    s += &c("SHELL_EDGE_TEXELS", SHELL_EDGE_TEXELS);
+    s += &c("SHELL_CELL_RES", crate::scene::SHELL_CELL_RES);
     s += &c("NO_NORMALS", NO_NORMALS);
     s += &c("UV_TEXELS", UV_TEXELS);
     s += &c("TEXTURE_TEXELS", TEXTURE_TEXELS);
@@ -447,7 +508,6 @@ pub fn wgsl_constants() -> String {
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
     s += &c("PRIM_INDEX_BITS", PrimRef::INDEX_BITS);
     s += &c("PRIM_KIND_SHIFT", PrimRef::KIND_SHIFT);
-    s += &c("PRIM_SHELL_ONLY", PrimRef::SHELL_ONLY);
     s += &c("PRIM_SPHERE", PrimKind::Sphere as u32);
     s += &c("PRIM_TRIANGLE", PrimKind::Triangle as u32);
     s += &c("PRIM_CONE", PrimKind::Cone as u32);

@@ -26,9 +26,16 @@ pub fn falloff(f: Falloff, tau: f64) -> f64 {
     }
 }
 
+/// σ of a shell whose occluder edge lies at signed distance `x` from the shadow ray (`x > 0`:
+/// the ray passes outside the occluder) where the light's cone has radius `b`: the penumbra
+/// straddles the hard shadow's edge, `x` from `-b` (σ = 0) to `+b` (σ = 1).
+pub fn straddle(f: Falloff, x: f64, b: f64) -> f64 {
+    falloff(f, 0.5 + 0.5 * x / b)
+}
+
 /// Transparency of a sphere's shell for the shadow ray `p + t l`, `0 < t < dist`, towards a
-/// light of radius `light_r`; 1 when the ray passes outside the shell (the caller has already
-/// established that the ray misses the sphere itself).
+/// light of radius `light_r`: 0 inside `radius - b`, 1 outside `radius + b`, with
+/// `b = light_r t / dist` at the closest approach `t`.
 pub fn sphere_shell(
     f: Falloff,
     p: DVec3,
@@ -39,40 +46,76 @@ pub fn sphere_shell(
     radius: f64,
 ) -> f64 {
     let t = (center - p).dot(l);
-    if t <= 0.0 || t >= dist {
+    let b = light_r * t / dist;
+    if t <= 0.0 || t >= dist || b <= 0.0 {
         return 1.0;
     }
     let d = (center - (p + t * l)).length();
-    let b = light_r * t / dist;
-    if b <= 0.0 || d >= radius + b {
-        return 1.0;
-    }
-    falloff(f, (d - radius) / b)
+    straddle(f, d - radius, b)
 }
 
-/// Transparency of a triangle's shell (the points within `b` of its edges).
-pub fn triangle_shell(f: Falloff, p: DVec3, l: DVec3, dist: f64, light_r: f64, tri: [DVec3; 3]) -> f64 {
-    let (mut d, mut t) = (f64::INFINITY, 0.0);
+/// σ from the distance and `t` of the nearest occluder edge (`d`, as `segment_distance` gives
+/// it), on the occluder's side of it when `inside`.
+pub fn edge_shell(f: Falloff, inside: bool, (d, t): (f64, f64), dist: f64, light_r: f64) -> f64 {
+    let b = light_r * t / dist;
+    if b <= 0.0 {
+        return if inside { 0.0 } else { 1.0 };
+    }
+    straddle(f, if inside { -d } else { d }, b)
+}
+
+/// Nearest of a triangle's three edges to the segment `p + t l`, `t ∈ [0, dist]`: (distance, t).
+pub fn triangle_edges(p: DVec3, l: DVec3, dist: f64, tri: [DVec3; 3]) -> (f64, f64) {
+    let mut best = (f64::INFINITY, 0.0);
     for i in 0..3 {
-        let (di, ti) = segment_distance(p, l, dist, tri[i], tri[(i + 1) % 3]);
-        if di < d {
-            (d, t) = (di, ti);
+        let e = segment_distance(p, l, dist, tri[i], tri[(i + 1) % 3]);
+        if e.0 < best.0 {
+            best = e;
         }
     }
-    if t <= 0.0 || t >= dist {
-        return 1.0;
+    best
+}
+
+/// Transparency of a lone triangle's shell (a mesh of one triangle); `inside`: the segment hits
+/// it.
+pub fn triangle_shell(
+    f: Falloff,
+    p: DVec3,
+    l: DVec3,
+    dist: f64,
+    light_r: f64,
+    inside: bool,
+    tri: [DVec3; 3],
+) -> f64 {
+    edge_shell(f, inside, triangle_edges(p, l, dist, tri), dist, light_r)
+}
+
+/// Transparency of a mesh's shell from its contour `edges` seen from the light; `inside`: the
+/// segment hits the mesh.
+pub fn mesh_shell(
+    f: Falloff,
+    p: DVec3,
+    l: DVec3,
+    dist: f64,
+    light_r: f64,
+    inside: bool,
+    edges: &[[DVec3; 2]],
+) -> f64 {
+    let mut best = (f64::INFINITY, 0.0);
+    for [a, b] in edges {
+        let e = segment_distance(p, l, dist, *a, *b);
+        if e.0 < best.0 {
+            best = e;
+        }
     }
-    let b = light_r * t / dist;
-    if b <= 0.0 || d >= b {
-        return 1.0;
-    }
-    falloff(f, d / b)
+    edge_shell(f, inside, best, dist, light_r)
 }
 
 /// Transparency of a cone's shell (docs/shadows.md, Cone). From the closest approach of the
 /// shadow segment to the cone's axis segment (ray point `p + t l`, axis point at fraction `s`),
-/// the gap is the distance from the ray point to the cone's solid cross-section disc at `s`
-/// (radius `r(s)`): `d - r(s)` beside the cone, the distance to the end disc past its ends.
+/// the signed distance to the edge of the cone's solid cross-section disc at `s` (radius
+/// `r(s)`): `d - r(s)` beside the cone, the distance to the end disc past its ends, and inside
+/// the cone minus the depth to the nearer of its side and its ends.
 #[allow(clippy::too_many_arguments)]
 pub fn cone_shell(
     f: Falloff,
@@ -86,28 +129,27 @@ pub fn cone_shell(
     apex_radius: f64,
 ) -> f64 {
     let (_, t) = segment_distance(p, l, dist, base, apex);
-    if t <= 0.0 || t >= dist {
-        return 1.0;
-    }
     let b = light_r * t / dist;
-    if b <= 0.0 {
+    if t <= 0.0 || t >= dist || b <= 0.0 {
         return 1.0;
     }
-    let gap = cone_gap(p + t * l, base, base_radius, apex, apex_radius);
-    if gap >= b {
-        return 1.0;
-    }
-    falloff(f, gap / b)
+    straddle(f, cone_edge(p + t * l, base, base_radius, apex, apex_radius), b)
 }
 
-/// Distance from `x` to the cone's cross-section disc at `x`'s (clamped) axial position.
-fn cone_gap(x: DVec3, base: DVec3, base_radius: f64, apex: DVec3, apex_radius: f64) -> f64 {
+/// Signed distance from `x` to the edge of the cone's cross-section disc at `x`'s axial position
+/// (negative inside the solid cone).
+fn cone_edge(x: DVec3, base: DVec3, base_radius: f64, apex: DVec3, apex_radius: f64) -> f64 {
     let axis = apex - base;
-    let s = ((x - base).dot(axis) / axis.length_squared()).clamp(0.0, 1.0);
+    let len = axis.length();
+    let s_raw = (x - base).dot(axis) / (len * len);
+    let s = s_raw.clamp(0.0, 1.0);
     let v = x - (base + s * axis);
-    let along = v.dot(axis.normalize());
+    let along = v.dot(axis / len);
     let across = (v.length_squared() - along * along).max(0.0).sqrt();
     let r = base_radius + s * (apex_radius - base_radius);
+    if s_raw > 0.0 && s_raw < 1.0 && across < r {
+        return -(r - across).min(s_raw.min(1.0 - s_raw) * len);
+    }
     (along * along + (across - r).max(0.0).powi(2)).sqrt()
 }
 

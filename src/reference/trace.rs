@@ -6,9 +6,12 @@ use super::geometry::{
     cone_bounds, cone_normal, intersect_cone, intersect_sphere, intersect_triangle, triangle_normal,
 };
 use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light};
-use super::shadows::{bundle_point, cone_shell, frame, sphere_shell, stratified_disc, triangle_shell};
+use super::shadows::{bundle_point, cone_shell, frame, mesh_shell, sphere_shell, stratified_disc};
 use super::texture::{cone_uv, material_at, sphere_uv};
-use crate::scene::{bundle_samples, CameraBasis, Combine, Light, MaterialKind, Scene, ShadowMode, Triangle};
+use crate::scene::{
+    bundle_samples, light_shells, CameraBasis, Combine, Light, LightShells, MaterialKind, Scene, ShadowMode,
+    ShellShape, Triangle,
+};
 use glam::{DVec2, DVec3};
 use std::cell::Cell;
 use std::ops::AddAssign;
@@ -88,6 +91,8 @@ pub struct Reference<'a> {
     /// shadow mode (the ground truth of docs/shadows.md).
     ground_truth: Option<u32>,
     bundle: Vec<[f64; 2]>,
+    /// Shell mode: each light's shell objects (`scene::light_shells`).
+    shells: Vec<LightShells>,
 }
 
 impl<'a> Reference<'a> {
@@ -117,6 +122,12 @@ impl<'a> Reference<'a> {
             ground_truth: None,
             bundle: match scene.trace.shadows {
                 ShadowMode::Bundle { samples, .. } => bundle_samples(samples),
+                _ => Vec::new(),
+            },
+            shells: match scene.trace.shadows {
+                ShadowMode::Shell { .. } => {
+                    scene.lights.iter().map(|l| light_shells(scene, l.position, l.radius)).collect()
+                }
                 _ => Vec::new(),
             },
         }
@@ -382,26 +393,70 @@ impl<'a> Reference<'a> {
             }
             ShadowMode::Shell { falloff, combine } => {
                 stats.shadow += 1;
-                if self.occluded(so, l, dist - eps) {
-                    return 0.0;
-                }
+                let owned;
+                let shells = match self.scene.lights.iter().position(|x| x == light) {
+                    Some(i) if i < self.shells.len() => &self.shells[i],
+                    _ => {
+                        owned = light_shells(self.scene, light.position, light.radius);
+                        &owned
+                    }
+                };
+                let hit = self.triangles_hit(so, l, dist - eps);
                 let r = light.radius;
-                let spheres = self
-                    .scene
-                    .spheres
-                    .iter()
-                    .map(|s| sphere_shell(falloff, so, l, dist, r, s.center, s.radius));
-                let tris = self.triangles.iter().map(|t| triangle_shell(falloff, so, l, dist, r, t.p));
-                let cones = self.scene.cones.iter().map(|c| {
-                    cone_shell(falloff, so, l, dist, r, c.base, c.base_radius, c.apex, c.apex_radius)
+                let sigmas = shells.objects.iter().map(|o| match o.shape {
+                    ShellShape::Sphere(i) => {
+                        let s = &self.scene.spheres[i as usize];
+                        sphere_shell(falloff, so, l, dist, r, s.center, s.radius)
+                    }
+                    ShellShape::Cone(i) => {
+                        let c = &self.scene.cones[i as usize];
+                        cone_shell(falloff, so, l, dist, r, c.base, c.base_radius, c.apex, c.apex_radius)
+                    }
+                    ShellShape::Mesh { triangles: [first, end], edges: [e0, e1] } => {
+                        let inside = hit.iter().any(|t| (first..end).contains(t));
+                        let tc = (o.center - so).dot(l).clamp(0.0, dist);
+                        if inside || (o.center - (so + tc * l)).length() < o.radius + r {
+                            mesh_shell(
+                                falloff,
+                                so,
+                                l,
+                                dist,
+                                r,
+                                inside,
+                                &shells.edges[e0 as usize..e1 as usize],
+                            )
+                        } else {
+                            1.0
+                        }
+                    }
                 });
-                let sigmas = spheres.chain(tris).chain(cones);
                 match combine {
                     Combine::Min => sigmas.fold(1.0, f64::min),
                     Combine::Product => sigmas.product(),
                 }
             }
         }
+    }
+
+    /// The triangles (indices into `Scene::triangles`) that the segment `o + t d`,
+    /// `0 < t < t_max`, passes through: which meshes a shell shadow ray is inside of.
+    fn triangles_hit(&self, o: DVec3, d: DVec3, t_max: f64) -> Vec<PrimId> {
+        let ns = self.scene.spheres.len() as PrimId;
+        let nt = self.triangles.len() as PrimId;
+        let mut hit = vec![];
+        let mut visit = |id: PrimId| {
+            if id >= ns && id < ns + nt && self.hit_prim(id, o, d).is_some_and(|(t, _)| t < t_max) {
+                hit.push(id - ns);
+            }
+            false
+        };
+        match &self.bvh {
+            Some(bvh) => bvh.traverse(o, d, || t_max, &mut visit),
+            None => (0..self.prim_count()).for_each(|id| {
+                visit(id);
+            }),
+        }
+        hit
     }
 
     /// Every pixel at its centre, rows shared round-robin over the available cores.

@@ -263,7 +263,8 @@ impl Session {
     }
 
     /// Applies new settings: the mode, depth and refinement limit take effect at once; a new
-    /// shadow mode or precision rebuilds the grid (shell references) and recompiles the kernel.
+    /// shadow mode or precision repacks the scene (shell mode adds its shell objects) and
+    /// recompiles the kernel.
     pub fn apply(&mut self, ctx: &GpuContext, settings: Settings) -> Result<(), String> {
         if settings == self.settings {
             return Ok(());

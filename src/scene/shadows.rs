@@ -19,17 +19,19 @@ pub enum ShadowMode {
     Shell { falloff: Falloff, combine: Combine },
 }
 
-/// How a shell's transparency rises from 0 at the inner object to 1 at the shell's boundary.
+/// How a shell's transparency rises from 0 at the inner object to 1 at the shell's boundary
+/// (τ from 0 to 1 across the shell, ½ on the hard shadow's edge; docs/shadows.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(u32)]
 pub enum Falloff {
-    /// 3τ² − 2τ³, the paper's.
+    /// 3τ² − 2τ³, the paper's: the disc profile's cubic stand-in.
     Smoothstep = 0,
-    /// The default: lowest error of the three against the ground truth on both scenes of
-    /// docs/tradeoff.md.
-    #[default]
+    /// τ.
     Linear = 1,
-    /// The penumbra profile of a straight edge under a disc light.
+    /// The default: the visible fraction of a disc light behind a straight occluder edge, the
+    /// true penumbra profile; the lowest error of the three against the ground truth on the
+    /// three scenes of docs/tradeoff.md (within 4% of smoothstep's on SPD balls_s2).
+    #[default]
     Disc = 2,
 }
 
@@ -165,7 +167,7 @@ mod tests {
             let m: ShadowMode = s.parse().unwrap();
             assert_eq!(m.to_string(), s);
         }
-        assert_eq!("shell".parse::<ShadowMode>().unwrap().to_string(), "shell:linear:min");
+        assert_eq!("shell".parse::<ShadowMode>().unwrap().to_string(), "shell:disc:min");
         for bad in ["", "soft", "bundle", "bundle:0", "bundle:257", "bundle:4:x", "shell:cubic", "hard:1"] {
             assert!(bad.parse::<ShadowMode>().is_err(), "{bad}");
         }
