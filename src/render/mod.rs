@@ -11,6 +11,7 @@
 //! Both refine progressively while the camera rests: later samples are jittered and added up
 //! (the frame buffer holds sums and counts).
 
+pub mod metrics;
 pub mod order;
 pub mod schedule;
 pub mod session;
