@@ -13,6 +13,7 @@
 
 pub mod metrics;
 pub mod order;
+pub mod replay;
 pub mod schedule;
 pub mod session;
 
