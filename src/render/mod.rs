@@ -16,6 +16,7 @@ pub mod order;
 pub mod replay;
 pub mod schedule;
 pub mod session;
+pub mod study;
 
 pub use order::PixelOrder;
 pub use schedule::Schedule;
