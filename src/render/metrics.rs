@@ -238,9 +238,9 @@ impl LatencyTracker {
         let mut s =
             LatencyStats { inputs: self.done.len(), unfinished: self.pending.len(), ..Default::default() };
         for l in &self.done {
-            for i in 0..4 {
-                s.mean[i] += l[i] / n;
-                s.max[i] = s.max[i].max(l[i]);
+            for (i, &x) in l.iter().enumerate() {
+                s.mean[i] += x / n;
+                s.max[i] = s.max[i].max(x);
             }
         }
         s
