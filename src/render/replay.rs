@@ -669,7 +669,7 @@ pub struct ReplayArgs {
     /// Frameless: hilbert[:CHUNK|auto[:PROCS]], random or dissolve.
     #[arg(long)]
     pub order: Option<PixelOrder>,
-    /// Frameless: positions per slice (default 16384).
+    /// Frameless: positions per slice (default: render::DEFAULT_SLICE, 4096).
     #[arg(long)]
     pub slice: Option<u32>,
     /// Clock: real (measured dispatch time), virtual (a fixed cost per traced pixel, calibrated
