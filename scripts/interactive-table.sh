@@ -8,4 +8,4 @@ set -euo pipefail
 # shellcheck source=scripts/bench-lib.sh
 source "$(dirname "$0")/bench-lib.sh"
 cargo run --release --quiet --example interactive -- --out-dir docs/interactive \
-    --header "$(machine_header "scripts/interactive-table.sh $*")" "$@"
+    --header "$(machine_header "scripts/interactive-table.sh${*:+ $*}")" "$@"

@@ -15,22 +15,66 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// The median wall time of `frames` whole conventional frames of `schedule` built for
-/// `workers`, after one untimed frame (refinement on, so every frame traces).
-pub fn schedule_frame_time(
-    ctx: &GpuContext,
-    scene: &Scene,
-    schedule: Schedule,
-    workers: u32,
-    frames: u32,
-) -> Result<Duration, String> {
-    let settings =
-        Settings { mode: Mode::Conventional { schedule, workers }, max_samples: 0, ..Settings::default() };
-    let mut s = Session::new(ctx, scene, settings)?;
-    s.complete_pass(ctx);
-    let mut t: Vec<Duration> = (0..frames.max(1)).map(|_| s.complete_pass(ctx)).collect();
-    t.sort();
-    Ok(t[t.len() / 2])
+/// A session kept for speed measurements interleaved with others (so that a load on the
+/// machine that comes and goes hits every configuration alike): its camera moves along the path
+/// on its own real clock, wrapping at the end; conventional frames take the camera when they
+/// start.
+pub struct SpeedRunner {
+    session: Session,
+    t: f64,
+    conventional: bool,
+    /// Seconds per pixel of each work unit (frameless slice, conventional frame) so far.
+    units: Vec<f64>,
+}
+
+impl SpeedRunner {
+    /// A session of `settings` on `scene`, warmed up (pipelines compiled) by one whole pass.
+    pub fn new(ctx: &GpuContext, scene: &Scene, settings: &Settings) -> Result<Self, String> {
+        let mut session = Session::new(ctx, scene, Settings { max_samples: 1, ..settings.clone() })?;
+        session.complete_pass(ctx);
+        let conventional = matches!(settings.mode, Mode::Conventional { .. });
+        Ok(SpeedRunner { session, t: 0.0, conventional, units: Vec::new() })
+    }
+
+    /// Traces whole units until at least `pixels` pixel values are written.
+    pub fn run(&mut self, ctx: &GpuContext, path: &CameraPath, pixels: u64) {
+        let [w, h] = self.session.size();
+        let (mut done, mut frame, mut frame_start) = (0u64, Duration::ZERO, true);
+        while done < pixels {
+            if !self.conventional || frame_start {
+                let c = path.camera_at(self.t % path.duration(), w, h);
+                self.session.set_camera(ctx, &c);
+            }
+            let r = self.session.step(ctx);
+            if r.idle {
+                self.t += 1e-3;
+                continue;
+            }
+            self.t += r.trace_time.as_secs_f64();
+            frame += r.trace_time;
+            frame_start = !self.conventional || r.frame_done;
+            if frame_start && r.pixels > 0 {
+                self.units.push(std::mem::take(&mut frame).as_secs_f64() / r.pixels as f64);
+                done += r.pixels;
+            }
+        }
+    }
+
+    /// The median seconds per pixel of the units so far.
+    pub fn median_s_per_pixel(&self) -> f64 {
+        let mut v = self.units.clone();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    }
+}
+
+/// `rounds` rounds, each running every runner for `pixels` pixel values in turn.
+fn interleaved(ctx: &GpuContext, runners: &mut [SpeedRunner], path: &CameraPath, pixels: u64, rounds: u32) {
+    for _ in 0..rounds {
+        for r in runners.iter_mut() {
+            r.run(ctx, path, pixels);
+        }
+    }
 }
 
 /// Rays of every kind per pixel of a headless frame of `scene`'s camera (for Mrays/s from
@@ -138,6 +182,9 @@ fn frameless_with(order: PixelOrder, slice: u32) -> Mode {
     Mode::Frameless { order, slice, present_every: 0, blend: None, jitter_pairs: false }
 }
 
+/// Rounds of every interleaved speed measurement.
+const SPEED_ROUNDS: u32 = 3;
+
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -185,27 +232,38 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     let mut clock_512 = None;
     if part("modes") {
         let mut t = head(&format!(
-        "Each mode replays the scene's camera path (scenes/paths/) on a virtual clock charging every traced pixel the \
-         ns of the first column, measured from conventional frames of the path's first camera; presents and input at \
-         60 Hz of that clock; no refinement (1 sample); dynamic error at every {}th refresh. Real speed: pixel values \
-         written per second of dispatch wall time in the same runs; Mrays/s = that × the rays per pixel of a counted \
-         headless frame.",
-        args.error_every
-    ));
+            "Each mode replays the scene's camera path (scenes/paths/) on a virtual clock charging every traced \
+             pixel the ns of the first column (measured from conventional frames of the path's first camera): \
+             equal rays/s. Presents and input at 60 Hz of that clock; no refinement (1 sample); dynamic error at \
+             every {}th refresh. Real speed: pixel values written per second of dispatch wall time, the median \
+             slice (frameless) or frame (conventional) of {SPEED_ROUNDS} rounds that alternate the two modes with \
+             the camera moving along the path; Mrays/s = that × the rays per pixel of a counted headless frame.",
+            args.error_every
+        ));
         t += "| scene | size | mode | ns/pixel (clock) | Mpixel updates/s (real) | Mrays/s (real) | presents/s | latency ms: first / 50% / 90% / 100% | age at presents ms: mean / p90 / max | age at refreshes ms: mean / p90 / max | dynamic error RMSE: mean (max) |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
         for c in [&default, &balls] {
             for &size in sizes {
                 let scene = sized(&c.scene, &c.path, size);
+                let n = size[0] as u64 * size[1] as u64;
                 say(format!("{} {}x{}: calibrating", c.name, size[0], size[1]));
                 let spp = calibrate(&ctx, &scene, &settings, frames).map_err(anyhow::Error::msg)?;
                 let rpp = rays_per_pixel(&ctx, &scene).map_err(anyhow::Error::msg)?;
                 let clock = Clock::Virtual { seconds_per_pixel: spp };
-                for mode in [Mode::conventional(), Mode::frameless()] {
+                let modes = [Mode::conventional(), Mode::frameless()];
+                say(format!("{} {}x{}: speed", c.name, size[0], size[1]));
+                let mut runners = modes
+                    .iter()
+                    .map(|&mode| SpeedRunner::new(&ctx, &scene, &Settings { mode, ..settings.clone() }))
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(anyhow::Error::msg)?;
+                interleaved(&ctx, &mut runners, &c.path, 2 * n, SPEED_ROUNDS);
+                for (mode, runner) in modes.into_iter().zip(&runners) {
                     say(format!("{} {}x{}: {mode}", c.name, size[0], size[1]));
                     let opts =
                         ReplayOptions { clock, error_every: args.error_every, ..ReplayOptions::default() };
                     let r = replay(&ctx, &scene, &Settings { mode, ..settings.clone() }, &c.path, &opts)
                         .map_err(anyhow::Error::msg)?;
+                    let rate = 1.0 / runner.median_s_per_pixel();
                     let _ = writeln!(
                         t,
                         "| {} | {}x{} | {mode} | {:.0} | {:.3} | {:.2} | {:.1} | {} | {} | {} | {} |",
@@ -213,8 +271,8 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                         size[0],
                         size[1],
                         spp * 1e9,
-                        r.pixel_updates_per_s() / 1e6,
-                        r.pixel_updates_per_s() * rpp / 1e6,
+                        rate / 1e6,
+                        rate * rpp / 1e6,
                         r.presents.len() as f64 / r.duration,
                         latency(&r),
                         ages(&r.age_at_presents),
@@ -238,22 +296,33 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     // ---- Conventional schedules -------------------------------------------------------------
     if part("schedules") {
         let mut t = head(&format!(
-        "Median of {frames} whole conventional frames (after one untimed), refinement on so every frame traces; \
-         P = the workers the schedule is built for (lavapipe runs {} threads).",
-        std::thread::available_parallelism().map_or(2, |n| n.get())
-    ));
+            "Conventional frame time: the median of {frames} frames per configuration, the configurations taking \
+             turns frame by frame (so a passing load hits all alike), the camera moving along the path; P = the \
+             workers the schedule is built for (lavapipe runs {} threads).",
+            std::thread::available_parallelism().map_or(2, |n| n.get())
+        ));
         let ps = [2u32, 8, 32];
         t += "| scene | size | schedule | frame ms, P = 2 | P = 8 | P = 32 |\n|---|---|---|---|---|---|\n";
         for c in [&default, &balls] {
             let scene = sized(&c.scene, &c.path, small);
-            for schedule in Schedule::ALL {
-                say(format!("{}: {schedule}", c.name));
-                let mut cells = Vec::new();
-                for p in ps {
-                    let f =
-                        schedule_frame_time(&ctx, &scene, schedule, p, frames).map_err(anyhow::Error::msg)?;
-                    cells.push(format!("{:.0}", f.as_secs_f64() * 1e3));
-                }
+            let n = small[0] as u64 * small[1] as u64;
+            say(format!("{}: schedules", c.name));
+            let configs: Vec<(Schedule, u32)> =
+                Schedule::ALL.iter().flat_map(|&s| ps.iter().map(move |&p| (s, p))).collect();
+            let mut runners = configs
+                .iter()
+                .map(|&(schedule, workers)| {
+                    let mode = Mode::Conventional { schedule, workers };
+                    SpeedRunner::new(&ctx, &scene, &Settings { mode, ..settings.clone() })
+                })
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(anyhow::Error::msg)?;
+            interleaved(&ctx, &mut runners, &c.path, n, frames);
+            for (i, schedule) in Schedule::ALL.iter().enumerate() {
+                let cells: Vec<String> = runners[i * ps.len()..(i + 1) * ps.len()]
+                    .iter()
+                    .map(|r| format!("{:.0}", r.median_s_per_pixel() * n as f64 * 1e3))
+                    .collect();
                 let _ = writeln!(
                     t,
                     "| {} | {}x{} | {schedule} | {} |",
@@ -269,6 +338,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
 
     // ---- Frameless pixel orders -------------------------------------------------------------
     let scene = sized(&default.scene, &default.path, small);
+    let n_small = small[0] as u64 * small[1] as u64;
     if part("orders") {
         let clock = match clock_512 {
             Some(c) => c,
@@ -277,14 +347,30 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             },
         };
         let mut t = head(&format!(
-        "The default scene at {}x{} over scenes/paths/orbit.toml, S = {}, on the virtual clock of the modes table \
-         (equal cost per pixel); speed on the real clock of the same runs.",
-        small[0],
-        small[1],
-        super::DEFAULT_SLICE
-    ));
+            "The default scene at {}x{} over scenes/paths/orbit.toml, S = {}, on the virtual clock of the modes \
+             table (equal cost per pixel); real speed as in the modes table ({SPEED_ROUNDS} rounds alternating the \
+             orders). The last row is the default order with 4×4-pixel chunks instead of RTRT's 2×2 at this size.",
+            small[0],
+            small[1],
+            super::DEFAULT_SLICE
+        ));
         t += "| order | Mpixel updates/s (real) | latency ms: first / 50% / 90% / 100% | age at presents ms: mean / p90 / max | dynamic error RMSE: mean (max) |\n|---|---|---|---|---|\n";
-        for order in PixelOrder::ALL {
+        let orders: Vec<PixelOrder> =
+            PixelOrder::ALL.into_iter().chain([PixelOrder::Hilbert { chunk: 16, procs: 16 }]).collect();
+        say("orders: speed".into());
+        let mut runners = orders
+            .iter()
+            .map(|&o| {
+                SpeedRunner::new(
+                    &ctx,
+                    &scene,
+                    &Settings { mode: frameless_with(o, super::DEFAULT_SLICE), ..settings.clone() },
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(anyhow::Error::msg)?;
+        interleaved(&ctx, &mut runners, &default.path, 2 * n_small, SPEED_ROUNDS);
+        for (order, runner) in orders.into_iter().zip(&runners) {
             let r = match (&hilbert_512, order == PixelOrder::default()) {
                 (Some(r), true) => r.clone(),
                 _ => {
@@ -299,7 +385,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             let _ = writeln!(
                 t,
                 "| {order} | {:.3} | {} | {} | {} |",
-                r.pixel_updates_per_s() / 1e6,
+                1e-6 / runner.median_s_per_pixel(),
                 latency(&r),
                 ages(&r.age_at_presents),
                 error(&r)
@@ -312,31 +398,42 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     if part("slices") {
         let slices: &[u32] = if q { &[256, 1024] } else { &[256, 1024, 4096, 16384, 65536, 262144] };
         let mut t = head(&format!(
-        "The default scene at {}x{} over scenes/paths/orbit.toml, Hilbert order, on the real clock (each slice's \
-         measured dispatch time, so per-dispatch overhead counts); presents at 60 Hz or after the slice in flight.",
-        small[0], small[1]
-    ));
+            "The default scene at {}x{} over scenes/paths/orbit.toml, Hilbert order, replayed on the real clock \
+             (each slice's measured dispatch time, so per-dispatch overhead counts; presents at 60 Hz or after the \
+             slice in flight): {SPEED_ROUNDS} rounds alternating the sizes, each row the round with the median 90% \
+             latency. Speed: the median over the rounds of each run's median slice.",
+            small[0], small[1]
+        ));
         t += "| S | slices per pass | Mpixel updates/s (real) | pass ms | presents/s | latency ms: first / 50% / 90% / 100% | age at presents ms: mean / p90 / max |\n|---|---|---|---|---|---|---|\n";
+        let mut runs: Vec<Vec<ReplayReport>> = vec![Vec::new(); slices.len()];
+        for round in 0..SPEED_ROUNDS {
+            for (i, &s) in slices.iter().enumerate() {
+                say(format!("slice {s}, round {}", round + 1));
+                let mode = frameless_with(PixelOrder::default(), s);
+                let r = replay(
+                    &ctx,
+                    &scene,
+                    &Settings { mode, ..settings.clone() },
+                    &default.path,
+                    &ReplayOptions::default(),
+                )
+                .map_err(anyhow::Error::msg)?;
+                runs[i].push(r);
+            }
+        }
         let mut curve = Vec::new();
-        let pixels = small[0] as f64 * small[1] as f64;
-        for &s in slices {
-            say(format!("slice {s}"));
-            let mode = frameless_with(PixelOrder::default(), s);
-            let r = replay(
-                &ctx,
-                &scene,
-                &Settings { mode, ..settings.clone() },
-                &default.path,
-                &ReplayOptions::default(),
-            )
-            .map_err(anyhow::Error::msg)?;
-            let rate = r.pixel_updates_per_s();
+        for (&s, mut rs) in slices.iter().zip(runs) {
+            let mut per_pixel: Vec<f64> = rs.iter().map(|r| r.wall.median_s_per_pixel).collect();
+            per_pixel.sort_by(f64::total_cmp);
+            let rate = 1.0 / per_pixel[per_pixel.len() / 2];
+            rs.sort_by(|a, b| a.latency.mean[2].total_cmp(&b.latency.mean[2]));
+            let r = rs.swap_remove(rs.len() / 2);
             let _ = writeln!(
                 t,
                 "| {s} | {:.0} | {:.3} | {:.0} | {:.1} | {} | {} |",
-                (pixels / s as f64).ceil(),
+                (n_small as f64 / s as f64).ceil(),
                 rate / 1e6,
-                pixels / rate * 1e3,
+                n_small as f64 / rate * 1e3,
                 r.presents.len() as f64 / r.duration,
                 latency(&r),
                 ages(&r.age_at_presents)
@@ -379,10 +476,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     );
     write("load.md", &note)?;
     eprint!("{note}");
-    eprintln!(
-        "wrote {}/{{modes,schedules,orders,slices,refinement,load}}.md and *.svg",
-        args.out_dir.display()
-    );
+    eprintln!("wrote the tables (*.md) and plots (*.svg) into {}", args.out_dir.display());
     Ok(())
 }
 
