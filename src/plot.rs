@@ -34,11 +34,33 @@ pub fn log_log_svg(
             .y_label_area_size(70)
             .build_cartesian_2d(x.log_scale(), y.log_scale())
             .map_err(|e| err(&e))?;
-        chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw().map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .draw()
+            .map_err(|e| err(&e))?;
         draw(&mut chart).map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
     crate::image::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
+}
+
+/// A tick label with three significant digits at most (log axes put ticks at values such as
+/// 0.006000000000000001).
+fn tick(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let decimals = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 /// [`log_log_svg`] with linear axes.
@@ -66,4 +88,16 @@ pub fn linear_svg(
         root.present().map_err(|e| err(&e))?;
     }
     crate::image::write_atomic(path, svg.as_bytes()).map_err(|e| err(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn ticks_are_short() {
+        assert_eq!(super::tick(0.006000000000000001), "0.006");
+        assert_eq!(super::tick(1000.0), "1000");
+        assert_eq!(super::tick(2.5), "2.5");
+        assert_eq!(super::tick(0.00105), "0.00105");
+        assert_eq!(super::tick(30.0), "30");
+    }
 }

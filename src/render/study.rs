@@ -211,7 +211,11 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     let bar = indicatif::ProgressBar::new_spinner();
     bar.enable_steady_tick(Duration::from_millis(200));
     let say = |m: String| bar.set_message(format!("[{:.0} s] {m}", t_start.elapsed().as_secs_f64()));
+    // Each table states the load it was measured under: the machine is shared, and its other
+    // work moves every real-clock number.
+    let part_start = std::cell::Cell::new((Instant::now(), String::new()));
     let head = |what: &str| {
+        part_start.set((Instant::now(), load_average()));
         let mut h = String::new();
         if !args.header.is_empty() {
             let _ = writeln!(h, "{}\n", args.header);
@@ -220,6 +224,12 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         h
     };
     let write = |name: &str, text: &str| -> anyhow::Result<()> {
+        let (t0, load0) = part_start.replace((Instant::now(), String::new()));
+        let text = format!(
+            "{text}\nMeasured in {:.0} s; load average (1, 5, 15 min) {load0} before, {} after.\n",
+            t0.elapsed().as_secs_f64(),
+            load_average()
+        );
         let p = args.out_dir.join(name);
         crate::image::write_atomic(&p, text.as_bytes()).with_context(|| format!("writing {}", p.display()))
     };
@@ -469,13 +479,11 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         plot_refinement(&series, reference, &args.out_dir.join("refinement.svg"))?;
     }
     bar.finish_and_clear();
-    let note = format!(
-        "Load average (1, 5, 15 min) at the start: {load_start}; at the end: {}; the study took {:.0} s.\n",
-        load_average(),
-        t_start.elapsed().as_secs_f64()
+    eprintln!(
+        "the study took {:.0} s; load average (1, 5, 15 min) {load_start} at its start, {} at its end",
+        t_start.elapsed().as_secs_f64(),
+        load_average()
     );
-    write("load.md", &note)?;
-    eprint!("{note}");
     eprintln!("wrote the tables (*.md) and plots (*.svg) into {}", args.out_dir.display());
     Ok(())
 }
