@@ -23,8 +23,9 @@ pub struct SpeedRunner {
     session: Session,
     t: f64,
     conventional: bool,
-    /// Seconds per pixel of each work unit (frameless slice, conventional frame) so far.
-    units: Vec<f64>,
+    /// Wall time and pixels of the whole units so far.
+    time: Duration,
+    pixels: u64,
 }
 
 impl SpeedRunner {
@@ -33,7 +34,7 @@ impl SpeedRunner {
         let mut session = Session::new(ctx, scene, Settings { max_samples: 1, ..settings.clone() })?;
         session.complete_pass(ctx);
         let conventional = matches!(settings.mode, Mode::Conventional { .. });
-        Ok(SpeedRunner { session, t: 0.0, conventional, units: Vec::new() })
+        Ok(SpeedRunner { session, t: 0.0, conventional, time: Duration::ZERO, pixels: 0 })
     }
 
     /// Traces whole units until at least `pixels` pixel values are written.
@@ -53,18 +54,18 @@ impl SpeedRunner {
             self.t += r.trace_time.as_secs_f64();
             frame += r.trace_time;
             frame_start = !self.conventional || r.frame_done;
-            if frame_start && r.pixels > 0 {
-                self.units.push(std::mem::take(&mut frame).as_secs_f64() / r.pixels as f64);
+            if frame_start {
+                self.time += std::mem::take(&mut frame);
+                self.pixels += r.pixels;
                 done += r.pixels;
             }
         }
     }
 
-    /// The median seconds per pixel of the units so far.
-    pub fn median_s_per_pixel(&self) -> f64 {
-        let mut v = self.units.clone();
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    /// Wall seconds per pixel over all the units so far (the total, not a median: a stall
+    /// of the machine costs short and long units alike).
+    pub fn s_per_pixel(&self) -> f64 {
+        self.time.as_secs_f64() / self.pixels.max(1) as f64
     }
 }
 
@@ -119,7 +120,8 @@ pub struct StudyArgs {
     /// Dynamic error at every K-th display refresh (6 per second at 60 Hz).
     #[arg(long, default_value_t = 10, value_name = "K")]
     pub error_every: u32,
-    /// Timed frames per schedule (median).
+    /// Timed frames per schedule (their mean, the schedules taking turns) and per calibration of the
+    /// virtual clock (their median).
     #[arg(long, default_value_t = 5)]
     pub frames: u32,
     /// Tiny images and few frames: a smoke test of the whole study in seconds (numbers
@@ -245,9 +247,9 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             "Each mode replays the scene's camera path (scenes/paths/) on a virtual clock charging every traced \
              pixel the ns of the first column (measured from conventional frames of the path's first camera): \
              equal rays/s. Presents and input at 60 Hz of that clock; no refinement (1 sample); dynamic error at \
-             every {}th refresh. Real speed: pixel values written per second of dispatch wall time, the median \
-             slice (frameless) or frame (conventional) of {SPEED_ROUNDS} rounds that alternate the two modes with \
-             the camera moving along the path; Mrays/s = that × the rays per pixel of a counted headless frame.",
+             every {}th refresh. Real speed: pixel values written per second of dispatch wall time over \
+             {SPEED_ROUNDS} rounds that alternate the two modes (two frames or passes each, the camera moving along \
+             the path); Mrays/s = that × the rays per pixel of a counted headless frame.",
             args.error_every
         ));
         t += "| scene | size | mode | ns/pixel (clock) | Mpixel updates/s (real) | Mrays/s (real) | presents/s | latency ms: first / 50% / 90% / 100% | age at presents ms: mean / p90 / max | age at refreshes ms: mean / p90 / max | dynamic error RMSE: mean (max) |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -273,7 +275,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                         ReplayOptions { clock, error_every: args.error_every, ..ReplayOptions::default() };
                     let r = replay(&ctx, &scene, &Settings { mode, ..settings.clone() }, &c.path, &opts)
                         .map_err(anyhow::Error::msg)?;
-                    let rate = 1.0 / runner.median_s_per_pixel();
+                    let rate = 1.0 / runner.s_per_pixel();
                     let _ = writeln!(
                         t,
                         "| {} | {}x{} | {mode} | {:.0} | {:.3} | {:.2} | {:.1} | {} | {} | {} | {} |",
@@ -306,7 +308,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     // ---- Conventional schedules -------------------------------------------------------------
     if part("schedules") {
         let mut t = head(&format!(
-            "Conventional frame time: the median of {frames} frames per configuration, the configurations taking \
+            "Conventional frame time: the mean of {frames} frames per configuration, the configurations taking \
              turns frame by frame (so a passing load hits all alike), the camera moving along the path; P = the \
              workers the schedule is built for (lavapipe runs {} threads).",
             std::thread::available_parallelism().map_or(2, |n| n.get())
@@ -331,7 +333,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             for (i, schedule) in Schedule::ALL.iter().enumerate() {
                 let cells: Vec<String> = runners[i * ps.len()..(i + 1) * ps.len()]
                     .iter()
-                    .map(|r| format!("{:.0}", r.median_s_per_pixel() * n as f64 * 1e3))
+                    .map(|r| format!("{:.0}", r.s_per_pixel() * n as f64 * 1e3))
                     .collect();
                 let _ = writeln!(
                     t,
@@ -395,7 +397,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             let _ = writeln!(
                 t,
                 "| {order} | {:.3} | {} | {} | {} |",
-                1e-6 / runner.median_s_per_pixel(),
+                1e-6 / runner.s_per_pixel(),
                 latency(&r),
                 ages(&r.age_at_presents),
                 error(&r)
@@ -411,7 +413,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             "The default scene at {}x{} over scenes/paths/orbit.toml, Hilbert order, replayed on the real clock \
              (each slice's measured dispatch time, so per-dispatch overhead counts; presents at 60 Hz or after the \
              slice in flight): {SPEED_ROUNDS} rounds alternating the sizes, each row the round with the median 90% \
-             latency. Speed: the median over the rounds of each run's median slice.",
+             latency. Speed: the median of the rounds' pixels per second of dispatch time.",
             small[0], small[1]
         ));
         t += "| S | slices per pass | Mpixel updates/s (real) | pass ms | presents/s | latency ms: first / 50% / 90% / 100% | age at presents ms: mean / p90 / max |\n|---|---|---|---|---|---|---|\n";
@@ -433,9 +435,9 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         }
         let mut curve = Vec::new();
         for (&s, mut rs) in slices.iter().zip(runs) {
-            let mut per_pixel: Vec<f64> = rs.iter().map(|r| r.wall.median_s_per_pixel).collect();
-            per_pixel.sort_by(f64::total_cmp);
-            let rate = 1.0 / per_pixel[per_pixel.len() / 2];
+            let mut rates: Vec<f64> = rs.iter().map(|r| r.pixel_updates_per_s()).collect();
+            rates.sort_by(f64::total_cmp);
+            let rate = rates[rates.len() / 2];
             rs.sort_by(|a, b| a.latency.mean[2].total_cmp(&b.latency.mean[2]));
             let r = rs.swap_remove(rs.len() / 2);
             let _ = writeln!(
