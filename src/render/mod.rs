@@ -27,10 +27,10 @@ use std::fmt;
 use std::str::FromStr;
 
 /// Frameless slice size by default (docs/interactive.md, slice table): on lavapipe a slice of
-/// 4096 pixels takes a few ms, well inside a 60 Hz refresh, so the host loop presents at the
-/// display's full rate and a camera change shows within a refresh; 1024 was no faster, 256 lost
-/// ~40% of the pixel rate to per-dispatch overhead, and 16384 already outlasts a refresh (about
-/// 37 presents/s at 512²) and traced fewer pixels per second. A much faster device wants larger
+/// 4096 pixels takes about 4 ms at 512², well inside a 60 Hz refresh, so the host loop presents
+/// at the display's full rate and a camera change shows at the next refresh; 1024 was no faster,
+/// 256 lost 13–40% of the pixel rate to per-dispatch overhead, and 16384 can outlast a refresh
+/// (37–54 presents/s at 512²) and was slower in every run. A much faster device wants larger
 /// slices: S should stay a few ms of its work.
 pub const DEFAULT_SLICE: u32 = 4096;
 
