@@ -144,3 +144,50 @@ fn bad_path_files_are_reported_by_file_and_line() {
     assert!(err.starts_with(&want), "got {err}\nwant {want}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[derive(clap::Parser)]
+struct Cli {
+    #[command(flatten)]
+    args: ReplayArgs,
+}
+
+#[test]
+fn replay_arguments_parse_into_settings() {
+    use clap::{CommandFactory, Parser};
+    Cli::command().debug_assert();
+    let parse = |line: &str| Cli::try_parse_from(line.split_whitespace()).map(|c| c.args);
+    let a =
+        parse("replay p.toml s.nff --mode conventional --schedule guided --workers 8 --clock virtual:300")
+            .unwrap();
+    assert_eq!(a.scene.as_deref(), Some(std::path::Path::new("s.nff")));
+    assert_eq!(a.clock, irt::render::replay::ClockArg::Given(Clock::Virtual { seconds_per_pixel: 300e-9 }));
+    let s = a.settings().unwrap();
+    assert_eq!(s.mode, Mode::Conventional { schedule: irt::render::Schedule::Guided, workers: 8 });
+    assert_eq!(s.max_samples, 1);
+    let f = parse("replay p.toml --order dissolve --slice 1000").unwrap().settings().unwrap();
+    assert!(
+        matches!(f.mode, Mode::Frameless { order: PixelOrder::Dissolve, slice: 1000, .. }),
+        "{:?}",
+        f.mode
+    );
+    let bad = parse("replay p.toml --mode conventional --slice 1000").unwrap().settings().unwrap_err();
+    assert!(bad.to_string().contains("--mode frameless"), "{bad}");
+    assert!(parse("replay p.toml --clock fast").is_err());
+    assert!(parse("replay p.toml --mode sideways").is_err());
+}
+
+#[derive(clap::Parser)]
+struct StudyCli {
+    #[command(flatten)]
+    args: irt::render::study::StudyArgs,
+}
+
+#[test]
+fn study_arguments_parse() {
+    use clap::{CommandFactory, Parser};
+    StudyCli::command().debug_assert();
+    let a =
+        StudyCli::try_parse_from(["study", "--only", "slices", "--only", "modes", "--quick"]).unwrap().args;
+    assert_eq!(a.only, ["slices", "modes"]);
+    assert!(StudyCli::try_parse_from(["study", "--only", "everything"]).is_err());
+}

@@ -53,7 +53,7 @@ impl FromStr for Clock {
         match s.split_once(':') {
             None if s == "real" => Ok(Clock::Real),
             Some(("virtual", ns)) => match ns.parse::<f64>() {
-                Ok(ns) if ns.is_finite() && ns > 0.0 => Ok(Clock::Virtual { seconds_per_pixel: ns * 1e-9 }),
+                Ok(ns) if ns.is_finite() && ns > 0.0 => Ok(Clock::Virtual { seconds_per_pixel: ns / 1e9 }),
                 _ => Err(format!("`{s}`: expected a number of nanoseconds > 0 after `virtual:`")),
             },
             _ => Err(format!("unknown clock `{s}`: expected real or virtual:NS (ns per traced pixel)")),
