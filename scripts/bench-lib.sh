@@ -4,11 +4,16 @@ cd "$(dirname "$0")/.."
 cargo build --release --quiet
 irt=target/release/irt
 
-# table_header SCRIPT FIRST_FRAME_COLUMN
-table_header() {
+# machine_header SCRIPT: the machine, the date and the command, on one line
+machine_header() {
     local cpu
     cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
     echo "Machine: ${cpu}, $(nproc) cores, $(free -g | awk '/Mem:/{print $2}') GiB; $(date -u +%Y-%m-%d); command: \`$1\`"
+}
+
+# table_header SCRIPT FIRST_FRAME_COLUMN
+table_header() {
+    machine_header "$1"
     echo
     echo "| scene | size | primitives | grid build ms | $2 | frame ms | Mrays/s | device |"
     echo "|---|---|---|---|---|---|---|---|"

@@ -12,9 +12,12 @@
 //! (the frame buffer holds sums and counts).
 
 pub mod args;
+pub mod metrics;
 pub mod order;
+pub mod replay;
 pub mod schedule;
 pub mod session;
+pub mod study;
 
 pub use args::ModeArgs;
 pub use order::PixelOrder;
@@ -25,9 +28,13 @@ use crate::scene::{Scene, ShadowMode};
 use std::fmt;
 use std::str::FromStr;
 
-/// Frameless slice size by default: 1/16 of a 512² image, so a camera change reaches 90% of
-/// the pixels within 15 slices.
-pub const DEFAULT_SLICE: u32 = 16384;
+/// Frameless slice size by default (docs/interactive.md, slice table): on lavapipe a slice of
+/// 4096 pixels takes about 4 ms at 512², well inside a 60 Hz refresh, so the host loop presents
+/// at the display's full rate and a camera change shows at the next refresh; 1024 was no faster,
+/// 256 lost 13–40% of the pixel rate to per-dispatch overhead, and 16384 can outlast a refresh
+/// (37–54 presents/s at 512²) and was slower in every run. A much faster device wants larger
+/// slices: S should stay a few ms of its work.
+pub const DEFAULT_SLICE: u32 = 4096;
 
 /// How work is handed out.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,0 +1,933 @@
+//! `irt replay PATH.toml [SCENE]`: a [`Session`] run over a scripted camera path on a [`Clock`],
+//! measured the way frameless rendering was judged (../PAPER §3; docs/interactive.md): pixel
+//! age and input-to-screen latency at every present, and optionally the *dynamic error*
+//! (Woolley et al. 2003, Dayal et al. 2005) — the RMS error of the displayed image against the
+//! ideal image of the camera of that instant. "Ideal" here is irt's own single-sample render of
+//! that camera (a fresh conventional frame of a second session with the same settings), so a
+//! mode that keeps up shows zero error and the measure isolates what the interactive loop costs.
+//!
+//! # The loop (what the window's host loop does, on clock time)
+//! - **Warm start**: one whole frame or pass of the path's first camera, on screen at t = 0
+//!   (this also compiles the pipelines, so no mode pays for that).
+//! - **Frameless**: each step takes the camera of the current time and traces one slice; the
+//!   display presents after the step in which a refresh (1/`display_hz`) fell due.
+//! - **Conventional**: a frame takes the camera of the time it starts (input is read between
+//!   frames, as RTRT's master did) and is presented when its last wave is done; the display keeps
+//!   showing the last presented frame at every refresh in between.
+//! - **Inputs** are read at the display rate: one latency event per refresh instant t0 at which
+//!   the path's camera differs from the previous refresh's. A pixel reflects the input when it
+//!   was traced with a camera taken at t0 or later (see [`super::metrics`]).
+//! - After the path's end the camera rests on its last key until every input has reached 100%
+//!   of the screen.
+//! - A step with nothing to do (refinement converged at rest) waits for the next refresh.
+
+use super::metrics::{AgeStats, AgeTracker, Clock, LatencyStats, LatencyTracker, LATENCY_LEVELS};
+use super::{Mode, Session, Settings};
+use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
+use crate::image::Image;
+use crate::io::LoadError;
+use crate::scene::{Camera, Scene, ShadowMode};
+use glam::DVec3;
+use serde::Deserialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use std::time::{Duration, Instant};
+use toml::Spanned;
+
+/// The display rate of a replay unless told: presents and input at 60 Hz of clock time.
+pub const DEFAULT_DISPLAY_HZ: f64 = 60.0;
+
+/// Camera path files above this size are refused.
+pub const MAX_PATH_FILE_BYTES: u64 = 1 << 20;
+
+// ---- The camera path -----------------------------------------------------------------------
+
+/// One timed camera of a path; `line` is where its `[[key]]` table starts in the file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraKey {
+    pub t: f64,
+    pub eye: DVec3,
+    pub look_at: DVec3,
+    pub up: DVec3,
+    pub fov: f64,
+    pub line: usize,
+}
+
+/// A scripted camera: keys at increasing times from t = 0, eye, look_at, up and fov linearly
+/// interpolated between them, the last key held after the end.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraPath {
+    pub keys: Vec<CameraKey>,
+    /// The file the path came from, for messages.
+    pub origin: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PathDoc {
+    #[serde(default)]
+    key: Vec<Spanned<KeyDoc>>,
+}
+
+/// The scene TOML's `[camera]` keys, plus the time.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KeyDoc {
+    t: Option<Spanned<f64>>,
+    eye: Option<Spanned<Vec<f64>>>,
+    look_at: Option<Spanned<Vec<f64>>>,
+    up: Option<Spanned<Vec<f64>>>,
+    fov: Option<Spanned<f64>>,
+    width: Option<Spanned<toml::Value>>,
+    height: Option<Spanned<toml::Value>>,
+}
+
+type Located = (std::ops::Range<usize>, String);
+
+fn vec3(v: &Spanned<Vec<f64>>, key: &str) -> Result<DVec3, Located> {
+    let bad = |m: String| (v.span(), m);
+    let a = <[f64; 3]>::try_from(v.get_ref().as_slice())
+        .map_err(|_| bad(format!("`{key}` needs 3 numbers, found {}", v.get_ref().len())))?;
+    match a.iter().find(|x| !x.is_finite()) {
+        Some(x) => Err(bad(format!("`{key}` contains {x}; numbers must be finite"))),
+        None => Ok(DVec3::from_array(a)),
+    }
+}
+
+/// Why `eye`/`look_at`/`up`/`fov` make no view (the criteria of `Scene::validate`, with a
+/// tolerance: an interpolated view that is nearly degenerate is as useless as one that is).
+fn degenerate(eye: DVec3, look_at: DVec3, up: DVec3, fov: f64) -> Option<&'static str> {
+    let w = look_at - eye;
+    if !(fov > 0.0 && fov < 180.0) {
+        Some("`fov` must be between 0 and 180 degrees")
+    } else if w.length_squared() <= 1e-18 * (eye.length_squared() + look_at.length_squared()).max(1.0) {
+        Some("`look_at` equals `eye`: the view direction is undefined")
+    } else if w.cross(up).length_squared() <= 1e-12 * w.length_squared() * up.length_squared() {
+        Some("`up` is zero or parallel to the view direction")
+    } else {
+        None
+    }
+}
+
+impl CameraPath {
+    /// Reads and checks a path file.
+    pub fn load(path: &Path) -> Result<Self, LoadError> {
+        let origin = path.display().to_string();
+        let bytes = crate::io::read_limited(path, MAX_PATH_FILE_BYTES, "camera path file")
+            .map_err(|m| LoadError::new(&origin, m))?;
+        let src = std::str::from_utf8(&bytes).map_err(|e| {
+            let valid = std::str::from_utf8(&bytes[..e.valid_up_to()]).unwrap_or_default();
+            LoadError::at(&origin, valid, valid.len(), "the file is not valid UTF-8 text")
+        })?;
+        Self::parse_str(src, &origin)
+    }
+
+    /// Parses and checks a path; errors name `origin`, line and column.
+    pub fn parse_str(src: &str, origin: &str) -> Result<Self, LoadError> {
+        let doc: PathDoc = toml::from_str(src).map_err(|e| match e.span() {
+            Some(span) => LoadError::at(origin, src, span.start, e.message().trim_end()),
+            None => LoadError::new(origin, e.message().trim_end()),
+        })?;
+        let at = |(span, m): Located| LoadError::at(origin, src, span.start, m);
+        let mut keys: Vec<CameraKey> = Vec::with_capacity(doc.key.len());
+        for table in &doc.key {
+            let k = table.get_ref();
+            let span = table.span();
+            let line = crate::io::line_column(src, span.start).0;
+            if let Some(v) = k.width.as_ref().or(k.height.as_ref()) {
+                return Err(at((
+                    v.span(),
+                    "a path key takes no image size: it comes from the scene or --width/--height".into(),
+                )));
+            }
+            let need = |name: &str| at((span.clone(), format!("a [[key]] needs `{name}`")));
+            let t = k.t.as_ref().ok_or_else(|| need("t"))?;
+            let eye = vec3(k.eye.as_ref().ok_or_else(|| need("eye"))?, "eye").map_err(at)?;
+            let look_at = vec3(k.look_at.as_ref().ok_or_else(|| need("look_at"))?, "look_at").map_err(at)?;
+            let up = k.up.as_ref().map_or(Ok(DVec3::Y), |u| vec3(u, "up")).map_err(at)?;
+            let fov = k.fov.as_ref().map_or(crate::io::toml::DEFAULT_FOV_DEG, |f| *f.get_ref());
+            let tv = *t.get_ref();
+            match keys.last() {
+                _ if !tv.is_finite() => return Err(at((t.span(), format!("`t` = {tv} must be finite")))),
+                None if tv != 0.0 => {
+                    return Err(at((t.span(), format!("the first key must be at t = 0, not {tv}"))))
+                }
+                Some(prev) if tv <= prev.t => {
+                    return Err(at((
+                        t.span(),
+                        format!(
+                            "key times must increase: t = {tv} is not after {} (line {})",
+                            prev.t, prev.line
+                        ),
+                    )))
+                }
+                _ => {}
+            }
+            if let Some(m) = degenerate(eye, look_at, up, fov) {
+                let place = match (m.starts_with("`fov`"), &k.fov) {
+                    (true, Some(f)) => f.span(),
+                    _ => span.clone(),
+                };
+                return Err(at((place, m.into())));
+            }
+            let key = CameraKey { t: tv, eye, look_at, up, fov, line };
+            // Between two valid keys the interpolated view can still degenerate (eye passing
+            // through look_at, up turning through the view direction): sample the segment.
+            if let Some(prev) = keys.last() {
+                for i in 1..64 {
+                    let s = i as f64 / 64.0;
+                    let c = lerp_key(prev, &key, s);
+                    if let Some(m) = degenerate(c.eye, c.look_at, c.up, c.fov) {
+                        return Err(at((
+                            span.clone(),
+                            format!(
+                                "between this key and the one on line {} the view degenerates near t = {}: {m}",
+                                prev.line,
+                                prev.t + s * (tv - prev.t)
+                            ),
+                        )));
+                    }
+                }
+            }
+            keys.push(key);
+        }
+        if keys.len() < 2 {
+            return Err(LoadError::new(
+                origin,
+                format!(
+                    "a camera path needs at least 2 [[key]] tables (t, eye, look_at), found {}",
+                    keys.len()
+                ),
+            ));
+        }
+        Ok(CameraPath { keys, origin: origin.into() })
+    }
+
+    /// Seconds from the first key to the last.
+    pub fn duration(&self) -> f64 {
+        self.keys.last().map_or(0.0, |k| k.t)
+    }
+
+    /// The camera at time `t` (clamped to the path), for an image of `width` × `height`.
+    pub fn camera_at(&self, t: f64, width: u32, height: u32) -> Camera {
+        let i = self.keys.partition_point(|k| k.t <= t).clamp(1, self.keys.len() - 1);
+        let (a, b) = (&self.keys[i - 1], &self.keys[i]);
+        let s = ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0);
+        let k = lerp_key(a, b, s);
+        Camera { eye: k.eye, look_at: k.look_at, up: k.up, vfov_deg: k.fov, width, height }
+    }
+}
+
+fn lerp_key(a: &CameraKey, b: &CameraKey, s: f64) -> CameraKey {
+    // Exact at the ends, so a key's own camera (and a rest between equal keys) is bit-exact.
+    let l = |x: DVec3, y: DVec3| if s == 1.0 { y } else { x + (y - x) * s };
+    CameraKey {
+        t: a.t + (b.t - a.t) * s,
+        eye: l(a.eye, b.eye),
+        look_at: l(a.look_at, b.look_at),
+        up: l(a.up, b.up),
+        fov: if s == 1.0 { b.fov } else { a.fov + (b.fov - a.fov) * s },
+        line: b.line,
+    }
+}
+
+// ---- The replay ----------------------------------------------------------------------------
+
+/// How a replay runs and what it records.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReplayOptions {
+    pub clock: Clock,
+    /// Display refreshes (and input reads) per second of clock time.
+    pub display_hz: f64,
+    /// Measure the dynamic error at every `error_every`-th refresh (0: never; each costs a whole
+    /// single-sample render of that instant's camera).
+    pub error_every: u32,
+    /// Write every present as `DIR/frame_0000.png`, … (atomically).
+    pub frames_dir: Option<PathBuf>,
+    /// A progress bar on stderr.
+    pub progress: bool,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        ReplayOptions {
+            clock: Clock::Real,
+            display_hz: DEFAULT_DISPLAY_HZ,
+            error_every: 0,
+            frames_dir: None,
+            progress: false,
+        }
+    }
+}
+
+/// The screen at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Clock time, seconds.
+    pub t: f64,
+    pub age: AgeStats,
+    /// Dynamic error (display-space RMSE against the ideal image of the camera at `t`), where
+    /// measured.
+    pub error: Option<f64>,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ErrorStats {
+    pub mean: f64,
+    pub max: f64,
+    pub samples: usize,
+}
+
+/// Wall-clock measurements of a replay: the device's real speed whatever the clock, and not
+/// repeatable.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WallTimes {
+    /// All dispatches together.
+    pub trace: Duration,
+    /// The median over work units (frameless slices, conventional frames) of wall time per
+    /// pixel: steadier than the total on a loaded machine, where another process stalls a
+    /// dispatch now and then, but biased toward short units (a stall lands in few of many short
+    /// slices and the median skips them, while every long frame takes its share), so modes are
+    /// compared by the total.
+    pub median_s_per_pixel: f64,
+}
+
+/// What a replay measured. Everything but `wall` is a function of the clock's times, so on a
+/// virtual clock two runs give equal reports.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReplayReport {
+    pub clock: Clock,
+    pub size: [u32; 2],
+    /// The path's duration; the means below are over presents and refreshes up to it.
+    pub duration: f64,
+    /// Each new picture: frameless, the presents at the display rate; conventional, each
+    /// finished frame (the age of a frame at its present is its trace time).
+    pub presents: Vec<Sample>,
+    /// The display's refreshes up to `duration`: frameless, the presents; conventional, every
+    /// refresh instant, showing the last presented frame (what a viewer sees).
+    pub refreshes: Vec<Sample>,
+    pub latency: LatencyStats,
+    pub age_at_presents: AgeStats,
+    pub age_at_refreshes: AgeStats,
+    pub dynamic_error: Option<ErrorStats>,
+    pub steps: u64,
+    /// Conventional frames or frameless passes completed.
+    pub frames: u64,
+    /// Pixel values written (frameless positions that name pixels; conventional whole frames).
+    pub pixels: u64,
+    pub eye_rays: u64,
+    /// Clock time at the end (the path plus the rest until every input reached the screen).
+    pub clock_time: f64,
+    pub wall: WallTimes,
+}
+
+impl ReplayReport {
+    /// Pixel values written per second of all the dispatches' wall time.
+    pub fn pixel_updates_per_s(&self) -> f64 {
+        self.pixels as f64 / self.wall.trace.as_secs_f64().max(1e-12)
+    }
+
+    /// Pixel values written per second of dispatch wall time, from the median work unit (see
+    /// [`WallTimes::median_s_per_pixel`]).
+    pub fn median_pixel_updates_per_s(&self) -> f64 {
+        1.0 / self.wall.median_s_per_pixel.max(1e-15)
+    }
+
+    /// The report without its wall times: what two runs on a virtual clock agree on.
+    pub fn without_wall_times(&self) -> ReplayReport {
+        ReplayReport { wall: WallTimes::default(), ..self.clone() }
+    }
+}
+
+/// The ideal images: a second session (same scene upload, same settings, conventional, one
+/// sample), rendering whole frames of any camera.
+struct Ideal {
+    session: Session,
+    last: Option<(Camera, Image)>,
+}
+
+impl Ideal {
+    fn new(ctx: &GpuContext, scene: &Scene, settings: &Settings) -> Result<Self, String> {
+        let settings = Settings { mode: Mode::conventional(), max_samples: 1, ..settings.clone() };
+        Ok(Ideal { session: Session::new(ctx, scene, settings)?, last: None })
+    }
+
+    fn image(&mut self, ctx: &GpuContext, camera: &Camera) -> &Image {
+        if self.last.as_ref().is_none_or(|(c, _)| c != camera) {
+            self.session.set_camera(ctx, camera);
+            self.session.complete_pass(ctx);
+            self.last = Some((camera.clone(), self.session.read_image(ctx)));
+        }
+        &self.last.as_ref().expect("just rendered").1
+    }
+}
+
+struct Replayer<'a> {
+    ctx: &'a GpuContext,
+    path: &'a CameraPath,
+    opts: &'a ReplayOptions,
+    size: [u32; 2],
+    session: Session,
+    ideal: Option<Ideal>,
+    screen: AgeTracker,
+    latency: LatencyTracker,
+    end: f64,
+    period: f64,
+    /// The next input instant to read (index k: time k · period).
+    next_input: u64,
+    refresh_count: u64,
+    presents: Vec<Sample>,
+    refreshes: Vec<Sample>,
+    /// Conventional: the presented frame (kept only to measure the error between presents).
+    held: Option<Image>,
+    frames_written: u64,
+}
+
+impl Replayer<'_> {
+    fn camera(&self, t: f64) -> Camera {
+        self.path.camera_at(t, self.size[0], self.size[1])
+    }
+
+    /// Reads the inputs up to `t`: one event per refresh instant at which the camera changed.
+    fn read_inputs(&mut self, t: f64) {
+        loop {
+            // k / rate rather than k · period: the instants land exactly on key times.
+            let at = |k: u64| k as f64 / self.opts.display_hz;
+            let t0 = at(self.next_input);
+            if t0 > t || t0 > self.end {
+                return;
+            }
+            if self.next_input > 0 && self.camera(t0) != self.camera(at(self.next_input - 1)) {
+                self.latency.input(t0);
+            }
+            self.next_input += 1;
+        }
+    }
+
+    /// Every input up to the path's end has been read and has reached the whole screen.
+    fn settled(&self) -> bool {
+        self.next_input as f64 / self.opts.display_hz > self.end && self.latency.pending() == 0
+    }
+
+    /// Whether the refresh being counted now measures the dynamic error.
+    fn error_due(&mut self, t: f64) -> bool {
+        let k = self.refresh_count;
+        self.refresh_count += 1;
+        t <= self.end && self.opts.error_every > 0 && k.is_multiple_of(self.opts.error_every as u64)
+    }
+
+    fn error_of(&mut self, shown: &Image, t: f64) -> f64 {
+        let camera = self.camera(t);
+        let ideal = self.ideal.as_mut().expect("error_every > 0 made the ideal session");
+        crate::metrics::rmse(shown, ideal.image(self.ctx, &camera))
+    }
+
+    /// A new picture at `t`.
+    fn present(&mut self, t: f64) -> Result<(), String> {
+        self.read_inputs(t);
+        self.latency.present(t, &self.screen);
+        let age = self.screen.stats(t);
+        if t <= self.end {
+            self.presents.push(Sample { t, age, error: None });
+        }
+        if let Some(dir) = &self.opts.frames_dir {
+            let file = dir.join(format!("frame_{:04}.png", self.frames_written));
+            self.session
+                .read_image(self.ctx)
+                .save_png(&file)
+                .map_err(|e| format!("writing {}: {e}", file.display()))?;
+            self.frames_written += 1;
+        }
+        Ok(())
+    }
+
+    /// Frameless: a present is a refresh.
+    fn present_frameless(&mut self, t: f64) -> Result<(), String> {
+        self.present(t)?;
+        if t <= self.end {
+            let error = if self.error_due(t) {
+                let shown = self.session.read_image(self.ctx);
+                Some(self.error_of(&shown, t))
+            } else {
+                None
+            };
+            self.refreshes.push(Sample { t, age: self.screen.stats(t), error });
+        }
+        Ok(())
+    }
+
+    /// Conventional: a refresh at `t` shows the frame presented last.
+    fn refresh_conventional(&mut self, t: f64) {
+        self.read_inputs(t);
+        if t > self.end {
+            return;
+        }
+        let error = if self.error_due(t) {
+            let shown = self.held.take().expect("the presented frame is kept while errors are measured");
+            let e = self.error_of(&shown, t);
+            self.held = Some(shown);
+            Some(e)
+        } else {
+            None
+        };
+        self.refreshes.push(Sample { t, age: self.screen.stats(t), error });
+    }
+}
+
+/// Runs `settings`' mode over `path` on `scene` (its camera's width and height; the rest of its
+/// camera is the path's) and measures it; see the module documentation.
+pub fn replay(
+    ctx: &GpuContext,
+    scene: &Scene,
+    settings: &Settings,
+    path: &CameraPath,
+    opts: &ReplayOptions,
+) -> Result<ReplayReport, String> {
+    if !(opts.display_hz.is_finite() && opts.display_hz > 0.0) {
+        return Err(format!("the display rate must be a number of Hz > 0, not {}", opts.display_hz));
+    }
+    let mut scene = scene.clone();
+    let size = [scene.camera.width, scene.camera.height];
+    // Both sessions upload positions relative to the first camera's eye, so a frame of the
+    // same camera is the same bit for bit in each.
+    scene.camera = path.camera_at(0.0, size[0], size[1]);
+    let session = Session::new(ctx, &scene, settings.clone())?;
+    let ideal = if opts.error_every > 0 { Some(Ideal::new(ctx, &scene, settings)?) } else { None };
+    if let Some(dir) = &opts.frames_dir {
+        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    }
+    let conventional = matches!(settings.mode, Mode::Conventional { .. });
+    let pixels = size[0] as u64 * size[1] as u64;
+    let mut r = Replayer {
+        ctx,
+        path,
+        opts,
+        size,
+        screen: AgeTracker::new(if conventional { pixels } else { session.pass_len() }, 0.0),
+        session,
+        ideal,
+        latency: LatencyTracker::default(),
+        end: path.duration(),
+        period: 1.0 / opts.display_hz,
+        next_input: 0,
+        refresh_count: 0,
+        presents: Vec::new(),
+        refreshes: Vec::new(),
+        held: None,
+        frames_written: 0,
+    };
+    // Warm start: the first camera's picture is on screen at t = 0.
+    r.session.complete_pass(ctx);
+    if r.ideal.is_some() && conventional {
+        r.held = Some(r.session.read_image(ctx));
+    }
+    let bar = if opts.progress {
+        let bar = indicatif::ProgressBar::new((r.end * 1000.0).ceil() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} replaying {pos}/{len} ms of clock time [{bar:30}] {elapsed_precise}",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let limit = r.end * 20.0 + 120.0;
+    let (mut now, mut next_refresh) = (0.0f64, r.period);
+    let (mut steps, mut frames, mut pixels_done, mut eye_rays) = (0u64, 0u64, 0u64, 0u64);
+    let mut trace_wall = Duration::ZERO;
+    // (pixels, wall time) of each slice or frame, and the waves of the frame in flight.
+    let mut units: Vec<(u64, Duration)> = Vec::new();
+    let mut frame_wall = Duration::ZERO;
+    let mut in_frame = false;
+    let mut frame_start = 0.0;
+    loop {
+        if now > limit {
+            return Err(format!("the replay did not settle within {limit:.0} s of clock time"));
+        }
+        let t_camera = now;
+        if !conventional {
+            let c = r.camera(now);
+            r.session.set_camera(ctx, &c);
+        } else if !in_frame {
+            let c = r.camera(now);
+            r.session.set_camera(ctx, &c);
+            frame_start = now;
+            in_frame = true;
+        }
+        let step = r.session.step(ctx);
+        if step.idle {
+            // Converged at rest: nothing to trace until the next refresh.
+            in_frame = false;
+            if r.settled() {
+                break;
+            }
+            now = now.max(next_refresh);
+            if conventional {
+                r.refresh_conventional(now);
+            } else {
+                r.present_frameless(now)?;
+            }
+            next_refresh = now + r.period;
+            continue;
+        }
+        steps += 1;
+        now += opts.clock.cost(&step);
+        trace_wall += step.trace_time;
+        frame_wall += step.trace_time;
+        if !conventional || step.frame_done {
+            units.push((step.pixels, std::mem::take(&mut frame_wall)));
+        }
+        pixels_done += step.pixels;
+        eye_rays += step.eye_rays;
+        frames += step.frame_done as u64;
+        bar.set_position((now.min(r.end) * 1000.0) as u64);
+        if conventional {
+            // Refreshes while this wave ran showed the frame presented before.
+            while next_refresh < now {
+                r.refresh_conventional(next_refresh);
+                next_refresh += r.period;
+            }
+            if step.frame_done {
+                in_frame = false;
+                r.screen.record_frame(frame_start);
+                r.present(now)?;
+                if r.ideal.is_some() {
+                    r.held = Some(r.session.read_image(ctx));
+                }
+            }
+        } else {
+            let slice = step.slice.expect("frameless steps report their slice");
+            r.screen.record_slice(t_camera, slice.len);
+            if now >= next_refresh {
+                r.present_frameless(now)?;
+                while next_refresh <= now {
+                    next_refresh += r.period;
+                }
+            }
+        }
+        if !in_frame && r.settled() {
+            break;
+        }
+    }
+    bar.finish_and_clear();
+    let errors: Vec<f64> = r.refreshes.iter().filter_map(|s| s.error).collect();
+    let dynamic_error = (!errors.is_empty()).then(|| ErrorStats {
+        mean: errors.iter().sum::<f64>() / errors.len() as f64,
+        max: errors.iter().copied().fold(0.0, f64::max),
+        samples: errors.len(),
+    });
+    let ages = |s: &[Sample]| AgeStats::summarise(&s.iter().map(|s| s.age).collect::<Vec<_>>());
+    Ok(ReplayReport {
+        clock: opts.clock,
+        size,
+        duration: r.end,
+        age_at_presents: ages(&r.presents),
+        age_at_refreshes: ages(&r.refreshes),
+        latency: r.latency.stats(),
+        presents: r.presents,
+        refreshes: r.refreshes,
+        dynamic_error,
+        steps,
+        frames,
+        pixels: pixels_done,
+        eye_rays,
+        clock_time: now,
+        wall: WallTimes { trace: trace_wall, median_s_per_pixel: median_per_pixel(&units) },
+    })
+}
+
+/// The median of the units' seconds per pixel (units without pixels left out).
+fn median_per_pixel(units: &[(u64, Duration)]) -> f64 {
+    let mut v: Vec<f64> =
+        units.iter().filter(|u| u.0 > 0).map(|(n, t)| t.as_secs_f64() / *n as f64).collect();
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Seconds per pixel of `settings`' shadows and depth on `scene` as a conventional frame (the
+/// default schedule) takes them on `ctx`: the median of `frames` frames after one untimed one.
+/// What a virtual clock charges to compare modes at the device's real rate.
+pub fn calibrate(ctx: &GpuContext, scene: &Scene, settings: &Settings, frames: u32) -> Result<f64, String> {
+    let settings = Settings { mode: Mode::conventional(), max_samples: 0, ..settings.clone() };
+    let mut s = Session::new(ctx, scene, settings)?;
+    s.complete_pass(ctx);
+    let mut times: Vec<Duration> = (0..frames.max(1)).map(|_| s.complete_pass(ctx)).collect();
+    times.sort();
+    let [w, h] = s.size();
+    Ok(times[times.len() / 2].as_secs_f64() / (w as f64 * h as f64))
+}
+
+// ---- The command ---------------------------------------------------------------------------
+
+/// `--clock`: `real`, `virtual` (calibrated: ns per pixel of a conventional frame measured
+/// first) or `virtual:NS`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ClockArg {
+    Calibrated,
+    Given(Clock),
+}
+
+impl FromStr for ClockArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "virtual" {
+            Ok(ClockArg::Calibrated)
+        } else {
+            s.parse().map(ClockArg::Given).map_err(|e| format!("{e}, or virtual (calibrated)"))
+        }
+    }
+}
+
+/// `irt replay PATH.toml [SCENE]`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct ReplayArgs {
+    /// Camera path: a TOML file of [[key]] tables (t, eye, look_at, optional up and fov, as in a
+    /// scene's [camera]); see scenes/paths/orbit.toml.
+    pub path: PathBuf,
+    /// Scene file (.toml, .gltf, .glb, .nff); the built-in default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Image width in pixels (overrides the scene's camera).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels (overrides the scene's camera).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// The dispatch mode (frameless unless --mode says otherwise) and its parameters, as
+    /// `irt render` and `irt view` spell them.
+    #[command(flatten)]
+    pub mode: super::ModeArgs,
+    /// Clock: real (measured dispatch time), virtual (a fixed cost per traced pixel, calibrated
+    /// from a conventional frame first: modes compare at equal rays/s, and runs repeat exactly)
+    /// or virtual:NS (NS nanoseconds per pixel).
+    #[arg(long, default_value = "virtual", value_name = "CLOCK")]
+    pub clock: ClockArg,
+    /// Display refreshes and input reads per second of clock time.
+    #[arg(long, default_value_t = DEFAULT_DISPLAY_HZ, value_name = "HZ")]
+    pub rate: f64,
+    /// Refinement stops after this many samples per pixel (1: none, so a picture that keeps up
+    /// with the camera has zero dynamic error).
+    #[arg(long, default_value_t = 1)]
+    pub max_samples: u32,
+    /// Measure the dynamic error at every K-th refresh (0: not at all; each costs a whole frame).
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub error_every: u32,
+    /// Write every present as DIR/frame_0000.png, …
+    #[arg(long, value_name = "DIR")]
+    pub frames: Option<PathBuf>,
+    /// Write every present and refresh (time, ages, error) as CSV.
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Shadow mode (overrides the scene's [trace] shadows).
+    #[arg(long, value_name = "MODE")]
+    pub shadows: Option<ShadowMode>,
+    /// Vulkan adapter: "lavapipe" (default), "gpu", or part of a device name (also $IRT_ADAPTER).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+    /// Do not read or write the on-disk pipeline cache.
+    #[arg(long)]
+    pub no_cache: bool,
+}
+
+impl ReplayArgs {
+    /// The settings the arguments describe.
+    pub fn settings(&self) -> anyhow::Result<Settings> {
+        let mode = self.mode.mode().map_err(anyhow::Error::msg)?.unwrap_or(Mode::Frameless {
+            order: self.mode.order,
+            slice: self.mode.slice,
+            present_every: 0,
+            blend: self.mode.blend,
+            jitter_pairs: self.mode.jitter_pairs,
+        });
+        Ok(Settings { mode, shadows: self.shadows, max_samples: self.max_samples, ..Settings::default() })
+    }
+
+    /// The scene the arguments name, sized.
+    pub fn scene(&self) -> anyhow::Result<Scene> {
+        use anyhow::Context;
+        let mut scene = match &self.scene {
+            Some(p) => crate::io::load(p)?,
+            None => crate::scene::default_scene(),
+        };
+        if let Some(w) = self.width {
+            scene.camera.width = w;
+        }
+        if let Some(h) = self.height {
+            scene.camera.height = h;
+        }
+        let name = self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+        scene.validate().with_context(|| format!("{name} cannot be rendered"))?;
+        Ok(scene)
+    }
+}
+
+/// Runs `irt replay`: loads the path and scene, replays, prints what was measured.
+pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
+    let path = CameraPath::load(&args.path)?;
+    let scene = args.scene()?;
+    let settings = args.settings()?;
+    let ctx = GpuContext::with_cache(
+        &AdapterChoice::from_arg_or_env(args.adapter.as_deref()),
+        &CacheSetting::from_flag_or_env(args.no_cache),
+    )?;
+    let clock = match args.clock {
+        ClockArg::Given(c) => c,
+        ClockArg::Calibrated => {
+            let mut s = scene.clone();
+            s.camera = path.camera_at(0.0, scene.camera.width, scene.camera.height);
+            let spp = calibrate(&ctx, &s, &settings, 3).map_err(anyhow::Error::msg)?;
+            Clock::Virtual { seconds_per_pixel: spp }
+        }
+    };
+    let opts = ReplayOptions {
+        clock,
+        display_hz: args.rate,
+        error_every: args.error_every,
+        frames_dir: args.frames.clone(),
+        progress: true,
+    };
+    let t = Instant::now();
+    let report = replay(&ctx, &scene, &settings, &path, &opts).map_err(anyhow::Error::msg)?;
+    let scene_name = args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), &ctx));
+    eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());
+    if let Some(csv) = &args.csv {
+        crate::image::write_atomic(csv, samples_csv(&report).as_bytes())?;
+        eprintln!("wrote {}", csv.display());
+    }
+    Ok(())
+}
+
+fn ms(s: f64) -> String {
+    format!("{:.1} ms", s * 1e3)
+}
+
+/// What `irt replay` prints.
+pub fn summary(r: &ReplayReport, mode: &Mode, what: &str, ctx: &GpuContext) -> String {
+    let mut out = String::new();
+    let [w, h] = r.size;
+    let _ = writeln!(out, "replay     {what}, {w}x{h}, {mode}");
+    let _ = writeln!(out, "device     {} ({})", ctx.info.name, ctx.info.driver_info);
+    let clock = match r.clock {
+        Clock::Real => "real (measured dispatch time)".to_string(),
+        Clock::Virtual { seconds_per_pixel } => {
+            format!("virtual, {:.1} ns per traced pixel", seconds_per_pixel * 1e9)
+        }
+    };
+    let _ = writeln!(out, "clock      {clock}; path {:.2} s, run to {:.2} s", r.duration, r.clock_time);
+    let _ = writeln!(
+        out,
+        "work       {} steps, {} frames/passes, {} presents, {} refreshes",
+        r.steps,
+        r.frames,
+        r.presents.len(),
+        r.refreshes.len()
+    );
+    let _ = writeln!(
+        out,
+        "speed      {:.3} M pixel updates/s over {:.2} s of dispatches (real; {:.3} in the median slice or frame)",
+        r.pixel_updates_per_s() / 1e6,
+        r.wall.trace.as_secs_f64(),
+        r.median_pixel_updates_per_s() / 1e6
+    );
+    let l = &r.latency;
+    let levels: Vec<String> =
+        (0..4).map(|i| format!("{} {} / {}", LATENCY_LEVELS[i], ms(l.mean[i]), ms(l.max[i]))).collect();
+    let _ = writeln!(out, "latency    (mean / max of {} inputs) {}", l.inputs, levels.join(", "));
+    for (name, a) in [("at presents", &r.age_at_presents), ("at refreshes", &r.age_at_refreshes)] {
+        let _ = writeln!(out, "pixel age  {name}: mean {}, p90 {}, max {}", ms(a.mean), ms(a.p90), ms(a.max));
+    }
+    if let Some(e) = &r.dynamic_error {
+        let _ = writeln!(
+            out,
+            "dyn. error RMSE (display space) mean {:.4}, max {:.4} over {} refreshes",
+            e.mean, e.max, e.samples
+        );
+    }
+    out
+}
+
+/// Every present and refresh as CSV: `kind,t,age_mean,age_p90,age_max,error`.
+pub fn samples_csv(r: &ReplayReport) -> String {
+    let mut out = String::from("kind,t,age_mean,age_p90,age_max,error\n");
+    for (kind, list) in [("present", &r.presents), ("refresh", &r.refreshes)] {
+        for s in list {
+            let e = s.error.map_or(String::new(), |e| format!("{e:.6}"));
+            let _ =
+                writeln!(out, "{kind},{:.6},{:.6},{:.6},{:.6},{e}", s.t, s.age.mean, s.age.p90, s.age.max);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TWO_KEYS: &str = "[[key]]\nt = 0\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\n\n[[key]]\nt = 2.0\neye = [5, 1, 0]\nlook_at = [0, 0, 0]\nfov = 60\n";
+
+    fn err(src: &str) -> String {
+        CameraPath::parse_str(src, "p.toml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn paths_interpolate_between_keys() {
+        let p = CameraPath::parse_str(TWO_KEYS, "p.toml").unwrap();
+        assert_eq!(p.duration(), 2.0);
+        assert_eq!(p.keys[0].line, 1);
+        assert_eq!(p.keys[1].line, 6);
+        let c = p.camera_at(1.0, 64, 48);
+        assert_eq!((c.eye, c.vfov_deg, c.up), (DVec3::new(2.5, 1.0, 2.5), 52.5, DVec3::Y));
+        assert_eq!((c.width, c.height), (64, 48));
+        assert_eq!(p.camera_at(-1.0, 1, 1).eye, p.keys[0].eye);
+        assert_eq!(p.camera_at(9.0, 1, 1).eye, p.keys[1].eye);
+        assert_eq!(p.camera_at(2.0, 1, 1).vfov_deg, 60.0);
+    }
+
+    #[test]
+    fn bad_paths_name_file_line_and_column() {
+        let cases = [
+            ("[[key]]\nt = 0\neye = [0, 1]\nlook_at = [0, 0, 0]\n", "p.toml:3:7: `eye` needs 3 numbers, found 2"),
+            ("[[key]]\nt = 0.5\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\n", "p.toml:2:5: the first key must be at t = 0"),
+            (
+                "[[key]]\nt = 0\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\n[[key]]\nt = 0\neye = [1, 1, 5]\nlook_at = [0, 0, 0]\n",
+                "p.toml:6:5: key times must increase: t = 0 is not after 0 (line 1)",
+            ),
+            ("[[key]]\nt = 0\neye = [0, 1, 5]\n", "p.toml:1:1: a [[key]] needs `look_at`"),
+            ("[[key]]\nt = 0\neye = [0, 1, 5]\nlook_at = [0, 1, 5]\n", "p.toml:1:1: `look_at` equals `eye`"),
+            ("[[key]]\nt = 0\neye = [0, 5, 0]\nlook_at = [0, 0, 0]\n", "p.toml:1:1: `up` is zero or parallel"),
+            ("[[key]]\nt = 0\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\nfov = 180\n", "p.toml:5:7: `fov` must be between"),
+            ("[[key]]\nt = 0\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\nwidth = 3\n", "p.toml:5:9: a path key takes no image size"),
+            ("[[key]]\nt = 0\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\nzoom = 3\n", "p.toml:5:1: unknown field `zoom`"),
+            ("[[key]]\nt = 0\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\n", "p.toml: a camera path needs at least 2 [[key]] tables"),
+            ("[[key]\n", "p.toml:1:"),
+            (
+                // The eye passes through look_at half way.
+                "[[key]]\nt = 0\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\n[[key]]\nt = 1\neye = [0, 0, -5]\nlook_at = [0, 0, 0]\n",
+                "p.toml:5:1: between this key and the one on line 1 the view degenerates near t = 0.5",
+            ),
+        ];
+        for (src, want) in cases {
+            let got = err(src);
+            assert!(got.starts_with(want), "{src:?}:\n got  {got}\n want {want}…");
+        }
+    }
+
+    #[test]
+    fn the_shipped_paths_load() {
+        for p in ["scenes/paths/orbit.toml", "scenes/paths/balls.toml"] {
+            let path = CameraPath::load(Path::new(env!("CARGO_MANIFEST_DIR")).join(p).as_path()).unwrap();
+            assert!(path.duration() >= 2.0, "{p}");
+        }
+    }
+
+    #[test]
+    fn clock_arguments_parse() {
+        assert_eq!("virtual".parse::<ClockArg>().unwrap(), ClockArg::Calibrated);
+        assert_eq!("real".parse::<ClockArg>().unwrap(), ClockArg::Given(Clock::Real));
+        assert!("fast".parse::<ClockArg>().unwrap_err().contains("virtual (calibrated)"));
+    }
+}
