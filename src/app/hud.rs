@@ -1,8 +1,8 @@
 //! The HUD: what the loop measured ([`Stats`]) and the live switches, drawn with egui. The
 //! drawing returns what the user asked for ([`HudRequest`]); the viewer applies it.
 
-use super::age::AgeStats;
 use super::KEYS;
+use crate::render::metrics::AgeStats;
 use crate::render::{Mode, PixelOrder};
 use crate::scene::ShadowMode;
 use std::collections::VecDeque;

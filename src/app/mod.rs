@@ -3,7 +3,6 @@
 //! ([`blit`]), a camera controller ([`camera`], pure math), an egui HUD ([`hud`]) and the loop
 //! ([`viewer`]). `--frames N --screenshot FILE` is its headless-like twin for scripts and tests.
 
-pub mod age;
 pub mod blit;
 pub mod camera;
 pub mod hud;

@@ -12,12 +12,12 @@
 //! - frameless: slices until about one display interval ([`FRAME_BUDGET`]) is spent (at least
 //!   one; or exactly `present_every` slices when that is set), then a present.
 
-use super::age::SliceAges;
 use super::blit::Blit;
 use super::camera::{camera_toml, scene_bounds, CameraController, FlyInput};
 use super::hud::{self, HudRequest, HudView, Stats, SCALES, SHADOW_CHOICES};
 use super::ViewArgs;
 use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
+use crate::render::metrics::AgeTracker;
 use crate::render::{Mode, Session, Settings};
 use crate::scene::{Camera, Scene, MAX_TRACE_DEPTH};
 use anyhow::{anyhow, Context as _, Result};
@@ -231,7 +231,7 @@ struct Viewer {
     cancelled: bool,
     presents: u64,
     stats: Stats,
-    ages: SliceAges,
+    ages: AgeTracker,
     status: String,
     status_until: Option<Instant>,
     gpu_error: Arc<Mutex<Option<String>>>,
@@ -347,7 +347,7 @@ impl Viewer {
         let renderer =
             egui_wgpu::Renderer::new(&ctx.device, hud_format, egui_wgpu::RendererOptions::default());
         let now = Instant::now();
-        let ages = SliceAges::new(session.pass_len());
+        let ages = AgeTracker::new(session.pass_len(), 0.0);
         let v = Viewer {
             args: args.clone(),
             window,
@@ -744,8 +744,9 @@ impl Viewer {
             self.session.set_size(&self.ctx, rw, rh).map_err(|e| anyhow!(e))?;
             self.waves_in_flight = 0;
         }
-        if self.ages.window() != self.session.pass_len() {
-            self.ages.reset(self.session.pass_len());
+        if self.ages.pass_len() != self.session.pass_len() {
+            let now = (Instant::now() - self.start).as_secs_f64();
+            self.ages = AgeTracker::new(self.session.pass_len(), now);
         }
         if changed && !hold {
             self.session.set_camera(&self.ctx, &camera);
@@ -821,7 +822,7 @@ impl Viewer {
         let now = Instant::now();
         self.stats.step(now, r.eye_rays, r.pixels, r.trace_time);
         if let Some(span) = r.slice {
-            self.ages.push(span.len, (now - self.start).as_secs_f64());
+            self.ages.record_slice((now - self.start).as_secs_f64(), span.len);
         }
     }
 
@@ -884,7 +885,7 @@ impl Viewer {
                 max_samples: settings.max_samples,
                 converged: self.session.converged(),
                 age: match settings.mode {
-                    Mode::Frameless { .. } => self.ages.stats((now - self.start).as_secs_f64()),
+                    Mode::Frameless { .. } => Some(self.ages.stats((now - self.start).as_secs_f64())),
                     Mode::Conventional { .. } => None,
                 },
                 speed: self.controller.speed(self.input.speed_modifier()),

@@ -28,13 +28,13 @@ use crate::scene::{Scene, ShadowMode};
 use std::fmt;
 use std::str::FromStr;
 
-/// Frameless slice size by default (docs/interactive.md, slice table): on lavapipe a slice of
-/// 4096 pixels takes about 4 ms at 512², well inside a 60 Hz refresh, so the host loop presents
-/// at the display's full rate and a camera change shows at the next refresh; 1024 was no faster,
-/// 256 lost 13–40% of the pixel rate to per-dispatch overhead, and 16384 can outlast a refresh
-/// (37–54 presents/s at 512²) and was slower in every run. A much faster device wants larger
-/// slices: S should stay a few ms of its work.
-pub const DEFAULT_SLICE: u32 = 4096;
+/// Frameless slice size by default (docs/interactive.md, slice table): on a quiet 2-core machine
+/// with 8×8 Hilbert chunks a slice of 16384 pixels takes about 6 ms at 512² on the default scene,
+/// inside a 60 Hz refresh (presents stay at the display's rate), and traced 28% more pixels per
+/// second than 4096 with a quarter of the dispatches; 256–1024 lose a third or more to
+/// per-dispatch overhead, and from 65536 a slice outlasts a refresh. S should stay a few ms of
+/// the device's work: a much faster device wants larger slices.
+pub const DEFAULT_SLICE: u32 = 16384;
 
 /// How work is handed out.
 #[derive(Clone, Copy, Debug, PartialEq)]

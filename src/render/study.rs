@@ -367,8 +367,13 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             super::DEFAULT_SLICE
         ));
         t += "| order | Mpixel updates/s (real) | latency ms: first / 50% / 90% / 100% | age at presents ms: mean / p90 / max | dynamic error RMSE: mean (max) |\n|---|---|---|---|---|\n";
-        let orders: Vec<PixelOrder> =
-            PixelOrder::ALL.into_iter().chain([PixelOrder::Hilbert { chunk: 16, procs: 16 }]).collect();
+        let orders: Vec<PixelOrder> = PixelOrder::ALL
+            .into_iter()
+            .chain([
+                PixelOrder::Hilbert { chunk: 16, procs: 16 },
+                PixelOrder::Hilbert { chunk: 4, procs: 16 },
+            ])
+            .collect();
         say("orders: speed".into());
         let mut runners = orders
             .iter()
