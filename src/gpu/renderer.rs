@@ -37,6 +37,21 @@ pub struct SetupTimings {
     pub pipeline: Duration,
 }
 
+/// The `Tile::pass_range` of each pass over a pixel: one, or a split bundle's (see
+/// `BUNDLE_SAMPLES_PER_PASS`). Every renderer of the crate traces these passes.
+pub fn passes(scene: &Scene) -> Vec<[u32; 4]> {
+    match scene.trace.shadows {
+        ShadowMode::Bundle { samples, .. } if scene.lights.iter().any(|l| l.radius > 0.0) => (0..samples)
+            .step_by(BUNDLE_SAMPLES_PER_PASS as usize)
+            .map(|k0| {
+                let end = k0 + BUNDLE_SAMPLES_PER_PASS;
+                [k0, end, (k0 == 0) as u32, (end >= samples) as u32]
+            })
+            .collect(),
+        _ => vec![Tile::whole([0; 4]).pass_range],
+    }
+}
+
 pub struct Renderer {
     pub grid: Grid,
     pub gpu_scene: GpuScene,
@@ -91,16 +106,7 @@ impl Renderer {
         let out_len = rays[0] as u64 * rays[1] as u64;
         let dispatcher = Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", out_len, &[]);
         let timings = SetupTimings { grid_build: t1 - t0, upload: t2 - t1, pipeline: t2.elapsed() };
-        let passes = match scene.trace.shadows {
-            ShadowMode::Bundle { samples, .. } if scene.lights.iter().any(|l| l.radius > 0.0) => (0..samples)
-                .step_by(BUNDLE_SAMPLES_PER_PASS as usize)
-                .map(|k0| {
-                    let end = k0 + BUNDLE_SAMPLES_PER_PASS;
-                    [k0, end, (k0 == 0) as u32, (end >= samples) as u32]
-                })
-                .collect(),
-            _ => vec![Tile::whole([0; 4]).pass_range],
-        };
+        let passes = passes(scene);
         Ok(Renderer {
             grid,
             gpu_scene,

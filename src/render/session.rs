@@ -9,13 +9,13 @@ use super::{Mode, Settings};
 use crate::accel::Grid;
 use crate::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
 use crate::gpu::layout::{
-    self, Params, Tile, BUNDLE_SAMPLES_PER_PASS, FRAME_ACCUMULATE, FRAME_BLEND, FRAME_JITTER_PAIRS,
-    FRAME_WRITE, LAVAPIPE_LOOP_LIMIT, MAX_CHUNK_TILES, ORDER_DISSOLVE, ORDER_TABLE, TILE_H, TILE_W,
+    self, Params, Tile, FRAME_ACCUMULATE, FRAME_BLEND, FRAME_JITTER_PAIRS, FRAME_WRITE, LAVAPIPE_LOOP_LIMIT,
+    MAX_CHUNK_TILES, ORDER_DISSOLVE, ORDER_TABLE, TILE_H, TILE_W,
 };
 use crate::gpu::shaders::{Kernel, Variant};
 use crate::gpu::GpuContext;
 use crate::image::Image;
-use crate::scene::{Camera, Scene, ShadowMode};
+use crate::scene::{Camera, Scene};
 use glam::DVec3;
 use std::time::{Duration, Instant};
 
@@ -147,7 +147,7 @@ impl Session {
         let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity);
         let mut s = Session {
             base,
-            passes: passes(&scene),
+            passes: crate::gpu::renderer::passes(&scene),
             scene,
             settings,
             origin,
@@ -559,20 +559,6 @@ fn make_dispatcher(ctx: &GpuContext, scene: &GpuScene, variant: Variant, capacit
     let work_len = pixels.max(tx as u64 * ty as u64 + 1).max(Dissolve::new(pixels).jumps().len() as u64);
     let modes = ModeBuffers { work_len, frame_len: pixels };
     Dispatcher::with_modes(ctx, scene, Kernel::Render, variant, "render", pixels, &[], modes)
-}
-
-/// The passes over each pixel: one, or a split bundle's (see `BUNDLE_SAMPLES_PER_PASS`).
-fn passes(scene: &Scene) -> Vec<[u32; 4]> {
-    match scene.trace.shadows {
-        ShadowMode::Bundle { samples, .. } if scene.lights.iter().any(|l| l.radius > 0.0) => (0..samples)
-            .step_by(BUNDLE_SAMPLES_PER_PASS as usize)
-            .map(|k0| {
-                let end = k0 + BUNDLE_SAMPLES_PER_PASS;
-                [k0, end, (k0 == 0) as u32, (end >= samples) as u32]
-            })
-            .collect(),
-        _ => vec![Tile::whole([0; 4]).pass_range],
-    }
 }
 
 // render_queue's workgroup is one tile.
