@@ -313,18 +313,32 @@ impl Dispatcher {
     /// The tile queue's counter: chunks taken so far (past the last chunk once the queue is
     /// empty).
     pub fn read_queue(&self, ctx: &GpuContext) -> u32 {
+        self.read_back(ctx, &[(&self.queue_buf, 16)], |d| bytemuck::cast_slice::<u8, u32>(d)[0])
+    }
+
+    /// Copies `(buffer, bytes)` one after another into the readback buffer, waits, and hands the
+    /// mapped bytes to `read`: the one readback path of every `read*` method.
+    fn read_back<T>(
+        &self,
+        ctx: &GpuContext,
+        copies: &[(&wgpu::Buffer, u64)],
+        read: impl FnOnce(&[u8]) -> T,
+    ) -> T {
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(&self.queue_buf, 0, &self.readback, 0, 16);
+        let mut at = 0;
+        for &(buf, bytes) in copies {
+            if bytes > 0 {
+                enc.copy_buffer_to_buffer(buf, 0, &self.readback, at, bytes);
+            }
+            at += bytes;
+        }
         ctx.queue.submit([enc.finish()]);
-        let slice = self.readback.slice(..16);
+        let slice = self.readback.slice(..at.max(16));
         slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the readback buffer"));
         ctx.wait();
-        let n = {
-            let data = slice.get_mapped_range().expect("readback buffer is mapped");
-            bytemuck::cast_slice::<u8, u32>(&data[..16])[0]
-        };
+        let out = read(&slice.get_mapped_range().expect("readback buffer is mapped")[..at as usize]);
         self.readback.unmap();
-        n
+        out
     }
 
     /// Zeroes the frame buffer (no samples anywhere).
@@ -356,19 +370,7 @@ impl Dispatcher {
 
     /// Reads back the frame buffer.
     pub fn read_frame(&self, ctx: &GpuContext) -> Vec<[f32; 4]> {
-        let bytes = self.frame_len * 16;
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        enc.copy_buffer_to_buffer(&self.frame_buf, 0, &self.readback, 0, bytes);
-        ctx.queue.submit([enc.finish()]);
-        let slice = self.readback.slice(..bytes.max(16));
-        slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the readback buffer"));
-        ctx.wait();
-        let out = {
-            let data = slice.get_mapped_range().expect("readback buffer is mapped");
-            bytemuck::cast_slice(&data[..bytes as usize]).to_vec()
-        };
-        self.readback.unmap();
-        out
+        self.read_back(ctx, &[(&self.frame_buf, self.frame_len * 16)], |d| bytemuck::cast_slice(d).to_vec())
     }
 
     /// Clears the ray counters.
@@ -391,19 +393,9 @@ impl Dispatcher {
     /// Reads back the output buffer and the ray counters.
     pub fn read(&self, ctx: &GpuContext) -> (Vec<[f32; 4]>, RayCounts) {
         let out_bytes = self.out_len * 16;
-        let mut enc = ctx.device.create_command_encoder(&Default::default());
-        if out_bytes > 0 {
-            enc.copy_buffer_to_buffer(&self.out_buf, 0, &self.readback, 0, out_bytes);
-        }
-        enc.copy_buffer_to_buffer(&self.stats_buf, 0, &self.readback, out_bytes, 16);
-        ctx.queue.submit([enc.finish()]);
-        let slice = self.readback.slice(..out_bytes + 16);
-        slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the readback buffer"));
-        ctx.wait();
-        let (out, counts) = {
-            let data = slice.get_mapped_range().expect("readback buffer is mapped");
-            let out: Vec<[f32; 4]> = bytemuck::cast_slice(&data[..out_bytes as usize]).to_vec();
-            let c: &[u32] = bytemuck::cast_slice(&data[out_bytes as usize..]);
+        self.read_back(ctx, &[(&self.out_buf, out_bytes), (&self.stats_buf, 16)], |d| {
+            let out: Vec<[f32; 4]> = bytemuck::cast_slice(&d[..out_bytes as usize]).to_vec();
+            let c: &[u32] = bytemuck::cast_slice(&d[out_bytes as usize..]);
             let counts = RayCounts {
                 eye: c[0] as u64,
                 reflection: c[1] as u64,
@@ -411,8 +403,6 @@ impl Dispatcher {
                 shadow: c[3] as u64,
             };
             (out, counts)
-        };
-        self.readback.unmap();
-        (out, counts)
+        })
     }
 }

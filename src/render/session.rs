@@ -116,7 +116,9 @@ pub struct Session {
     // Frameless: the position in the current pass, and where the last change happened.
     cursor: u64,
     pass_len: u64,
-    dissolve: Option<Dissolve>,
+    /// The dissolve, and its register's state at `cursor` (carried from slice to slice, so the
+    /// host never jumps).
+    dissolve: Option<(Dissolve, u32)>,
     /// Positions traced since the last change (a pixel's visit index since then is
     /// `positions_since_change / pass_len`).
     positions_since_change: u64,
@@ -326,7 +328,7 @@ impl Session {
                     }
                     let d = Dissolve::new(pixels);
                     self.dispatcher.write_work(ctx, &d.jumps());
-                    self.dissolve = Some(d);
+                    self.dissolve = Some((d, 1));
                 } else {
                     let table = order.table(w, h).expect("table orders have tables");
                     self.dispatcher.write_work(ctx, &table);
@@ -473,7 +475,7 @@ impl Session {
         let alpha = if jitter_pairs { 0.5 } else { blend.unwrap_or(1.0) };
         let jitter = if refine { refinement_jitter(visit) } else { [0.0, 0.0] };
         let (kind, bits, state) = match &self.dissolve {
-            Some(d) => (ORDER_DISSOLVE, d.bits, d.state_at(first)),
+            Some((d, state)) => (ORDER_DISSOLVE, d.bits, *state),
             None => (ORDER_TABLE, 0, 0),
         };
         let t0 = Instant::now();
@@ -498,9 +500,17 @@ impl Session {
             self.samples += 1;
         }
         let [w, h] = self.size();
-        let pixels = match &self.dissolve {
-            // Values past the image are skipped: count the positions that name pixels.
-            Some(d) => dissolve_pixels_in(d, first, len, w as u64 * h as u64),
+        let pixels = match &mut self.dissolve {
+            // Values past the image are skipped: count the positions that name pixels, and
+            // step the register to the next slice's first state.
+            Some((d, state)) => {
+                let mut n = 0;
+                for _ in 0..len {
+                    n += (*state as u64 <= w as u64 * h as u64) as u64;
+                    *state = d.step(*state);
+                }
+                n
+            }
             None => len,
         };
         StepReport {
@@ -540,17 +550,6 @@ impl Session {
         }
         out
     }
-}
-
-/// How many of the dissolve's positions `[first, first + len)` name a pixel of the image.
-fn dissolve_pixels_in(d: &Dissolve, first: u64, len: u64, pixels: u64) -> u64 {
-    let mut s = d.state_at(first);
-    let mut n = 0;
-    for _ in 0..len {
-        n += ((s as u64) <= pixels) as u64;
-        s = d.step(s);
-    }
-    n
 }
 
 fn make_dispatcher(ctx: &GpuContext, scene: &GpuScene, variant: Variant, capacity: [u32; 2]) -> Dispatcher {
