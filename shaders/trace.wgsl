@@ -230,16 +230,18 @@ fn trace_pixel(x: u32, y: u32) {
     bundle_seed = pixel_id + tile.sample.x * 0x9e3779b9u;
     let flags = tile.sample.y;
     let at = vec2f(f32(x), f32(y)) + select(vec2f(0.5) + tile.jitter.xy, vec2f(0.0), params.eye_grid.z != 0u);
-    var c: vec3f;
-    if (flags & FRAME_JITTER_PAIRS) != 0u {
-        // The paper's frameless jitter: two of four sub-pixel positions (a 2×2 pattern at
-        // ±0.25 px) per visit, the other two on the next visit.
-        let k = 2u * (tile.sample.x & 1u);
-        c = 0.5 * (radiance(params.eye.xyz, eye_direction_at(at + jitter_pair(k)))
-            + radiance(params.eye.xyz, eye_direction_at(at + jitter_pair(k + 1u))));
-    } else {
-        c = radiance(params.eye.xyz, eye_direction_at(at));
+    // One radiance call site (lavapipe runs a branch's loops even when no lane takes it, so a
+    // second call for the rare jitter pairs would cost every pixel): one sample, or the paper's
+    // frameless jitter, two of four sub-pixel positions (a 2×2 pattern at ±0.25 px) per visit,
+    // the other two on the next visit.
+    let pairs = (flags & FRAME_JITTER_PAIRS) != 0u;
+    let n = select(1u, 2u, pairs);
+    var c = vec3f(0.0);
+    for (var k = 0u; k < n; k++) {
+        let off = select(vec2f(0.0), jitter_pair(2u * (tile.sample.x & 1u) + k), pairs);
+        c += radiance(params.eye.xyz, eye_direction_at(at + off));
     }
+    c /= f32(n);
     // Alpha carries 2 × the loop iterations (the most of any pass) + whether the eye ray hit;
     // the renderer checks the first against lavapipe's limit and counts the second for SPD.
     let meter = f32(2u * loop_iters + u32(eye_hit));

@@ -29,7 +29,7 @@ fn counting_dispatcher(ctx: &irt::gpu::GpuContext, scene: &Scene, work: &[u32]) 
     let d = Dispatcher::with_modes(
         ctx,
         &gs,
-        Kernel::Render,
+        Kernel::Modes,
         Variant::for_scene(scene, false),
         "render",
         n,

@@ -3,7 +3,7 @@ use irt::gpu::shaders::{compose, validate, Kernel, Variant};
 
 #[test]
 fn every_variant_validates() {
-    for kernel in [Kernel::Render, Kernel::Tests] {
+    for kernel in [Kernel::Render, Kernel::Modes, Kernel::Tests] {
         for v in Variant::all() {
             let src = compose(kernel, v);
             if let Err(e) = validate(&src) {

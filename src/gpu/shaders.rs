@@ -17,8 +17,11 @@ const MODULES: [(&str, &str); 7] = [
 /// What a compiled shader contains besides the shared modules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kernel {
-    /// `trace.wgsl`: the `render` entry point.
+    /// `trace.wgsl`: the `render` entry point (the headless bands).
     Render,
+    /// `trace.wgsl` + `modes.wgsl`: the interactive modes' entry points as well (render::Session).
+    /// Kept apart from `Render` so the band renderer compiles no more than it runs.
+    Modes,
     /// `trace.wgsl` + `tests.wgsl`: readback kernels that call single shader functions.
     Tests,
 }
@@ -125,8 +128,9 @@ impl Variant {
 pub fn compose(kernel: Kernel, variant: Variant) -> String {
     let mut src = variant.prelude();
     let entries: &[(&str, &str)] = match kernel {
-        Kernel::Render => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
-        Kernel::Tests => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES), ("tests.wgsl", TESTS)],
+        Kernel::Render => &[("trace.wgsl", TRACE)],
+        Kernel::Modes => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
+        Kernel::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
     };
     for (name, text) in MODULES.iter().chain(entries) {
         src += &format!("\n// ---- {name} ----\n");

@@ -557,7 +557,7 @@ fn make_dispatcher(ctx: &GpuContext, scene: &GpuScene, variant: Variant, capacit
     let [tx, ty] = tile_grid(capacity[0], capacity[1]);
     let work_len = pixels.max(tx as u64 * ty as u64 + 1).max(Dissolve::new(pixels).jumps().len() as u64);
     let modes = ModeBuffers { work_len, frame_len: pixels };
-    Dispatcher::with_modes(ctx, scene, Kernel::Render, variant, "render", pixels, &[], modes)
+    Dispatcher::with_modes(ctx, scene, Kernel::Modes, variant, "render", pixels, &[], modes)
 }
 
 // render_queue's workgroup is one tile.
