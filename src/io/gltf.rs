@@ -7,11 +7,11 @@
 //! problem names the JSON object it comes from (`accessors[3]`, `meshes[0].primitives[1]`).
 
 use super::png::{self, Unusable};
-use super::toml::{DEFAULT_FOV_DEG, DEFAULT_HEIGHT, DEFAULT_WIDTH};
+use super::stage::{self, Model};
+use super::toml::{DEFAULT_HEIGHT, DEFAULT_WIDTH};
 use super::{read_limited, LoadError, MAX_MATERIALS, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
 use crate::scene::{
-    Ambient, Camera, Filter, Light, Material, MaterialKind, Mesh, Scene, Texture, TraceSettings, Wrap,
-    MAX_LIGHTS, MAX_TEXTURES,
+    Camera, Filter, Light, Material, MaterialKind, Mesh, Scene, Texture, Wrap, MAX_LIGHTS, MAX_TEXTURES,
 };
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::json;
@@ -42,10 +42,6 @@ pub const METAL_MAX_ROUGHNESS: f64 = 0.5;
 /// Range of the Blinn–Phong exponent made from a roughness ([`blinn_exponent`]).
 pub const MIN_EXPONENT: f64 = 1.0;
 pub const MAX_EXPONENT: f64 = 10_000.0;
-/// What irt adds because glTF has no such thing (docs/gltf.md).
-pub const DEFAULT_AMBIENT_SKY: DVec3 = DVec3::new(0.16, 0.17, 0.2);
-pub const DEFAULT_AMBIENT_GROUND: DVec3 = DVec3::new(0.06, 0.055, 0.05);
-pub const DEFAULT_BACKGROUND: DVec3 = DVec3::new(0.32, 0.36, 0.42);
 
 type Res<T> = Result<T, String>;
 
@@ -779,24 +775,11 @@ impl<'a> Builder<'a> {
         if meshes.is_empty() {
             return Err("the scene has no triangles to render".into());
         }
-        let (center, radius) = bounds(&meshes);
+        let (center, radius) = stage::bounds(&meshes);
         let camera = self.camera(&nodes, center, radius)?;
-        let mut lights = self.lights(&nodes, center, radius)?;
-        if lights.is_empty() {
-            lights.push(headlight(&camera, center, radius));
-        }
-        Ok(Scene {
-            camera,
-            lights,
-            ambient: Ambient { sky: DEFAULT_AMBIENT_SKY, ground: DEFAULT_AMBIENT_GROUND, up: DVec3::Y },
-            background: DEFAULT_BACKGROUND,
-            materials: self.materials,
-            spheres: vec![],
-            cones: vec![],
-            meshes,
-            textures: self.textures,
-            trace: TraceSettings::default(),
-        })
+        let lights = self.lights(&nodes, center, radius)?;
+        let model = Model { meshes, materials: self.materials, textures: self.textures };
+        Ok(stage::stage_with(model, Some(camera), lights))
     }
 
     /// The primitives to draw, with their vertex and triangle counts checked against the
@@ -1103,7 +1086,7 @@ impl<'a> Builder<'a> {
                 height,
             });
         }
-        Ok(framing_camera(center, radius))
+        Ok(stage::framing_camera(center, radius))
     }
 
     /// KHR_lights_punctual lights as irt's point lights (docs/gltf.md).
@@ -1168,45 +1151,6 @@ impl<'a> Builder<'a> {
 }
 
 /// Centre and radius of the bounding box of every vertex (radius 1 for a single point).
-fn bounds(meshes: &[Mesh]) -> (DVec3, f64) {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in meshes.iter().flat_map(|m| &m.positions) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    let radius = 0.5 * (hi - lo).length();
-    (0.5 * (lo + hi), if radius > 0.0 && radius.is_finite() { radius } else { 1.0 })
-}
-
-/// Direction from the scene's centre to the eye of the framing camera: in front (+z, glTF's
-/// front), a little to the right and above.
-pub const FRAMING_DIRECTION: DVec3 = DVec3::new(0.5, 0.45, 1.0);
-
-/// A camera that sees the scene's whole bounding sphere, from [`FRAMING_DIRECTION`].
-fn framing_camera(center: DVec3, radius: f64) -> Camera {
-    let vfov = DEFAULT_FOV_DEG;
-    // The sphere fits the vertical field of view (the horizontal one is wider) with a margin.
-    let distance = 1.1 * radius / (vfov.to_radians() * 0.5).sin();
-    Camera {
-        eye: center + FRAMING_DIRECTION.normalize() * distance,
-        look_at: center,
-        up: DVec3::Y,
-        vfov_deg: vfov,
-        width: DEFAULT_WIDTH,
-        height: DEFAULT_HEIGHT,
-    }
-}
-
-/// The light added to a scene without lights: white, above and to the right of the eye, so
-/// that what the camera sees is lit and shadows fall behind and below it.
-fn headlight(camera: &Camera, center: DVec3, radius: f64) -> Light {
-    let b = camera.basis();
-    let reach = (center - camera.eye).length().max(radius);
-    let offset = (b.u.normalize() + b.v.normalize()) * (0.5 * reach);
-    Light { position: camera.eye + offset, color: DVec3::ONE, radius: 0.05 * radius }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,6 +8,7 @@ pub mod gltf;
 pub mod nff;
 pub mod png;
 pub mod shapes;
+pub mod stage;
 pub mod toml;
 pub mod toml_write;
 
@@ -73,19 +74,26 @@ pub fn line_column(src: &str, offset: usize) -> (usize, usize) {
     (before.matches('\n').count() + 1, before[line_start..].chars().count() + 1)
 }
 
-/// A scene file format: the extensions it claims and its parser (`bytes`, `origin` for messages;
-/// `origin` is the file's path, and glTF finds external buffers relative to it).
+/// A scene file format: the extensions it claims, the largest file it reads (refused before
+/// reading) and its parser (`bytes`, `origin` for messages; `origin` is the file's path, and glTF
+/// finds external buffers relative to it).
 pub struct Format {
     pub name: &'static str,
     pub extensions: &'static [&'static str],
+    pub max_bytes: u64,
     pub parse: fn(&[u8], &str) -> Result<Scene, LoadError>,
 }
 
 /// Every format [`load`] understands, tried in order by extension.
 pub const FORMATS: &[Format] = &[
-    Format { name: "TOML", extensions: &["toml"], parse: parse_toml },
-    Format { name: "glTF 2.0", extensions: &["gltf", "glb"], parse: gltf::parse },
-    Format { name: "NFF", extensions: &["nff"], parse: parse_nff },
+    Format { name: "TOML", extensions: &["toml"], max_bytes: MAX_SCENE_FILE_BYTES, parse: parse_toml },
+    Format {
+        name: "glTF 2.0",
+        extensions: &["gltf", "glb"],
+        max_bytes: MAX_SCENE_FILE_BYTES,
+        parse: gltf::parse,
+    },
+    Format { name: "NFF", extensions: &["nff"], max_bytes: MAX_SCENE_FILE_BYTES, parse: parse_nff },
 ];
 
 fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
@@ -106,10 +114,10 @@ fn utf8<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str, LoadError> {
 
 /// Loads and validates a scene file, choosing the format by its extension.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
-    load_with_limit(path, MAX_SCENE_FILE_BYTES)
+    load_with_limit(path, u64::MAX)
 }
 
-/// [`load`] with a different size limit in bytes (tests use a small one).
+/// [`load`] with a size limit in bytes below the format's own (tests use a small one).
 pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<Scene, LoadError> {
     let origin = path.display().to_string();
     let format = format_of(path).ok_or_else(|| {
@@ -119,7 +127,8 @@ pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<Scene, LoadError> 
             .collect();
         LoadError::new(&origin, format!("unknown scene file extension; supported: {}", supported.join(", ")))
     })?;
-    let bytes = read_limited(path, max_bytes, "scene file").map_err(|m| LoadError::new(&origin, m))?;
+    let bytes = read_limited(path, max_bytes.min(format.max_bytes), "scene file")
+        .map_err(|m| LoadError::new(&origin, m))?;
     (format.parse)(&bytes, &origin)
 }
 

@@ -1,0 +1,94 @@
+//! What a model file lacks: OBJ, PLY and many glTF files carry geometry and materials but no
+//! camera and no lights. [`stage`] gives such a [`Model`] the stage irt renders it on
+//! (docs/formats.md, "Staging a model"): a camera that frames its bounding sphere, a light above
+//! and to the right of the eye, the two-colour ambient and a neutral background.
+
+use crate::scene::{Ambient, Camera, Light, Material, Mesh, Scene, Texture, TraceSettings};
+use glam::DVec3;
+
+/// Geometry and materials without a stage: what a model loader returns and what a TOML scene's
+/// `[[model]]` places. Each mesh's `material` indexes `materials`; each material's `texture`
+/// indexes `textures`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Model {
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+}
+
+/// Two-colour ambient of a staged model: a cool sky (A) above, a warm dark ground (B) below.
+pub const DEFAULT_AMBIENT_SKY: DVec3 = DVec3::new(0.16, 0.17, 0.2);
+pub const DEFAULT_AMBIENT_GROUND: DVec3 = DVec3::new(0.06, 0.055, 0.05);
+pub const DEFAULT_BACKGROUND: DVec3 = DVec3::new(0.32, 0.36, 0.42);
+
+/// Direction from the model's centre to the eye of the framing camera: in front (+z), a little
+/// to the right and above, with +y up (the convention of glTF, and of most OBJ and PLY files).
+pub const FRAMING_DIRECTION: DVec3 = DVec3::new(0.5, 0.45, 1.0);
+
+/// Radius of the staging light as a fraction of the model's bounding radius (soft shadow modes
+/// use it; hard shadows treat it as a point).
+pub const STAGE_LIGHT_RADIUS: f64 = 0.05;
+
+/// `model` on the default stage: [`framing_camera`] and [`headlight`].
+pub fn stage(model: Model) -> Scene {
+    stage_with(model, None, vec![])
+}
+
+/// `model` with the given camera (else [`framing_camera`]) and lights (if none,
+/// [`headlight`]), the default ambient and background.
+pub fn stage_with(model: Model, camera: Option<Camera>, mut lights: Vec<Light>) -> Scene {
+    let (center, radius) = bounds(&model.meshes);
+    let camera = camera.unwrap_or_else(|| framing_camera(center, radius));
+    if lights.is_empty() {
+        lights.push(headlight(&camera, center, radius));
+    }
+    Scene {
+        camera,
+        lights,
+        ambient: Ambient { sky: DEFAULT_AMBIENT_SKY, ground: DEFAULT_AMBIENT_GROUND, up: DVec3::Y },
+        background: DEFAULT_BACKGROUND,
+        materials: model.materials,
+        spheres: vec![],
+        cones: vec![],
+        meshes: model.meshes,
+        textures: model.textures,
+        trace: TraceSettings::default(),
+    }
+}
+
+/// Centre and radius of the box around every vertex (radius 1 for a point or nothing).
+pub fn bounds(meshes: &[Mesh]) -> (DVec3, f64) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in meshes.iter().flat_map(|m| &m.positions) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let radius = 0.5 * (hi - lo).length();
+    (0.5 * (lo + hi), if radius > 0.0 && radius.is_finite() { radius } else { 1.0 })
+}
+
+/// A camera that sees the whole sphere (`center`, `radius`), from [`FRAMING_DIRECTION`].
+pub fn framing_camera(center: DVec3, radius: f64) -> Camera {
+    use super::toml::{DEFAULT_FOV_DEG, DEFAULT_HEIGHT, DEFAULT_WIDTH};
+    let vfov = DEFAULT_FOV_DEG;
+    // The sphere fits the vertical field of view (the horizontal one is wider) with a margin.
+    let distance = 1.1 * radius / (vfov.to_radians() * 0.5).sin();
+    Camera {
+        eye: center + FRAMING_DIRECTION.normalize() * distance,
+        look_at: center,
+        up: DVec3::Y,
+        vfov_deg: vfov,
+        width: DEFAULT_WIDTH,
+        height: DEFAULT_HEIGHT,
+    }
+}
+
+/// The light of a scene without lights: white, above and to the right of the eye, so that what
+/// the camera sees is lit and shadows fall behind and below it.
+pub fn headlight(camera: &Camera, center: DVec3, radius: f64) -> Light {
+    let b = camera.basis();
+    let reach = (center - camera.eye).length().max(radius);
+    let offset = (b.u.normalize() + b.v.normalize()) * (0.5 * reach);
+    Light { position: camera.eye + offset, color: DVec3::ONE, radius: STAGE_LIGHT_RADIUS * radius }
+}
