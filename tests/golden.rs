@@ -101,3 +101,23 @@ fn default_scene() {
     scene.camera.height /= 2;
     check("default", scene);
 }
+
+/// The layered scene texture (a 2D array, what scenes past the device's largest texture side
+/// get) decodes the same texels as the plain one: the same image, bit for bit. Crossing from
+/// layer to layer is traced by tests/large_mesh.rs.
+#[test]
+fn a_layered_scene_texture_gives_the_same_image_bit_for_bit() {
+    let ctx = common::gpu();
+    for name in ["default.toml", "textured.toml", "cones.toml"] {
+        let mut scene = scene_file(name);
+        (scene.camera.width, scene.camera.height) = (64, 48);
+        let render = |max_scene_rows| {
+            let opts = irt::gpu::RenderOptions { max_scene_rows, ..Default::default() };
+            let r = irt::gpu::Renderer::new(&ctx, &scene, opts).expect("renderer");
+            (r.gpu_scene.layered, r.render(&ctx, &mut |_, _| {}).image)
+        };
+        let (plain, layered) = (render(None), render(Some(0)));
+        assert_eq!((plain.0, layered.0), (false, true), "{name}");
+        assert!(plain.1.pixels == layered.1.pixels, "{name}: the layered texture changed the image");
+    }
+}

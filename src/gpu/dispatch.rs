@@ -41,30 +41,44 @@ impl GpuScene {
         Self::upload_packed(ctx, packed, params)
     }
 
-    /// Uploads `packed` (consumed: a large scene's texels are not copied on the host) into the
-    /// layered scene texture, one layer per write so that wgpu's staging copy stays one layer
-    /// (at most 512 MiB) rather than the whole scene.
+    /// Uploads `packed` into the scene texture. It is consumed: bands of
+    /// [`SCENE_LAYER_ROWS`] rows are written from the last to the first, each followed by a
+    /// wait (so wgpu's staging copy is one band) and by freeing that band's host texels, so a
+    /// large scene is not held twice on the host while the device's copy fills.
     pub fn upload_packed(ctx: &GpuContext, packed: PackedScene, params: Params) -> Result<Self, String> {
-        let (rows, layers) = packed.extent();
+        Self::upload_packed_with(ctx, packed, params, None)
+    }
+
+    /// [`Self::upload_packed`], layered past `max_rows` rows if that is fewer than the device's
+    /// largest texture side (tests and studies trace the layered path with small scenes).
+    pub fn upload_packed_with(
+        ctx: &GpuContext,
+        packed: PackedScene,
+        params: Params,
+        max_rows: Option<u32>,
+    ) -> Result<Self, String> {
         let limits = ctx.device.limits();
-        if rows > limits.max_texture_dimension_2d || layers > limits.max_texture_array_layers {
-            let most = limits.max_texture_dimension_2d.min(SCENE_LAYER_ROWS) as u64
-                * limits.max_texture_array_layers as u64
-                * SCENE_TEX_WIDTH as u64;
+        let max_side =
+            max_rows.map_or(limits.max_texture_dimension_2d, |m| m.min(limits.max_texture_dimension_2d));
+        let (height, layers) = packed.extent(max_side);
+        let rows = packed.rows();
+        if layers > limits.max_texture_array_layers {
+            let most = limits.max_texture_array_layers as u64 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH) as u64;
             return Err(format!(
-                "the scene needs {} texels of 16 bytes ({} MiB); this device holds at most {most} ({} MiB) \
-                 in its {} layers of {}x{}",
-                packed.texels.len(),
+                "the scene needs {} MiB of scene texture ({} texels of 16 bytes); this device holds at \
+                 most {} MiB ({} layers of {}x{SCENE_LAYER_ROWS})",
                 packed.texels.len() >> 16,
+                packed.texels.len(),
                 most >> 16,
                 limits.max_texture_array_layers,
                 SCENE_TEX_WIDTH,
-                limits.max_texture_dimension_2d.min(SCENE_LAYER_ROWS),
             ));
         }
+        let layered = rows > max_side;
         let mut data = packed.texels;
-        data.resize((rows * layers * SCENE_TEX_WIDTH) as usize, [0; 4]);
-        let size = wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: rows, depth_or_array_layers: layers };
+        // Whole rows only: the last row is padded, the last layer is not.
+        data.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
+        let size = wgpu::Extent3d { width: SCENE_TEX_WIDTH, height, depth_or_array_layers: layers };
         let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("scene"),
             size,
@@ -75,32 +89,40 @@ impl GpuScene {
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
-        let layer_texels = (rows * SCENE_TEX_WIDTH) as usize;
-        for (layer, chunk) in data.chunks(layer_texels).enumerate() {
+        let bytes = (data.len() * 16 + std::mem::size_of::<Params>()) as u64;
+        for band in (0..rows.div_ceil(SCENE_LAYER_ROWS)).rev() {
+            let first = band * SCENE_LAYER_ROWS;
+            let band_rows = SCENE_LAYER_ROWS.min(rows - first);
+            let origin = if layered {
+                wgpu::Origin3d { x: 0, y: 0, z: band }
+            } else {
+                wgpu::Origin3d { x: 0, y: first, z: 0 }
+            };
+            let start = (first * SCENE_TEX_WIDTH) as usize;
             ctx.queue.write_texture(
                 wgpu::TexelCopyTextureInfo {
                     texture: &texture,
                     mip_level: 0,
-                    origin: wgpu::Origin3d { x: 0, y: 0, z: layer as u32 },
+                    origin,
                     aspect: wgpu::TextureAspect::All,
                 },
-                bytemuck::cast_slice(chunk),
+                bytemuck::cast_slice(&data[start..]),
                 wgpu::TexelCopyBufferLayout {
                     offset: 0,
                     bytes_per_row: Some(SCENE_TEX_WIDTH * 16),
-                    rows_per_image: Some(rows),
+                    rows_per_image: Some(band_rows),
                 },
-                wgpu::Extent3d { depth_or_array_layers: 1, ..size },
+                wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: band_rows, depth_or_array_layers: 1 },
             );
-            if layers > 1 {
-                // Submit and wait, so that each layer's staging buffer is freed before the next.
+            if band > 0 {
                 ctx.queue.submit([]);
                 ctx.wait();
+                data.truncate(start);
+                data.shrink_to_fit();
             }
         }
+        drop(data);
         let params_buf = uniform(ctx, "params", bytemuck::bytes_of(&params));
-        let bytes = (data.len() * 16 + std::mem::size_of::<Params>()) as u64;
-        let layered = layers > 1;
         let view = texture.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(view_dimension(layered)),
             ..Default::default()

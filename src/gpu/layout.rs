@@ -13,15 +13,16 @@ use crate::scene::{
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
-/// The scene texture is an array of layers `1 << SCENE_TEX_SHIFT` texels wide and at most
-/// `1 << SCENE_LAYER_SHIFT` rows high: texel `i` is at column `i & (width - 1)` of row
-/// `i >> SCENE_TEX_SHIFT` counted across layers. One 2D texture would stop at the device's
-/// largest side (16384 rows of 4096 texels, 1 GiB, on lavapipe: about 9M triangles with
-/// normals); layers lift that to the array-layer limit (256 at least) times 512 MiB.
+/// The scene texture is `1 << SCENE_TEX_SHIFT` texels wide; texel `i` is in column
+/// `i & (width - 1)` of row `i >> SCENE_TEX_SHIFT`. A scene whose rows fit the device's largest
+/// texture side (16384 on lavapipe: 1 GiB, about 9M triangles with normals) is one 2D texture;
+/// a larger one is a 2D array of layers of `1 << SCENE_LAYER_SHIFT` rows, row `r` in layer
+/// `r >> SCENE_LAYER_SHIFT` (`Variant::layered`), up to the array-layer limit (256 at least).
 pub const SCENE_TEX_SHIFT: u32 = 12;
 pub const SCENE_TEX_WIDTH: u32 = 1 << SCENE_TEX_SHIFT;
-/// Rows per layer: 8192, the smallest maximum texture side WebGPU allows, so any device takes it.
-pub const SCENE_LAYER_SHIFT: u32 = 13;
+/// Rows per layer of a layered scene texture, and per upload band of any: 64 MiB, so that at
+/// most that much is wasted in the last layer, and wgpu's staging copy is never more.
+pub const SCENE_LAYER_SHIFT: u32 = 10;
 pub const SCENE_LAYER_ROWS: u32 = 1 << SCENE_LAYER_SHIFT;
 
 /// Texels per record; the shader's decoders read these constants from the generated prelude.
@@ -224,11 +225,12 @@ impl PackedScene {
         (self.texels.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32
     }
 
-    /// The texture's rows per layer and layers: one layer of just the rows needed while they
-    /// fit in [`SCENE_LAYER_ROWS`], else full layers.
-    pub fn extent(&self) -> (u32, u32) {
+    /// The texture's rows per layer and its layers on a device whose largest texture side is
+    /// `max_side`: one layer of just the rows needed while they fit, else layers of
+    /// [`SCENE_LAYER_ROWS`].
+    pub fn extent(&self, max_side: u32) -> (u32, u32) {
         let rows = self.rows();
-        if rows <= SCENE_LAYER_ROWS {
+        if rows <= max_side {
             (rows, 1)
         } else {
             (SCENE_LAYER_ROWS, rows.div_ceil(SCENE_LAYER_ROWS))

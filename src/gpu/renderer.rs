@@ -25,6 +25,10 @@ pub struct RenderOptions {
     pub corner_rays: bool,
     /// Intersect and traverse in f64 (the device must have SHADER_F64; docs/stability.md).
     pub f64: bool,
+    /// Make the scene texture layered past this many rows, fewer than the device's largest
+    /// texture side (tests trace the layered path with small scenes; 0: always layered);
+    /// `None`: the device's.
+    pub max_scene_rows: Option<u32>,
 }
 
 /// How long each stage of setting up took.
@@ -89,7 +93,7 @@ impl Renderer {
         let mut params = layout::params(scene, &grid, &packed, scene.camera.eye);
         params.eye_grid = layout::eye_grid(width, height, opts.corner_rays);
         let rays = [params.eye_grid[0], params.eye_grid[1]];
-        let gpu_scene = GpuScene::upload_packed(ctx, packed, params)?;
+        let gpu_scene = GpuScene::upload_packed_with(ctx, packed, params, opts.max_scene_rows)?;
         ctx.wait();
         let t2 = Instant::now();
         if opts.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {

@@ -1,0 +1,65 @@
+//! A large generated mesh end to end: millions of triangles with vertex normals, more texels
+//! than one layer of the scene texture holds (so the layered path is the one traced), rendered
+//! on the GPU against the f64 reference, in a stated memory bound. One test in its own binary,
+//! so that the process's peak resident memory is this scene's alone.
+mod common;
+
+use glam::DVec3;
+use irt::gpu::layout::{SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
+use irt::io::shapes::terrain;
+use irt::io::stage::{stage, Model};
+use irt::scene::{Material, MaterialKind};
+
+/// 1700² vertices: 5.77M triangles, each with three normals (6 texels): 35M texels, 8.5K rows.
+const SIDE: u32 = 1700;
+/// They would fit lavapipe's 16384-row 2D texture; capped at 4096 rows, they take 9 layers.
+const MAX_SCENE_ROWS: u32 = 4096;
+
+/// Peak resident bytes per triangle allowed for building, uploading and rendering (the host's
+/// mesh, grid, packed texels, wgpu's staging and lavapipe's texture, which live in this
+/// process). Measured: 212 (2 cores, Mesa 25.0). The bound leaves room for allocator and driver
+/// differences and sits well inside #13's 600 bytes per triangle all told.
+const MAX_BYTES_PER_TRIANGLE: f64 = 300.0;
+
+fn peak_rss_bytes() -> f64 {
+    let status = std::fs::read_to_string("/proc/self/status").expect("/proc/self/status");
+    let kib: f64 = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.split_whitespace().next()?.parse().ok())
+        .expect("VmHWM in /proc/self/status");
+    kib * 1024.0
+}
+
+#[test]
+fn millions_of_triangles_render_like_the_reference_within_the_memory_bound() {
+    let diffuse = MaterialKind::Diffuse { color: DVec3::splat(0.8) };
+    let model = Model {
+        meshes: vec![terrain(SIDE, 11, true).into_mesh(0)],
+        materials: vec![Material::new("terrain", diffuse)],
+        textures: vec![],
+    };
+    let mut scene = stage(model);
+    // Closer than the framing camera, looking down across the terrain, so that the image is
+    // mostly mesh (tiny triangles: about 30 per pixel at this size).
+    scene.camera.eye = DVec3::new(0.6, 0.9, 1.3);
+    scene.camera.look_at = DVec3::new(0.0, 0.0, 0.1);
+    (scene.camera.width, scene.camera.height) = (96, 72);
+    let triangles = scene.triangle_count();
+    assert!(triangles > 5_500_000);
+
+    let ctx = common::gpu();
+    let opts = irt::gpu::RenderOptions { max_scene_rows: Some(MAX_SCENE_ROWS), ..Default::default() };
+    let renderer = irt::gpu::Renderer::new(&ctx, &scene, opts).expect("renderer");
+    assert!(renderer.gpu_scene.layered);
+    assert!(renderer.gpu_scene.bytes > 8 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH * 16) as u64, "9 layers");
+    let gpu = renderer.render(&ctx, &mut |_, _| {}).image;
+    drop(renderer);
+    let per_triangle = peak_rss_bytes() / triangles as f64;
+    println!("{triangles} triangles: peak {per_triangle:.0} bytes per triangle");
+    assert!(per_triangle <= MAX_BYTES_PER_TRIANGLE, "peak {per_triangle:.0} bytes per triangle");
+
+    let hits = gpu.pixels.iter().filter(|p| p[0] != gpu.pixels[0][0] || p[1] != gpu.pixels[0][1]).count();
+    assert!(hits > gpu.pixels.len() / 2, "the mesh should fill most of the image");
+    common::assert_matches_reference("large_mesh", &gpu, &common::reference_image(&scene));
+}
