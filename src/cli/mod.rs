@@ -119,7 +119,7 @@ impl SceneArgs {
 /// and non-empty.
 pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
     let mut scene = match &args.scene {
-        Some(path) => irt::io::load(path)?,
+        Some(path) => load_showing_progress(path)?,
         None => irt::scene::default_scene(),
     };
     if let Some(w) = args.width {
@@ -140,6 +140,83 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
         bail!("{origin} has no primitives: nothing to render");
     }
     Ok(scene)
+}
+
+/// Files from this size on get a spinner while they are read and parsed.
+const SPINNER_FROM_BYTES: u64 = 16 << 20;
+
+/// [`irt::io::load`], with a spinner on a terminal for large files and the time it took logged.
+fn load_showing_progress(path: &std::path::Path) -> Result<Scene> {
+    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let bar = if size >= SPINNER_FROM_BYTES {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("valid template"),
+        );
+        bar.set_message(format!("loading {} ({} MiB)", path.display(), size >> 20));
+        bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let t = std::time::Instant::now();
+    let scene = irt::io::load(path);
+    bar.finish_and_clear();
+    let scene = scene?;
+    report(
+        scene.primitive_count(),
+        format!(
+            "loaded {} in {:.2} s: {} spheres, {} triangles, {} cones",
+            path.display(),
+            t.elapsed().as_secs_f64(),
+            scene.spheres.len(),
+            scene.triangle_count(),
+            scene.cones.len()
+        ),
+    );
+    Ok(scene)
+}
+
+/// Scenes from this many primitives on show setup progress and timings; smaller ones set up in
+/// milliseconds and log them (`RUST_LOG=info`).
+const LARGE_SCENE_PRIMITIVES: usize = 200_000;
+
+/// A line about setting up a scene of `primitives`: on stderr for large scenes, else logged.
+pub fn report(primitives: usize, line: String) {
+    if primitives >= LARGE_SCENE_PRIMITIVES {
+        eprintln!("{line}");
+    } else {
+        log::info!("{line}");
+    }
+}
+
+/// A bar for [`irt::gpu::Renderer::with_progress`]: the grid build's primitives, then the upload.
+pub fn setup_bar(primitives: usize) -> indicatif::ProgressBar {
+    if primitives < LARGE_SCENE_PRIMITIVES {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(primitives as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} {elapsed}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    bar.set_message("building the grid");
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar
+}
+
+/// The progress callback that drives [`setup_bar`].
+pub fn show_setup(bar: &indicatif::ProgressBar, stage: irt::gpu::SetupStage, done: u64, total: u64) {
+    match stage {
+        irt::gpu::SetupStage::Grid => {
+            bar.set_length(total);
+            bar.set_position(done);
+        }
+        irt::gpu::SetupStage::Upload => bar.set_message("packing and uploading the scene"),
+    }
 }
 
 /// Opens the device the arguments name, with the pipeline cache of `--no-cache`/`$IRT_CACHE_DIR`.

@@ -63,7 +63,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
         ..Default::default()
     };
     let h = scene.camera.height;
-    let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
+    let setup = super::setup_bar(scene.primitive_count());
+    let renderer = Renderer::with_progress(&ctx, &scene, opts, &|stage, done, total| {
+        super::show_setup(&setup, stage, done, total)
+    })
+    .map_err(anyhow::Error::msg)?;
+    setup.finish_and_clear();
+    let t = renderer.timings;
+    super::report(
+        scene.primitive_count(),
+        format!(
+            "set up in {:.2} s: grid {:.2} s ({} references), packing and upload {:.2} s ({} MiB on the device)",
+            (t.grid_build + t.upload + t.pipeline).as_secs_f64(),
+            t.grid_build.as_secs_f64(),
+            renderer.grid.prim_refs.len(),
+            t.upload.as_secs_f64(),
+            renderer.gpu_scene.bytes >> 20
+        ),
+    );
     let bar = indicatif::ProgressBar::new(h as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(

@@ -13,4 +13,4 @@ pub mod readback;
 pub mod renderer;
 
 pub use dispatch::{Dispatcher, GpuScene, ModeBuffers, RayCounts};
-pub use renderer::{Frame, RenderOptions, Renderer};
+pub use renderer::{Frame, RenderOptions, Renderer, SetupProgress, SetupStage};

@@ -82,11 +82,36 @@ pub struct Frame {
     pub eye_hits: u64,
 }
 
+/// What [`Renderer::with_progress`] reports: the stage, and how far it is (`done` of `total`).
+pub type SetupProgress<'a> = &'a (dyn Fn(SetupStage, u64, u64) + Sync);
+
+/// The stages of setting up a scene on the device that take long for large scenes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SetupStage {
+    /// Inserting primitives into the grid (`done` of `total` primitives).
+    Grid,
+    /// Packing and uploading the scene texture (reported once, `0` of `1`).
+    Upload,
+}
+
 impl Renderer {
     pub fn new(ctx: &GpuContext, scene: &Scene, opts: RenderOptions) -> Result<Self, String> {
+        Self::with_progress(ctx, scene, opts, &|_, _, _| {})
+    }
+
+    /// [`Renderer::new`], reporting the grid build and the upload as they go.
+    pub fn with_progress(
+        ctx: &GpuContext,
+        scene: &Scene,
+        opts: RenderOptions,
+        progress: SetupProgress,
+    ) -> Result<Self, String> {
         let t0 = Instant::now();
-        let grid = Grid::build(scene);
+        let grid = Grid::build_with_progress(scene, &|done, total| {
+            progress(SetupStage::Grid, done as u64, total as u64)
+        });
         let t1 = Instant::now();
+        progress(SetupStage::Upload, 0, 1);
         let (width, height) = (scene.camera.width, scene.camera.height);
         // Positions relative to the eye: f32 precision follows distance from the viewer.
         let packed = layout::pack_scene(scene, &grid, scene.camera.eye);

@@ -76,28 +76,49 @@ pub fn line_column(src: &str, offset: usize) -> (usize, usize) {
 
 /// A scene file format: the extensions it claims, the largest file it reads (refused before
 /// reading) and its parser (`bytes`, `origin` for messages; `origin` is the file's path, and glTF
-/// finds external buffers relative to it).
+/// finds external buffers relative to it). Model formats also give their geometry and
+/// materials alone (`model`), which a TOML scene's `[[model]]` places.
 pub struct Format {
     pub name: &'static str,
     pub extensions: &'static [&'static str],
     pub max_bytes: u64,
     pub parse: fn(&[u8], &str) -> Result<Scene, LoadError>,
+    pub model: Option<fn(&[u8], &str) -> Result<stage::Model, LoadError>>,
 }
 
 /// Every format [`load`] understands, tried in order by extension.
 pub const FORMATS: &[Format] = &[
-    Format { name: "TOML", extensions: &["toml"], max_bytes: MAX_SCENE_FILE_BYTES, parse: parse_toml },
+    Format {
+        name: "TOML",
+        extensions: &["toml"],
+        max_bytes: MAX_SCENE_FILE_BYTES,
+        parse: parse_toml,
+        model: None,
+    },
     Format {
         name: "glTF 2.0",
         extensions: &["gltf", "glb"],
         max_bytes: MAX_SCENE_FILE_BYTES,
         parse: gltf::parse,
+        model: Some(gltf_model),
     },
-    Format { name: "NFF", extensions: &["nff"], max_bytes: MAX_SCENE_FILE_BYTES, parse: parse_nff },
+    Format {
+        name: "NFF",
+        extensions: &["nff"],
+        max_bytes: MAX_SCENE_FILE_BYTES,
+        parse: parse_nff,
+        model: None,
+    },
 ];
 
 fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     toml::parse_str(utf8(bytes, origin)?, origin)
+}
+
+/// A glTF file's meshes, materials and textures, without its camera and lights.
+fn gltf_model(bytes: &[u8], origin: &str) -> Result<stage::Model, LoadError> {
+    let scene = gltf::parse(bytes, origin)?;
+    Ok(stage::Model { meshes: scene.meshes, materials: scene.materials, textures: scene.textures })
 }
 
 fn parse_nff(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
@@ -130,6 +151,24 @@ pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<Scene, LoadError> 
     let bytes = read_limited(path, max_bytes.min(format.max_bytes), "scene file")
         .map_err(|m| LoadError::new(&origin, m))?;
     (format.parse)(&bytes, &origin)
+}
+
+/// Loads a model file (a format with a `model` parser: what `[[model]]` accepts) as geometry
+/// and materials without a stage.
+pub fn load_model(path: &Path) -> Result<stage::Model, LoadError> {
+    let origin = path.display().to_string();
+    let models = || {
+        let names: Vec<String> = FORMATS
+            .iter()
+            .filter(|f| f.model.is_some())
+            .flat_map(|f| f.extensions.iter().map(move |e| format!(".{e} ({})", f.name)))
+            .collect();
+        LoadError::new(&origin, format!("not a model file; models are {}", names.join(", ")))
+    };
+    let format = format_of(path).ok_or_else(models)?;
+    let parse = format.model.ok_or_else(models)?;
+    let bytes = read_limited(path, format.max_bytes, "model file").map_err(|m| LoadError::new(&origin, m))?;
+    parse(&bytes, &origin)
 }
 
 fn format_of(path: &Path) -> Option<&'static Format> {

@@ -4,7 +4,7 @@
 //! and to the right of the eye, the two-colour ambient and a neutral background.
 
 use crate::scene::{Ambient, Camera, Light, Material, Mesh, Scene, Texture, TraceSettings};
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 /// Geometry and materials without a stage: what a model loader returns and what a TOML scene's
 /// `[[model]]` places. Each mesh's `material` indexes `materials`; each material's `texture`
@@ -14,6 +14,32 @@ pub struct Model {
     pub meshes: Vec<Mesh>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
+}
+
+impl Model {
+    /// Places the model: each axis scaled by `scale`, then rotated by `rotate_deg` (degrees about
+    /// x, then y, then z), then moved by `translate`. Normals follow the inverse scale and the
+    /// rotation, so they stay perpendicular to the surface. The identity changes nothing.
+    pub fn transform(&mut self, scale: DVec3, rotate_deg: DVec3, translate: DVec3) {
+        if scale == DVec3::ONE && rotate_deg == DVec3::ZERO && translate == DVec3::ZERO {
+            return;
+        }
+        let r = rotation(rotate_deg);
+        for mesh in &mut self.meshes {
+            for p in &mut mesh.positions {
+                *p = r * (*p * scale) + translate;
+            }
+            for n in mesh.normals.iter_mut().flatten() {
+                *n = (r * (*n / scale)).normalize_or_zero();
+            }
+        }
+    }
+}
+
+/// Rotation by `deg.x` degrees about x, then `deg.y` about y, then `deg.z` about z.
+pub fn rotation(deg: DVec3) -> DMat3 {
+    let r = deg * (std::f64::consts::PI / 180.0);
+    DMat3::from_rotation_z(r.z) * DMat3::from_rotation_y(r.y) * DMat3::from_rotation_x(r.x)
 }
 
 /// Two-colour ambient of a staged model: a cool sky (A) above, a warm dark ground (B) below.

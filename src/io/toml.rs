@@ -37,7 +37,8 @@ pub const DEFAULT_ICOSPHERE_SUBDIVISIONS: u32 = 2;
 /// stored without compression at 16 bits per channel is 8 bytes per pixel, 128 MiB, plus a
 /// filter byte per row and chunk headers; this leaves room for that and no more.
 pub const MAX_TEXTURE_FILE_BYTES: u64 = MAX_TEXTURE_PIXELS * 8 + (16 << 20);
-pub const EMPTY_SCENE: &str = "scene has nothing to render: add a [[sphere]], [[mesh]] or [[cone]]";
+pub const EMPTY_SCENE: &str =
+    "scene has nothing to render: add a [[sphere]], [[mesh]], [[cone]] or [[model]]";
 
 /// Parses and validates a scene; `origin` names the source in error messages, and texture
 /// `file`s are found relative to its directory (for a `<built-in …>` origin: the current one).
@@ -82,6 +83,20 @@ struct Doc {
     mesh: Vec<Spanned<MeshDoc>>,
     #[serde(default)]
     cone: Vec<Spanned<ConeDoc>>,
+    #[serde(default)]
+    model: Vec<Spanned<ModelDoc>>,
+}
+
+/// A model file placed in the scene: its meshes and materials (or `material` for all of them),
+/// scaled, rotated and moved.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelDoc {
+    file: Spanned<String>,
+    material: Option<Spanned<String>>,
+    scale: Option<Spanned<Scale>>,
+    rotate: Option<Numbers>,
+    translate: Option<Numbers>,
 }
 
 #[derive(Deserialize)]
@@ -309,7 +324,7 @@ fn at_most<T>(tables: &[Spanned<T>], max: usize, what: &str) -> Res<()> {
 fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
     let (textures, texture_names) = textures(&doc.texture, src, origin)?;
     let (materials, names) = materials(&doc.material, src, &texture_names)?;
-    Ok(Scene {
+    let mut scene = Scene {
         camera: camera(doc.camera.get_ref())?,
         lights: lights(&doc.light)?,
         ambient: ambient(doc.ambient.as_ref().map_or(&AmbientDoc::default(), Spanned::get_ref))?,
@@ -320,7 +335,56 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
         materials,
         textures,
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
-    })
+    };
+    for m in &doc.model {
+        place_model(&mut scene, m.get_ref(), &m.span(), origin, &names)?;
+    }
+    Ok(scene)
+}
+
+/// Loads a `[[model]]`'s file (relative to the scene file) and adds its meshes, with its own
+/// materials and textures appended to the scene's (named `file:material`), or all with the
+/// scene's `material`.
+fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, names: &Names) -> Res<()> {
+    let path = texture_file(origin, &m.file);
+    let mut model = super::load_model(&path).map_err(|e| located(m.file.span(), format!("model: {e}")))?;
+    let rotate = vec3_or(&m.rotate, "rotate", DVec3::ZERO)?;
+    if !rotate.is_finite() {
+        return err(span_of(&m.rotate).unwrap_or(table.clone()), "`rotate` must be finite");
+    }
+    model.transform(scale(&m.scale)?, rotate, vec3_or(&m.translate, "translate", DVec3::ZERO)?);
+    let triangles = scene.triangle_count() + model.meshes.iter().map(|m| m.indices.len()).sum::<usize>();
+    let vertices = scene.meshes.iter().chain(&model.meshes).map(|m| m.positions.len()).sum::<usize>();
+    if triangles > MAX_TRIANGLES || vertices > MAX_VERTICES {
+        return err(
+            table.clone(),
+            format!("with this model the scene exceeds {MAX_TRIANGLES} triangles or {MAX_VERTICES} vertices"),
+        );
+    }
+    if let Some(name) = &m.material {
+        let material = names.resolve(name)?;
+        scene.meshes.extend(model.meshes.into_iter().map(|mesh| Mesh { material, ..mesh }));
+        return Ok(());
+    }
+    let (material_base, texture_base) = (scene.materials.len() as u32, scene.textures.len() as u32);
+    if scene.materials.len() + model.materials.len() > MAX_MATERIALS
+        || scene.textures.len() + model.textures.len() > MAX_TEXTURES
+    {
+        return err(table.clone(), "with this model the scene has too many materials or textures");
+    }
+    let stem = Path::new(m.file.get_ref())
+        .file_name()
+        .map_or(m.file.get_ref().clone(), |f| f.to_string_lossy().into());
+    scene.materials.extend(model.materials.into_iter().map(|mat| Material {
+        name: format!("{stem}:{}", mat.name),
+        texture: mat.texture.map(|t| t + texture_base),
+        ..mat
+    }));
+    scene.textures.extend(model.textures);
+    scene.meshes.extend(
+        model.meshes.into_iter().map(|mesh| Mesh { material: mesh.material + material_base, ..mesh }),
+    );
+    Ok(())
 }
 
 fn camera(c: &CameraDoc) -> Res<Camera> {
