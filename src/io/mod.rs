@@ -74,6 +74,9 @@ pub fn line_column(src: &str, offset: usize) -> (usize, usize) {
     (before.matches('\n').count() + 1, before[line_start..].chars().count() + 1)
 }
 
+/// Parses a model file's bytes (`origin` as for [`Format::parse`]) into geometry and materials.
+pub type ModelParser = fn(&[u8], &str) -> Result<stage::Model, LoadError>;
+
 /// A scene file format: the extensions it claims, the largest file it reads (refused before
 /// reading) and its parser (`bytes`, `origin` for messages; `origin` is the file's path, and glTF
 /// finds external buffers relative to it). Model formats also give their geometry and
@@ -83,7 +86,7 @@ pub struct Format {
     pub extensions: &'static [&'static str],
     pub max_bytes: u64,
     pub parse: fn(&[u8], &str) -> Result<Scene, LoadError>,
-    pub model: Option<fn(&[u8], &str) -> Result<stage::Model, LoadError>>,
+    pub model: Option<ModelParser>,
 }
 
 /// Every format [`load`] understands, tried in order by extension.
