@@ -35,7 +35,9 @@ fn bounds(scene: &irt::scene::Scene) -> (DVec3, DVec3) {
 #[test]
 fn a_model_keeps_its_materials_and_textures_and_is_placed_by_its_transform() {
     let alone = io::load_model(&data().join("Duck.glb")).expect("Duck loads as a model");
-    let (path, _) = scene_with("[[model]]\nfile = \"Duck.glb\"\nscale = 0.01\nrotate = [0, 90, 0]\ntranslate = [1, 0, -2]\n");
+    let (path, _) = scene_with(
+        "[[model]]\nfile = \"Duck.glb\"\nscale = 0.01\nrotate = [0, 90, 0]\ntranslate = [1, 0, -2]\n",
+    );
     let scene = io::load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(scene.triangle_count(), alone.meshes.iter().map(|m| m.indices.len()).sum::<usize>());
     assert_eq!(scene.materials.len(), 1 + alone.materials.len());
@@ -50,7 +52,11 @@ fn a_model_keeps_its_materials_and_textures_and_is_placed_by_its_transform() {
     let (lo, hi) = bounds(&scene);
     assert!(lo.x > 0.0 && hi.z < -1.0, "moved to (1, 0, -2): {lo} .. {hi}");
     let ctx = common::gpu();
-    common::assert_matches_reference("model-duck", &common::render_gpu(&ctx, &scene), &common::reference_image(&scene));
+    common::assert_matches_reference(
+        "model-duck",
+        &common::render_gpu(&ctx, &scene),
+        &common::reference_image(&scene),
+    );
 }
 
 #[test]
@@ -60,17 +66,33 @@ fn a_model_material_override_replaces_all_its_materials_and_the_identity_changes
     assert_eq!(scene.materials.len(), 1, "no model materials added");
     assert!(scene.meshes.iter().all(|m| m.material == 0));
     let alone = io::load_model(&data().join("Box.gltf")).unwrap();
-    assert!(scene.meshes.iter().zip(&alone.meshes).all(|(a, b)| a.positions == b.positions && a.normals == b.normals));
+    assert!(scene
+        .meshes
+        .iter()
+        .zip(&alone.meshes)
+        .all(|(a, b)| a.positions == b.positions && a.normals == b.normals));
 }
 
 #[test]
 fn model_errors_point_at_the_scene_and_name_the_model_file() {
     let origin = |p: &Path| p.display().to_string();
     let (path, src) = scene_with("[[model]]\nfile = \"missing.glb\"\n");
-    let e = common::assert_fails_at(io::load(&path), &src, &origin(&path), "\"missing.glb\"", &["model", "missing.glb"]);
+    let e = common::assert_fails_at(
+        io::load(&path),
+        &src,
+        &origin(&path),
+        "\"missing.glb\"",
+        &["model", "missing.glb"],
+    );
     assert!(e.message.contains("cannot read"), "{e}");
     let (path, src) = scene_with("[[model]]\nfile = \"scene.nff\"\n");
-    common::assert_fails_at(io::load(&path), &src, &origin(&path), "\"scene.nff\"", &["not a model file", ".glb"]);
+    common::assert_fails_at(
+        io::load(&path),
+        &src,
+        &origin(&path),
+        "\"scene.nff\"",
+        &["not a model file", ".glb"],
+    );
     let (path, src) = scene_with("[[model]]\nfile = \"Box.gltf\"\nmaterial = \"blue\"\n");
     common::assert_fails_at(io::load(&path), &src, &origin(&path), "\"blue\"", &["blue"]);
     let (path, src) = scene_with("[[model]]\nfile = \"Box.gltf\"\nscale = 0\n");
@@ -94,6 +116,9 @@ fn a_model_alone_is_staged_with_a_camera_that_sees_it_and_a_light() {
         let d = c - scene.camera.eye;
         let depth = d.dot(b.w);
         assert!(depth > 0.0);
-        assert!((d.dot(b.u.normalize()) / depth).abs() < b.u.length() && (d.dot(b.v.normalize()) / depth).abs() < b.v.length());
+        assert!(
+            (d.dot(b.u.normalize()) / depth).abs() < b.u.length()
+                && (d.dot(b.v.normalize()) / depth).abs() < b.v.length()
+        );
     }
 }

@@ -10,7 +10,7 @@ pub mod viewer;
 
 use crate::render::{Mode, ModeArgs, Settings};
 use crate::scene::{Scene, ShadowMode};
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use std::path::PathBuf;
 
 /// Every key and mouse binding, as the HUD and `irt view --help` show it.
@@ -171,18 +171,11 @@ impl ViewArgs {
 
     /// The scene (file or built-in), checked as `irt render` checks it.
     pub fn load_scene(&self) -> Result<Scene> {
-        let scene = match &self.scene {
-            Some(path) => crate::io::load(path)?,
-            None => crate::scene::default_scene(),
-        };
-        let origin = self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
+        let scene = crate::io::load_or_default(self.scene.as_deref())?;
         self.mode.mode().map_err(anyhow::Error::msg)?;
         let mut checked = scene.clone();
         self.settings().apply_to(&mut checked);
-        checked.validate().with_context(|| format!("{origin} cannot be rendered"))?;
-        if scene.primitive_count() == 0 {
-            bail!("{origin} has no primitives: nothing to render");
-        }
+        crate::io::check_renderable(&checked, &self.scene_name()).map_err(anyhow::Error::msg)?;
         Ok(scene)
     }
 

@@ -11,7 +11,7 @@ mod render;
 mod stability;
 mod tradeoff;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use irt::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use irt::scene::Scene;
@@ -118,10 +118,7 @@ impl SceneArgs {
 /// The scene the arguments name (or the default scene), with their overrides applied, validated
 /// and non-empty.
 pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
-    let mut scene = match &args.scene {
-        Some(path) => load_showing_progress(path)?,
-        None => irt::scene::default_scene(),
-    };
+    let mut scene = irt::io::load_or_default(args.scene.as_deref())?;
     if let Some(w) = args.width {
         scene.camera.width = w;
     }
@@ -134,61 +131,11 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
     if let Some(r) = args.light_radius {
         scene.lights.iter_mut().for_each(|l| l.radius = r);
     }
-    let origin = args.name_or("default scene");
-    scene.validate().with_context(|| format!("{origin} cannot be rendered"))?;
-    if scene.primitive_count() == 0 {
-        bail!("{origin} has no primitives: nothing to render");
-    }
+    irt::io::check_renderable(&scene, &args.name_or("default scene")).map_err(anyhow::Error::msg)?;
     Ok(scene)
 }
 
-/// Files from this size on get a spinner while they are read and parsed.
-const SPINNER_FROM_BYTES: u64 = 16 << 20;
-
-/// [`irt::io::load`], with a spinner on a terminal for large files and the time it took logged.
-fn load_showing_progress(path: &std::path::Path) -> Result<Scene> {
-    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
-    let bar = if size >= SPINNER_FROM_BYTES {
-        let bar = indicatif::ProgressBar::new_spinner();
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("valid template"),
-        );
-        bar.set_message(format!("loading {} ({} MiB)", path.display(), size >> 20));
-        bar.enable_steady_tick(std::time::Duration::from_millis(120));
-        bar
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    let t = std::time::Instant::now();
-    let scene = irt::io::load(path);
-    bar.finish_and_clear();
-    let scene = scene?;
-    report(
-        scene.primitive_count(),
-        format!(
-            "loaded {} in {:.2} s: {} spheres, {} triangles, {} cones",
-            path.display(),
-            t.elapsed().as_secs_f64(),
-            scene.spheres.len(),
-            scene.triangle_count(),
-            scene.cones.len()
-        ),
-    );
-    Ok(scene)
-}
-
-/// Scenes from this many primitives on show setup progress and timings; smaller ones set up in
-/// milliseconds and log them (`RUST_LOG=info`).
-const LARGE_SCENE_PRIMITIVES: usize = 200_000;
-
-/// A line about setting up a scene of `primitives`: on stderr for large scenes, else logged.
-pub fn report(primitives: usize, line: String) {
-    if primitives >= LARGE_SCENE_PRIMITIVES {
-        eprintln!("{line}");
-    } else {
-        log::info!("{line}");
-    }
-}
+use irt::io::{report, LARGE_SCENE_PRIMITIVES};
 
 /// A bar for [`irt::gpu::Renderer::with_progress`]: the grid build's primitives, then the upload.
 pub fn setup_bar(primitives: usize) -> indicatif::ProgressBar {

@@ -197,3 +197,65 @@ pub(crate) fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Ve
     }
     Ok(bytes)
 }
+
+// ---- Loading for commands ------------------------------------------------------------------
+
+/// Files from this size on get a spinner while they are read and parsed.
+const SPINNER_FROM_BYTES: u64 = 16 << 20;
+
+/// Scenes from this many primitives on show setup progress and timings; smaller ones set up in
+/// milliseconds and log them (`RUST_LOG=info`).
+pub const LARGE_SCENE_PRIMITIVES: usize = 200_000;
+
+/// A line about loading or setting up a scene of `primitives`: on stderr for large scenes (whose
+/// user is waiting), else logged.
+pub fn report(primitives: usize, line: String) {
+    if primitives >= LARGE_SCENE_PRIMITIVES {
+        eprintln!("{line}");
+    } else {
+        log::info!("{line}");
+    }
+}
+
+/// The scene a command names, else the built-in default scene: [`load`], with a spinner on a
+/// terminal while a large file is read and parsed, and what it took reported.
+pub fn load_or_default(path: Option<&Path>) -> Result<Scene, LoadError> {
+    let Some(path) = path else { return Ok(crate::scene::default_scene()) };
+    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let bar = if size >= SPINNER_FROM_BYTES {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("valid template"),
+        );
+        bar.set_message(format!("loading {} ({} MiB)", path.display(), size >> 20));
+        bar.enable_steady_tick(std::time::Duration::from_millis(120));
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let t = std::time::Instant::now();
+    let scene = load(path);
+    bar.finish_and_clear();
+    let scene = scene?;
+    report(
+        scene.primitive_count(),
+        format!(
+            "loaded {} in {:.2} s: {} spheres, {} triangles, {} cones",
+            path.display(),
+            t.elapsed().as_secs_f64(),
+            scene.spheres.len(),
+            scene.triangle_count(),
+            scene.cones.len()
+        ),
+    );
+    Ok(scene)
+}
+
+/// Whether `scene` (named `origin` in the message) can be rendered: valid, and not empty.
+pub fn check_renderable(scene: &Scene, origin: &str) -> Result<(), String> {
+    scene.validate().map_err(|e| format!("{origin} cannot be rendered: {e}"))?;
+    if scene.primitive_count() == 0 {
+        return Err(format!("{origin} has no primitives: nothing to render"));
+    }
+    Ok(())
+}

@@ -747,11 +747,7 @@ impl ReplayArgs {
 
     /// The scene the arguments name, sized.
     pub fn scene(&self) -> anyhow::Result<Scene> {
-        use anyhow::Context;
-        let mut scene = match &self.scene {
-            Some(p) => crate::io::load(p)?,
-            None => crate::scene::default_scene(),
-        };
+        let mut scene = crate::io::load_or_default(self.scene.as_deref())?;
         if let Some(w) = self.width {
             scene.camera.width = w;
         }
@@ -759,7 +755,7 @@ impl ReplayArgs {
             scene.camera.height = h;
         }
         let name = self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
-        scene.validate().with_context(|| format!("{name} cannot be rendered"))?;
+        crate::io::check_renderable(&scene, &name).map_err(anyhow::Error::msg)?;
         Ok(scene)
     }
 }
