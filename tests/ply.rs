@@ -142,6 +142,21 @@ fn the_three_encodings_give_the_same_mesh() {
 /// A value of one PLY type from a small integer.
 type Make = fn(i32) -> V;
 
+/// Files written on Windows: `\r\n` line ends in the header (and in an ASCII body).
+#[test]
+fn crlf_line_ends_are_read() {
+    for format in ENCODINGS {
+        let bytes = ply(format, PLAIN, &plain_rows());
+        let body = header_len(&bytes);
+        let header = String::from_utf8(bytes[..body].to_vec()).unwrap().replace('\n', "\r\n");
+        let rest = match format {
+            ASCII => String::from_utf8(bytes[body..].to_vec()).unwrap().replace('\n', "\r\n").into_bytes(),
+            _ => bytes[body..].to_vec(),
+        };
+        assert_eq!(model(&[header.into_bytes(), rest].concat()).meshes, vec![square()], "{format}");
+    }
+}
+
 /// Every scalar type under both of its names, as coordinates and (the integer types) as list
 /// count and index types.
 #[test]
