@@ -1,8 +1,7 @@
 // Decoding the scene texture. Record formats: src/gpu/layout.rs, pack_scene.
 
 fn texel(i: u32) -> vec4u {
-    let mask = (1u << SCENE_TEX_SHIFT) - 1u;
-    return textureLoad(scene_tex, vec2u(i & mask, i >> SCENE_TEX_SHIFT), 0);
+    return scene_load(i & ((1u << SCENE_TEX_SHIFT) - 1u), i >> SCENE_TEX_SHIFT);
 }
 
 fn ftexel(i: u32) -> vec4f {

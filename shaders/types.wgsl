@@ -39,7 +39,8 @@ struct Tile {
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var scene_tex: texture_2d<u32>;
+// @binding(1), scene_tex, and its loader `scene_load` are in the prelude (src/gpu/shaders.rs):
+// a 2D texture or, for scenes past one layer, a 2D array.
 @group(0) @binding(2) var<storage, read_write> out_buf: array<vec4f>;
 @group(0) @binding(3) var<storage, read_write> stats: array<atomic<u32>, 4>;
 @group(0) @binding(4) var<uniform> tile: Tile;

@@ -239,35 +239,79 @@ impl fmt::Display for GridStats {
     }
 }
 
+/// Primitives inserted into the grid between progress reports.
+const PROGRESS_STEP: usize = 1 << 16;
+/// Below this many primitives per core, a second build thread costs more than it saves.
+const MIN_PRIMS_PER_THREAD: usize = 1 << 15;
+
+/// The scene's primitives by one index (spheres, then every mesh's triangles, then cones), each
+/// made into a [`Shape`] when asked: a list of shapes would cost ~90 bytes per primitive, which
+/// for a large mesh is more than the mesh itself.
+struct Prims<'a> {
+    scene: &'a Scene,
+    /// Index of each mesh's first triangle among all triangles, and the total at the end.
+    mesh_start: Vec<usize>,
+}
+
+impl<'a> Prims<'a> {
+    fn new(scene: &'a Scene) -> Self {
+        let mut mesh_start = vec![0];
+        for m in &scene.meshes {
+            mesh_start.push(mesh_start.last().unwrap() + m.indices.len());
+        }
+        Prims { scene, mesh_start }
+    }
+
+    fn len(&self) -> usize {
+        self.scene.spheres.len() + self.mesh_start.last().unwrap() + self.scene.cones.len()
+    }
+
+    fn shape(&self, i: usize) -> (PrimRef, Shape) {
+        let s = self.scene;
+        let triangles = *self.mesh_start.last().unwrap();
+        if i < s.spheres.len() {
+            let sp = &s.spheres[i];
+            (PrimRef::new(PrimKind::Sphere, i as u32), Shape::Sphere { center: sp.center, radius: sp.radius })
+        } else if i - s.spheres.len() < triangles {
+            let t = i - s.spheres.len();
+            let m = self.mesh_start.partition_point(|&start| start <= t) - 1;
+            let mesh = &s.meshes[m];
+            let p = mesh.indices[t - self.mesh_start[m]].map(|v| mesh.positions[v as usize]);
+            (PrimRef::new(PrimKind::Triangle, t as u32), Shape::Triangle(p))
+        } else {
+            let k = i - s.spheres.len() - triangles;
+            let c = &s.cones[k];
+            let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
+            (PrimRef::new(PrimKind::Cone, k as u32), shape)
+        }
+    }
+}
+
 impl Grid {
     /// Builds the grid for every sphere, mesh triangle and cone of `scene` (which must be valid).
     /// The grid does not depend on the shadow mode: `shell` mode keeps its shells in a list of
     /// objects of its own (docs/shadows.md, Shell objects), not in the cells.
     pub fn build(scene: &Scene) -> Grid {
-        let shapes: Vec<(PrimRef, Shape)> = scene
-            .spheres
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                (
-                    PrimRef::new(PrimKind::Sphere, i as u32),
-                    Shape::Sphere { center: s.center, radius: s.radius },
-                )
-            })
-            .chain(
-                scene
-                    .triangles()
-                    .enumerate()
-                    .map(|(i, t)| (PrimRef::new(PrimKind::Triangle, i as u32), Shape::Triangle(t.p))),
-            )
-            .chain(scene.cones.iter().enumerate().map(|(i, c)| {
-                let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
-                (PrimRef::new(PrimKind::Cone, i as u32), shape)
-            }))
-            .collect();
-        let bounds = shapes.iter().fold(Aabb::EMPTY, |b, (_, s)| b.union(s.bounds()));
+        Self::build_with_progress(scene, &|_, _| {})
+    }
+
+    /// [`Grid::build`], calling `progress(done, total)` as primitives are inserted (from any of
+    /// the build threads). Primitives are split into contiguous ranges, one per core, each
+    /// thread listing its (cell, ref) pairs; the counting sort then reads the ranges in order,
+    /// so the cells list their primitives in the same order whatever the thread count.
+    pub fn build_with_progress(scene: &Scene, progress: &(dyn Fn(usize, usize) + Sync)) -> Grid {
+        let n = Prims::new(scene).len();
+        let threads =
+            std::thread::available_parallelism().map_or(1, |t| t.get()).min(n.div_ceil(MIN_PRIMS_PER_THREAD));
+        Self::build_on(scene, threads.max(1), progress)
+    }
+
+    fn build_on(scene: &Scene, threads: usize, progress: &(dyn Fn(usize, usize) + Sync)) -> Grid {
+        let prims = Prims::new(scene);
+        let n = prims.len();
+        let bounds = (0..n).fold(Aabb::EMPTY, |b, i| b.union(prims.shape(i).1.bounds()));
         let (min, max) = padded(bounds);
-        let res = resolution(max - min, shapes.len());
+        let res = resolution(max - min, n);
         let cell_size = (max - min) / DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64);
         let magnitude = min.abs().max(max.abs()).max_element();
         let margin =
@@ -278,34 +322,55 @@ impl Grid {
             let c = ((p - min) / cell_size).floor();
             [0, 1, 2].map(|a| (c[a].max(0.0) as u32).min(res[a] - 1))
         };
-        let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
-        for (r, shape) in &shapes {
-            let b = shape.bounds();
-            let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    for x in lo[0]..=hi[0] {
-                        let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
-                        let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
-                        let c = x + res[0] * (y + res[1] * z);
-                        if shape.overlaps(&cell) {
-                            pairs.push((c, *r));
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let insert = |range: std::ops::Range<usize>| {
+            let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
+            for (k, i) in range.enumerate() {
+                let (r, shape) = prims.shape(i);
+                let b = shape.bounds();
+                let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
+                for z in lo[2]..=hi[2] {
+                    for y in lo[1]..=hi[1] {
+                        for x in lo[0]..=hi[0] {
+                            let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
+                            let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
+                            let c = x + res[0] * (y + res[1] * z);
+                            if shape.overlaps(&cell) {
+                                pairs.push((c, r));
+                            }
                         }
                     }
                 }
+                if k % PROGRESS_STEP == PROGRESS_STEP - 1 {
+                    let d = done.fetch_add(PROGRESS_STEP, std::sync::atomic::Ordering::Relaxed);
+                    progress(d + PROGRESS_STEP, n);
+                }
             }
-        }
+            pairs
+        };
+        let chunk = n.div_ceil(threads).max(1);
+        let ranges: Vec<_> = (0..threads).map(|t| t * chunk..((t + 1) * chunk).min(n)).collect();
+        let lists: Vec<Vec<(u32, PrimRef)>> = if threads == 1 {
+            vec![insert(0..n)]
+        } else {
+            std::thread::scope(|s| {
+                let handles: Vec<_> = ranges.iter().map(|r| s.spawn(|| insert(r.clone()))).collect();
+                handles.into_iter().map(|h| h.join().expect("grid build thread")).collect()
+            })
+        };
+        progress(n, n);
+        let pairs = lists.iter().flatten();
         let cells = res.iter().map(|&r| r as usize).product::<usize>();
         let mut cell_start = vec![0u32; cells + 1];
-        for &(c, _) in &pairs {
+        for &(c, _) in pairs.clone() {
             cell_start[c as usize + 1] += 1;
         }
         for c in 0..cells {
             cell_start[c + 1] += cell_start[c];
         }
         let mut fill = cell_start.clone();
-        let mut prim_refs = vec![PrimRef(0); pairs.len()];
-        for &(c, r) in &pairs {
+        let mut prim_refs = vec![PrimRef(0); cell_start[cells] as usize];
+        for &(c, r) in pairs {
             prim_refs[fill[c as usize] as usize] = r;
             fill[c as usize] += 1;
         }
@@ -452,6 +517,20 @@ mod tests {
             textures: vec![],
             trace: TraceSettings::default(),
         }
+    }
+
+    #[test]
+    fn the_grid_does_not_depend_on_the_thread_count() {
+        let mut s = random_scene(7, 900, 10.0, DVec3::ZERO);
+        // Several meshes, one empty, so ranges start inside and between them.
+        let mesh = s.meshes[0].clone();
+        s.meshes.push(Mesh { indices: vec![], ..mesh.clone() });
+        s.meshes.push(mesh);
+        let one = Grid::build_on(&s, 1, &|_, _| {});
+        for threads in [2, 3, 7] {
+            assert!(Grid::build_on(&s, threads, &|_, _| {}) == one, "{threads} threads");
+        }
+        assert!(one.prim_refs.len() > 900);
     }
 
     fn random_scene(seed: u64, n: usize, extent: f64, offset: DVec3) -> Scene {

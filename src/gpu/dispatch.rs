@@ -1,7 +1,7 @@
 //! Uploading a scene and dispatching kernels over it: the render pipeline and the readback
 //! kernels of the tests share this one binding layout (shaders/types.wgsl).
 
-use super::layout::{self, PackedScene, Params, Tile, SCENE_TEX_WIDTH};
+use super::layout::{self, PackedScene, Params, Tile, SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
 use super::shaders::{self, Kernel, Variant};
 use super::GpuContext;
 use crate::accel::Grid;
@@ -14,6 +14,8 @@ pub struct GpuScene {
     pub params: Params,
     params_buf: wgpu::Buffer,
     texture_view: wgpu::TextureView,
+    /// The scene texture has more than one layer (a 2D array; see `Variant::layered`).
+    pub layered: bool,
     /// Bytes uploaded (texture + uniforms), for logs and benches.
     pub bytes: u64,
 }
@@ -36,21 +38,33 @@ impl GpuScene {
     pub fn upload_at(ctx: &GpuContext, scene: &Scene, grid: &Grid, origin: DVec3) -> Result<Self, String> {
         let packed = layout::pack_scene(scene, grid, origin);
         let params = layout::params(scene, grid, &packed, origin);
-        Self::upload_packed(ctx, &packed, params)
+        Self::upload_packed(ctx, packed, params)
     }
 
-    pub fn upload_packed(ctx: &GpuContext, packed: &PackedScene, params: Params) -> Result<Self, String> {
-        let rows = packed.rows();
-        let max_side = ctx.device.limits().max_texture_dimension_2d;
-        if rows > max_side {
+    /// Uploads `packed` (consumed: a large scene's texels are not copied on the host) into the
+    /// layered scene texture, one layer per write so that wgpu's staging copy stays one layer
+    /// (at most 512 MiB) rather than the whole scene.
+    pub fn upload_packed(ctx: &GpuContext, packed: PackedScene, params: Params) -> Result<Self, String> {
+        let (rows, layers) = packed.extent();
+        let limits = ctx.device.limits();
+        if rows > limits.max_texture_dimension_2d || layers > limits.max_texture_array_layers {
+            let most = limits.max_texture_dimension_2d.min(SCENE_LAYER_ROWS) as u64
+                * limits.max_texture_array_layers as u64
+                * SCENE_TEX_WIDTH as u64;
             return Err(format!(
-                "the scene needs {} texels ({rows} rows of {SCENE_TEX_WIDTH}); this device allows {max_side} rows",
-                packed.texels.len()
+                "the scene needs {} texels of 16 bytes ({} MiB); this device holds at most {most} ({} MiB) \
+                 in its {} layers of {}x{}",
+                packed.texels.len(),
+                packed.texels.len() >> 16,
+                most >> 16,
+                limits.max_texture_array_layers,
+                SCENE_TEX_WIDTH,
+                limits.max_texture_dimension_2d.min(SCENE_LAYER_ROWS),
             ));
         }
-        let mut data = packed.texels.clone();
-        data.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
-        let size = wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: rows, depth_or_array_layers: 1 };
+        let mut data = packed.texels;
+        data.resize((rows * layers * SCENE_TEX_WIDTH) as usize, [0; 4]);
+        let size = wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: rows, depth_or_array_layers: layers };
         let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("scene"),
             size,
@@ -61,24 +75,37 @@ impl GpuScene {
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
-        ctx.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: &texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            bytemuck::cast_slice(&data),
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(SCENE_TEX_WIDTH * 16),
-                rows_per_image: Some(rows),
-            },
-            size,
-        );
+        let layer_texels = (rows * SCENE_TEX_WIDTH) as usize;
+        for (layer, chunk) in data.chunks(layer_texels).enumerate() {
+            ctx.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d { x: 0, y: 0, z: layer as u32 },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(chunk),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(SCENE_TEX_WIDTH * 16),
+                    rows_per_image: Some(rows),
+                },
+                wgpu::Extent3d { depth_or_array_layers: 1, ..size },
+            );
+            if layers > 1 {
+                // Submit and wait, so that each layer's staging buffer is freed before the next.
+                ctx.queue.submit([]);
+                ctx.wait();
+            }
+        }
         let params_buf = uniform(ctx, "params", bytemuck::bytes_of(&params));
         let bytes = (data.len() * 16 + std::mem::size_of::<Params>()) as u64;
-        Ok(GpuScene { params, params_buf, texture_view: texture.create_view(&Default::default()), bytes })
+        let layered = layers > 1;
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(view_dimension(layered)),
+            ..Default::default()
+        });
+        Ok(GpuScene { params, params_buf, texture_view: view, layered, bytes })
     }
 }
 
@@ -100,8 +127,17 @@ fn storage(ctx: &GpuContext, label: &str, size: u64, extra: wgpu::BufferUsages) 
     })
 }
 
-/// The one bind group layout every kernel uses (bindings 0–8 of shaders/types.wgsl).
-fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+fn view_dimension(layered: bool) -> wgpu::TextureViewDimension {
+    if layered {
+        wgpu::TextureViewDimension::D2Array
+    } else {
+        wgpu::TextureViewDimension::D2
+    }
+}
+
+/// The one bind group layout every kernel uses (bindings 0–8 of shaders/types.wgsl), its scene
+/// texture layered or not.
+fn bind_group_layout(device: &wgpu::Device, layered: bool) -> wgpu::BindGroupLayout {
     use wgpu::{BindingType as B, BufferBindingType as Bb, ShaderStages};
     let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
         binding,
@@ -118,7 +154,7 @@ fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                 1,
                 B::Texture {
                     sample_type: wgpu::TextureSampleType::Uint,
-                    view_dimension: wgpu::TextureViewDimension::D2,
+                    view_dimension: view_dimension(layered),
                     multisampled: false,
                 },
             ),
@@ -205,12 +241,13 @@ impl Dispatcher {
         modes: ModeBuffers,
     ) -> Self {
         let device = &ctx.device;
+        let variant = Variant { layered: scene.layered, ..variant };
         let src = shaders::compose(kernel, variant);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(entry),
             source: wgpu::ShaderSource::Wgsl(src.into()),
         });
-        let bgl = bind_group_layout(device);
+        let bgl = bind_group_layout(device, scene.layered);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("irt"),
             bind_group_layouts: &[Some(&bgl)],

@@ -13,10 +13,16 @@ use crate::scene::{
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
-/// The scene texture is `1 << SCENE_TEX_SHIFT` texels wide; texel `i` is at
-/// `(i & (width - 1), i >> SCENE_TEX_SHIFT)`.
+/// The scene texture is an array of layers `1 << SCENE_TEX_SHIFT` texels wide and at most
+/// `1 << SCENE_LAYER_SHIFT` rows high: texel `i` is at column `i & (width - 1)` of row
+/// `i >> SCENE_TEX_SHIFT` counted across layers. One 2D texture would stop at the device's
+/// largest side (16384 rows of 4096 texels, 1 GiB, on lavapipe: about 9M triangles with
+/// normals); layers lift that to the array-layer limit (256 at least) times 512 MiB.
 pub const SCENE_TEX_SHIFT: u32 = 12;
 pub const SCENE_TEX_WIDTH: u32 = 1 << SCENE_TEX_SHIFT;
+/// Rows per layer: 8192, the smallest maximum texture side WebGPU allows, so any device takes it.
+pub const SCENE_LAYER_SHIFT: u32 = 13;
+pub const SCENE_LAYER_ROWS: u32 = 1 << SCENE_LAYER_SHIFT;
 
 /// Texels per record; the shader's decoders read these constants from the generated prelude.
 pub const SPHERE_TEXELS: u32 = 2;
@@ -213,9 +219,20 @@ pub struct PackedScene {
 }
 
 impl PackedScene {
-    /// Texture height for `texels.len()` at [`SCENE_TEX_WIDTH`] texels per row (at least 1).
+    /// Rows for `texels.len()` at [`SCENE_TEX_WIDTH`] texels per row, across layers (at least 1).
     pub fn rows(&self) -> u32 {
-        (self.texels.len() as u32).div_ceil(SCENE_TEX_WIDTH).max(1)
+        (self.texels.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32
+    }
+
+    /// The texture's rows per layer and layers: one layer of just the rows needed while they
+    /// fit in [`SCENE_LAYER_ROWS`], else full layers.
+    pub fn extent(&self) -> (u32, u32) {
+        let rows = self.rows();
+        if rows <= SCENE_LAYER_ROWS {
+            (rows, 1)
+        } else {
+            (SCENE_LAYER_ROWS, rows.div_ceil(SCENE_LAYER_ROWS))
+        }
     }
 }
 
@@ -250,7 +267,31 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`; then the light buffer's cells (`scene::shell_cell`),
 ///   `[first, count, 0, 0]` into the list, and the list: object indices, four per texel.
 pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
-    let mut t: Vec<[u32; 4]> = Vec::new();
+    // Sized exactly up front (the shell sections reserve their own): a large mesh's texels are
+    // most of the host's memory, and a growing Vec would double them for a moment.
+    let with = |has: fn(&crate::scene::Mesh) -> bool| -> usize {
+        scene.meshes.iter().filter(|m| has(m)).map(|m| m.indices.len()).sum()
+    };
+    let (normal_tris, uv_tris) = (with(|m| m.normals.is_some()), with(|m| m.uvs.is_some()));
+    let pixels = scene.textures.iter().map(|t| t.texels.len()).sum::<usize>();
+    let cells = grid.cell_start.len() - 1;
+    let bundle = match scene.trace.shadows {
+        ShadowMode::Bundle { samples, .. } => samples as usize,
+        _ => 0,
+    };
+    let capacity = SPHERE_TEXELS as usize * scene.spheres.len()
+        + (TRIANGLE_TEXELS as usize) * scene.triangle_count()
+        + NORMAL_TEXELS as usize * normal_tris
+        + MATERIAL_TEXELS as usize * scene.materials.len()
+        + 3 * scene.cones.len()
+        + UV_TEXELS as usize * uv_tris
+        + scene.textures.len()
+        + pixels.div_ceil(PIXELS_PER_TEXEL as usize)
+        + cells.div_ceil(CELLS_PER_TEXEL as usize)
+        + grid.prim_refs.len().div_ceil(REFS_PER_TEXEL as usize)
+        + grid.macro_bits.len().div_ceil(4)
+        + bundle.div_ceil(2);
+    let mut t: Vec<[u32; 4]> = Vec::with_capacity(capacity);
     let sphere_base = 0u32;
     for s in &scene.spheres {
         t.push(f4(s.center - origin, (s.radius as f32).to_bits()));
@@ -258,33 +299,27 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         t.push([s.material, anchor[0], anchor[1], anchor[2]]);
     }
     let triangle_base = t.len() as u32;
-    let mut normals: Vec<[u32; 4]> = Vec::new();
-    let mut uvs: Vec<[u32; 4]> = Vec::new();
+    // Normal and uv records are numbered in triangle order; their sections are filled after.
+    let (mut normal_records, mut uv_records) = (0u32, 0u32);
+    let next = |present: bool, counter: &mut u32, none: u32| {
+        if present {
+            *counter += 1;
+            *counter - 1
+        } else {
+            none
+        }
+    };
     for tri in scene.triangles() {
-        let normal_record = match tri.n {
-            Some(n) => {
-                let rec = (normals.len() as u32) / NORMAL_TEXELS;
-                normals.extend(n.iter().map(|v| f4(*v, 0)));
-                rec
-            }
-            None => NO_NORMALS,
-        };
+        let normal_record = next(tri.n.is_some(), &mut normal_records, NO_NORMALS);
+        let uv_record = next(tri.uv.is_some(), &mut uv_records, NO_UVS);
         t.push(f4(tri.p[0] - origin, tri.material));
         t.push(f4(tri.p[1] - origin, normal_record));
-        let uv_record = match tri.uv {
-            Some(uv) => {
-                let rec = (uvs.len() as u32) / UV_TEXELS;
-                let b = uv.map(|v| [(v.x as f32).to_bits(), (v.y as f32).to_bits()]);
-                uvs.push([b[0][0], b[0][1], b[1][0], b[1][1]]);
-                uvs.push([b[2][0], b[2][1], 0, 0]);
-                rec
-            }
-            None => NO_UVS,
-        };
         t.push(f4(tri.p[2] - origin, uv_record));
     }
     let normal_base = t.len() as u32;
-    t.extend(normals);
+    for n in scene.triangles().filter_map(|tri| tri.n) {
+        t.extend(n.iter().map(|v| f4(*v, 0)));
+    }
     let material_base = t.len() as u32;
     for m in &scene.materials {
         let code = material_code(&m.kind);
@@ -305,7 +340,11 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         t.push([c.material, 0, 0, 0]);
     }
     let uv_base = t.len() as u32;
-    t.extend(uvs);
+    for uv in scene.triangles().filter_map(|tri| tri.uv) {
+        let b = uv.map(|v| [(v.x as f32).to_bits(), (v.y as f32).to_bits()]);
+        t.push([b[0][0], b[0][1], b[1][0], b[1][1]]);
+        t.push([b[2][0], b[2][1], 0, 0]);
+    }
     let texture_base = t.len() as u32;
     let mut first = 0u32;
     for tex in &scene.textures {
@@ -324,10 +363,9 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         t.push(texel);
     }
     let cell_base = t.len() as u32;
-    let cells = grid.cell_start.len() - 1;
-    for pair in (0..cells).collect::<Vec<_>>().chunks(CELLS_PER_TEXEL as usize) {
+    for first in (0..cells).step_by(CELLS_PER_TEXEL as usize) {
         let mut texel = [0u32; 4];
-        for (k, &c) in pair.iter().enumerate() {
+        for (k, c) in (first..cells.min(first + CELLS_PER_TEXEL as usize)).enumerate() {
             texel[2 * k] = grid.cell_start[c];
             texel[2 * k + 1] = grid.cell_start[c + 1] - grid.cell_start[c];
         }
@@ -364,6 +402,8 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
             let edge_base = section + 1 + SHELL_OBJECT_TEXELS * sh.objects.len() as u32;
             let cell_base = edge_base + SHELL_EDGE_TEXELS * sh.edges.len() as u32;
             let list_base = cell_base + sh.cells.len() as u32;
+            let listed = sh.cells.iter().map(Vec::len).sum::<usize>();
+            t.reserve_exact((list_base - section) as usize + listed.div_ceil(4));
             t.push([sh.objects.len() as u32, cell_base, list_base, 0]);
             for o in &sh.objects {
                 t.push(f4(o.center - origin, (o.radius as f32).to_bits()));
@@ -473,6 +513,7 @@ pub fn wgsl_constants() -> String {
     let c = |name: &str, v: u32| format!("const {name}: u32 = {v}u;\n");
     let mut s = String::new();
     s += &c("SCENE_TEX_SHIFT", SCENE_TEX_SHIFT);
+    s += &c("SCENE_LAYER_SHIFT", SCENE_LAYER_SHIFT);
     s += &c("SPHERE_TEXELS", SPHERE_TEXELS);
     s += &c("TRIANGLE_TEXELS", TRIANGLE_TEXELS);
     s += &c("NORMAL_TEXELS", NORMAL_TEXELS);
@@ -520,4 +561,29 @@ pub fn wgsl_constants() -> String {
         s += &c(name, material_code(&kind));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{default_scene, ShadowMode};
+
+    /// `pack_scene` sizes its texels before writing them (a growing Vec would briefly double a
+    /// large mesh's memory); this keeps the up-front count in step with what is written.
+    #[test]
+    fn packed_scenes_are_allocated_exactly() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut scenes = vec![default_scene()];
+        for name in ["textured.toml", "mesh.toml", "cones.toml"] {
+            scenes.push(crate::io::load(&dir.join(name)).expect("scene loads"));
+        }
+        let mut bundle = default_scene();
+        bundle.trace.shadows = ShadowMode::Bundle { samples: 7, rotate: true };
+        scenes.push(bundle);
+        for scene in &scenes {
+            let grid = Grid::build(scene);
+            let packed = pack_scene(scene, &grid, scene.camera.eye);
+            assert_eq!(packed.texels.capacity(), packed.texels.len());
+        }
+    }
 }

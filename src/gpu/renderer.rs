@@ -89,7 +89,7 @@ impl Renderer {
         let mut params = layout::params(scene, &grid, &packed, scene.camera.eye);
         params.eye_grid = layout::eye_grid(width, height, opts.corner_rays);
         let rays = [params.eye_grid[0], params.eye_grid[1]];
-        let gpu_scene = GpuScene::upload_packed(ctx, &packed, params)?;
+        let gpu_scene = GpuScene::upload_packed(ctx, packed, params)?;
         ctx.wait();
         let t2 = Instant::now();
         if opts.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {

@@ -48,6 +48,11 @@ pub struct Variant {
     pub f64: bool,
     /// Base-colour textures: texture coordinates at hits and texture sampling.
     pub textures: bool,
+    /// The scene texture is a 2D array (the scene needs more than one layer of
+    /// `layout::SCENE_LAYER_ROWS` rows). Set by the dispatcher from the uploaded scene: on
+    /// lavapipe an array fetch costs ~5% of a triangle scene's frame (callgrind, SPD gears), so
+    /// scenes that fit one layer keep a plain 2D texture.
+    pub layered: bool,
 }
 
 /// Every material kind.
@@ -67,6 +72,7 @@ impl Variant {
         materials: ALL_MATERIALS,
         f64: false,
         textures: true,
+        layered: false,
     };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
@@ -79,6 +85,7 @@ impl Variant {
             materials: scene.materials.iter().fold(0, |m, mat| m | 1 << layout::material_code(&mat.kind)),
             f64: false,
             textures: scene.materials.iter().any(|m| m.texture.is_some()),
+            layered: false,
         }
     }
 
@@ -98,6 +105,7 @@ impl Variant {
                     materials: ALL_MATERIALS,
                     f64: false,
                     textures: bits & 2 != 0,
+                    layered: bits & 1 != 0,
                 });
             }
         }
@@ -120,6 +128,16 @@ impl Variant {
         s += &format!("const MATERIAL_KINDS: u32 = {}u;\n", self.materials);
         let real = if self.f64 { "f64" } else { "f32" };
         s += &format!("alias real = {real};\nalias vec3r = vec3<{real}>;\n");
+        s += if self.layered {
+            "@group(0) @binding(1) var scene_tex: texture_2d_array<u32>;\n\
+             fn scene_load(column: u32, row: u32) -> vec4u {\n\
+             \x20   let layer_row = row & ((1u << SCENE_LAYER_SHIFT) - 1u);\n\
+             \x20   return textureLoad(scene_tex, vec2u(column, layer_row), row >> SCENE_LAYER_SHIFT, 0);\n}\n"
+        } else {
+            "@group(0) @binding(1) var scene_tex: texture_2d<u32>;\n\
+             fn scene_load(column: u32, row: u32) -> vec4u {\n\
+             \x20   return textureLoad(scene_tex, vec2u(column, row), 0);\n}\n"
+        };
         s
     }
 }

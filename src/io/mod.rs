@@ -25,8 +25,8 @@ pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
 /// Loader limits on counts, well inside what the GPU records can index (`PrimRef` has 30 bits),
 /// so that a typo (an icosphere in a loop, a runaway generator) is an error and not a hang.
 pub const MAX_SPHERES: usize = 1 << 22;
-pub const MAX_TRIANGLES: usize = 1 << 22;
-pub const MAX_VERTICES: usize = 1 << 22;
+pub const MAX_TRIANGLES: usize = 1 << 24;
+pub const MAX_VERTICES: usize = 1 << 24;
 pub const MAX_CONES: usize = 1 << 22;
 pub const MAX_MATERIALS: usize = 1 << 16;
 

@@ -1,4 +1,4 @@
-//! Generated meshes for scene files: quad, box and icosphere.
+//! Generated meshes: quad, box and icosphere for scene files; a fractal terrain for large-model tests.
 //!
 //! Every shape shares vertices between its triangles (closed shapes are watertight) and winds
 //! triangles counter-clockwise seen from outside, because flat-shaded triangles take their
@@ -123,6 +123,73 @@ fn subdivide(vertices: &mut Vec<DVec3>, triangles: &[[u32; 3]]) -> Vec<[u32; 3]>
     out
 }
 
+/// A fractal terrain over the square |x|, |z| ≤ 1: `side` × `side` vertices on a regular grid,
+/// heights from a few octaves of value noise (at most about ±0.25), `2 (side − 1)²` triangles
+/// facing +y, with smooth vertex normals when `normals`. The same `seed` gives the same mesh.
+/// Large-model tests and the scale study use it: any triangle count, a real depth range, and
+/// triangles as small and numerous as a scan's.
+pub fn terrain(side: u32, seed: u64, normals: bool) -> Geometry {
+    let n = side.max(2) as usize;
+    let step = 2.0 / (n - 1) as f64;
+    let height = |x: f64, z: f64| -> f64 {
+        let (mut sum, mut amp, mut freq) = (0.0, 0.25, 2.0);
+        for octave in 0..6u64 {
+            sum += amp * value_noise(x * freq, z * freq, seed.wrapping_add(octave));
+            amp *= 0.5;
+            freq *= 2.0;
+        }
+        sum
+    };
+    let positions: Vec<DVec3> = (0..n * n)
+        .map(|i| {
+            let (x, z) = (-1.0 + (i % n) as f64 * step, -1.0 + (i / n) as f64 * step);
+            DVec3::new(x, height(x, z), z)
+        })
+        .collect();
+    let normals = normals.then(|| {
+        (0..n * n)
+            .map(|i| {
+                let (c, r) = (i % n, i / n);
+                let at = |c: usize, r: usize| positions[r * n + c];
+                // Central differences, one-sided at the border.
+                let dx = at((c + 1).min(n - 1), r) - at(c.saturating_sub(1), r);
+                let dz = at(c, (r + 1).min(n - 1)) - at(c, r.saturating_sub(1));
+                dz.cross(dx).normalize_or(DVec3::Y)
+            })
+            .collect()
+    });
+    let mut indices = Vec::with_capacity(2 * (n - 1) * (n - 1));
+    for r in 0..n - 1 {
+        for c in 0..n - 1 {
+            let v = |c: usize, r: usize| (r * n + c) as u32;
+            // Counter-clockwise seen from +y (z × x = +y), as `quad`.
+            indices.push([v(c, r), v(c, r + 1), v(c + 1, r + 1)]);
+            indices.push([v(c, r), v(c + 1, r + 1), v(c + 1, r)]);
+        }
+    }
+    Geometry { positions, normals, indices }
+}
+
+/// Smoothly interpolated lattice noise in [-1, 1] (a hash per integer lattice point).
+fn value_noise(x: f64, z: f64, seed: u64) -> f64 {
+    let lattice = |i: i64, j: i64| -> f64 {
+        let mut h = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ (j as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ seed;
+        h ^= h >> 31;
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 29;
+        (h >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    };
+    let (i, j) = (x.floor(), z.floor());
+    let (fx, fz) = (x - i, z - j);
+    let s = |t: f64| t * t * (3.0 - 2.0 * t);
+    let (i, j) = (i as i64, j as i64);
+    let a = lattice(i, j) + s(fx) * (lattice(i + 1, j) - lattice(i, j));
+    let b = lattice(i, j + 1) + s(fx) * (lattice(i + 1, j + 1) - lattice(i, j + 1));
+    a + s(fz) * (b - a)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -230,5 +297,19 @@ mod tests {
             let grad = (q / (scale * scale)).normalize();
             assert!((grad - *n).length() < 1e-12);
         }
+    }
+
+    #[test]
+    fn terrain_has_the_triangles_it_promises_facing_up() {
+        let g = terrain(20, 3, true);
+        assert_eq!(g.indices.len(), 2 * 19 * 19);
+        assert_eq!(g, terrain(20, 3, true), "same seed, same mesh");
+        assert_ne!(g.positions, terrain(20, 4, true).positions);
+        for t in &g.indices {
+            let p = t.map(|i| g.positions[i as usize]);
+            assert!((p[1] - p[0]).cross(p[2] - p[0]).y > 0.0, "winding faces +y");
+        }
+        assert!(g.normals.unwrap().iter().all(|n| n.y > 0.0 && (n.length() - 1.0).abs() < 1e-12));
+        assert!(g.positions.iter().all(|p| p.y.abs() < 0.5));
     }
 }

@@ -137,7 +137,7 @@ impl Session {
         let origin = scene.camera.eye;
         let packed = layout::pack_scene(&scene, &grid, origin);
         let params = layout::params(&scene, &grid, &packed, origin);
-        let gpu_scene = GpuScene::upload_packed(ctx, &packed, params)?;
+        let gpu_scene = GpuScene::upload_packed(ctx, packed, params)?;
         if settings.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
             return Err(format!(
                 "{} has no f64 shader support (SHADER_F64): use --precision f32",
