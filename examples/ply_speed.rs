@@ -1,5 +1,5 @@
-//! The PLY reader's speed and memory (docs/ply.md, "Speed"): writes a height-field grid of about
-//! N triangles as PLY (`irt::io::ply::write`: float x y z, `uchar uint` faces; binary
+//! The PLY reader's speed and memory (docs/ply.md, "Speed"): writes a terrain of about N
+//! triangles as PLY (`irt::io::ply::write`: float x y z, `uchar uint` faces; binary
 //! little-endian unless `ascii` or `be` follows), then reads it back with
 //! `irt::io::ply::parse_model` and times that. Run the two steps apart so that `/usr/bin/time -v`
 //! sees the reader alone:
@@ -7,7 +7,6 @@
 //!     cargo build --release --example ply_speed
 //!     target/release/examples/ply_speed write /tmp/grid.ply 10000000
 //!     /usr/bin/time -v target/release/examples/ply_speed read /tmp/grid.ply
-use glam::DVec3;
 use irt::io::ply::{parse_model, write, Encoding};
 use irt::scene::Mesh;
 use std::time::Instant;
@@ -55,25 +54,11 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A wavy square grid with at least `triangles` triangles, its coordinates exact f32 values (so
-/// the file stores floats).
+/// irt's fractal terrain (`io::shapes::terrain`) with at least `triangles` triangles, its
+/// coordinates rounded to f32 as a scan's are (so the file stores floats).
 fn grid(triangles: usize) -> Mesh {
     let side = ((triangles as f64 / 2.0).sqrt().ceil() as u32).max(1) + 1;
-    let mut positions = Vec::with_capacity((side * side) as usize);
-    for j in 0..side {
-        for i in 0..side {
-            let (x, y) = (i as f64 / side as f64, j as f64 / side as f64);
-            let z = 0.05 * (20.0 * x).sin() * (20.0 * y).cos();
-            positions.push(DVec3::new(x, y, z).as_vec3().as_dvec3());
-        }
-    }
-    let mut indices = Vec::with_capacity(2 * ((side - 1) * (side - 1)) as usize);
-    for j in 0..side - 1 {
-        for i in 0..side - 1 {
-            let a = j * side + i;
-            indices.push([a, a + 1, a + side + 1]);
-            indices.push([a, a + side + 1, a + side]);
-        }
-    }
-    Mesh { positions, normals: None, uvs: None, indices, material: 0 }
+    let mut mesh = irt::io::shapes::terrain(side, 1, false).into_mesh(0);
+    mesh.positions.iter_mut().for_each(|p| *p = p.as_vec3().as_dvec3());
+    mesh
 }
