@@ -83,6 +83,21 @@ fn every_gltf_sample_round_trips() {
     }
 }
 
+/// The real PLY models (tests/data/models): vertex and face colours (one mesh and material per
+/// colour group), normals and texture coordinates, all three encodings.
+#[test]
+fn every_ply_model_round_trips() {
+    let mut count = 0;
+    for entry in std::fs::read_dir(repo("tests/data/models")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "ply") {
+            round_trip(&path.display().to_string(), &irt::io::load(&path).unwrap_or_else(|e| panic!("{e}")));
+            count += 1;
+        }
+    }
+    assert!(count >= 4, "only {count} PLY models");
+}
+
 /// The default scene with every field away from its default and awkward values everywhere.
 fn awkward() -> Scene {
     let mut s = default_scene();
@@ -387,6 +402,19 @@ fn convert_writes_a_toml_that_loads_as_the_same_scene() {
         .filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().ends_with(".tmp"))
         .count();
     assert_eq!(leftovers, 0, "the write is atomic: no temporary file is left");
+}
+
+/// `irt convert` itself on a binary PLY with colour groups.
+#[test]
+fn convert_writes_a_ply_as_a_toml_that_loads_as_the_same_scene() {
+    let input = repo("tests/data/models/reference.ply");
+    let out = tmp("reference.toml");
+    let _ = std::fs::remove_file(&out);
+    let run = irt(&["convert", input.to_str().unwrap(), out.to_str().unwrap()]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let original = irt::io::load(&input).unwrap();
+    assert!(original.materials.len() > 1);
+    assert_eq!(bits(&irt::io::load(&out).unwrap()), bits(&original));
 }
 
 #[test]

@@ -1,10 +1,12 @@
 //! Structured mutation fuzzing of the scene loaders (issue #5; results in docs/fuzzing.md).
 //!
-//! Every real scene file (`scenes/*.toml`, `scenes/spd/*.nff`, the glTF samples) is mutated at
-//! the byte, line and token level (numbers replaced by extremes: 0, -0, ±1e308, nan, inf, 2³²,
-//! 1e9 counts, ...); glTF also gets JSON-aware edits (accessor counts, byteLength, byteOffset,
-//! buffers moved to external files) and GLB chunk-length edits. Each mutant is written into
-//! `CARGO_TARGET_TMPDIR` and loaded with [`irt::io::load`], on a worker thread, and must
+//! Every real scene file (`scenes/*.toml`, `scenes/spd/*.nff`, the glTF samples, the PLY models
+//! of `tests/data/models`) is mutated at the byte, line and token level (numbers replaced by
+//! extremes: 0, -0, ±1e308, nan, inf, 2³², 1e9 counts, ...); glTF also gets JSON-aware edits
+//! (accessor counts, byteLength, byteOffset, buffers moved to external files) and GLB
+//! chunk-length edits; binary PLY gets edits of its header's counts and of its body's bytes.
+//! Each mutant is written into `CARGO_TARGET_TMPDIR` and loaded with [`irt::io::load`], on a
+//! worker thread, and must
 //!
 //! - not panic (the worker catches it),
 //! - finish within [`TIME_BUDGET`] (the main thread stops waiting then),
@@ -17,7 +19,7 @@
 //! per file; `IRT_FUZZ_ITERATIONS=N` runs more (`IRT_FUZZ_FILTER=word` keeps only matching
 //! files). Failing inputs are written to `CARGO_TARGET_TMPDIR/fuzz_failures/` for the corpus.
 //!
-//! `tests/fuzz_corpus/{toml,nff,gltf}/` keeps every input that ever failed and some edge
+//! `tests/fuzz_corpus/{toml,nff,gltf,ply}/` keeps every input that ever failed and some edge
 //! inputs; [`corpus_inputs_load_cleanly`] loads each under the same guards.
 
 mod common;
@@ -429,6 +431,55 @@ fn mutate_glb(rng: &mut Rng, original: &[u8], dir: &Path) -> Vec<u8> {
     }
 }
 
+/// Byte offset just past a PLY header's `end_header` line (the whole file if there is none).
+fn ply_body(b: &[u8]) -> usize {
+    b.windows(11).position(|w| w == b"end_header\n").map_or(b.len(), |i| i + 11)
+}
+
+/// A PLY mutant. ASCII files are text; binary ones get their header's numbers (element counts)
+/// edited, or their body's bytes (indices, list counts, floats) with the header kept, or generic
+/// edits of the whole file.
+fn mutate_ply(rng: &mut Rng, original: &[u8]) -> Vec<u8> {
+    let body = ply_body(original);
+    if !original[..body].windows(13).any(|w| w == b"format binary") {
+        return mutate_text(rng, original);
+    }
+    match rng.below(4) {
+        0 => {
+            let numbers = number_spans(&original[..body]);
+            let mut b = original.to_vec();
+            for _ in 0..1 + rng.below(2) {
+                if let Some(&(s, e)) = numbers.get(rng.below(numbers.len().max(1))) {
+                    let old: u64 = std::str::from_utf8(&original[s..e]).unwrap().parse().unwrap_or(1);
+                    let new = [old + 1, old.saturating_sub(1), old * 2, old / 2].map(|x| x.to_string());
+                    let word = match rng.below(2) {
+                        0 => EXTREMES[rng.below(EXTREMES.len())].to_string(),
+                        _ => new[rng.below(4)].clone(),
+                    };
+                    if e <= b.len() {
+                        b.splice(s..e, word.bytes());
+                    }
+                }
+            }
+            b
+        }
+        1 | 2 => {
+            let mut b = original.to_vec();
+            if b.len() > body {
+                for _ in 0..1 + rng.below(8) {
+                    let i = body + rng.below(b.len() - body);
+                    b[i] = [0x00, 0xff, 0x7f, 0x80, 0x03, rng.below(256) as u8][rng.below(6)];
+                }
+                if rng.below(4) == 0 {
+                    b.truncate(body + rng.below(b.len() - body));
+                }
+            }
+            b
+        }
+        _ => mutate_text(rng, original),
+    }
+}
+
 // ---- The corpus of real files ----------------------------------------------------------------
 
 fn root() -> PathBuf {
@@ -558,6 +609,11 @@ fn mutated_gltf_scenes() {
     });
 }
 
+#[test]
+fn mutated_ply_scenes() {
+    fuzz("ply", files("tests/data/models", &["ply"]), |rng, b, _| mutate_ply(rng, b));
+}
+
 fn decode_base64(text: &str) -> Vec<u8> {
     const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let digits: Vec<u32> = text
@@ -579,7 +635,9 @@ fn decode_base64(text: &str) -> Vec<u8> {
 fn corpus_inputs_load_cleanly() {
     let mut checked = 0;
     let mut findings = Vec::new();
-    for (format, extensions) in [("toml", &["toml"][..]), ("nff", &["nff"]), ("gltf", &["gltf", "glb"])] {
+    for (format, extensions) in
+        [("toml", &["toml"][..]), ("nff", &["nff"]), ("gltf", &["gltf", "glb"]), ("ply", &["ply"])]
+    {
         let inputs = files(&format!("tests/fuzz_corpus/{format}"), extensions);
         assert!(!inputs.is_empty(), "tests/fuzz_corpus/{format} is empty");
         for input in inputs {

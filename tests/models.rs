@@ -17,12 +17,15 @@ fn scene_with(body: &str) -> (PathBuf, String) {
          [[light]]\nposition = [3, 5, 4]\ncolor = [1, 1, 1]\n\n\
          [[material]]\nname = \"red\"\ntype = \"diffuse\"\ncolor = [0.8, 0.1, 0.1]\n\n{body}"
     );
-    let dir = std::env::temp_dir().join(format!("irt-models-{}", std::process::id()));
+    // A directory per scene: tests run in parallel and copy the models in.
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("irt-models-{}-{n}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     for f in ["Duck.glb", "Box.gltf"] {
         std::fs::copy(data().join(f), dir.join(f)).unwrap();
     }
-    let path = dir.join(format!("scene-{:x}.toml", src.len() * 31 + body.len()));
+    let path = dir.join("scene.toml");
     std::fs::write(&path, &src).unwrap();
     (path, src)
 }
@@ -121,4 +124,28 @@ fn a_model_alone_is_staged_with_a_camera_that_sees_it_and_a_light() {
                 && (d.dot(b.v.normalize()) / depth).abs() < b.v.length()
         );
     }
+}
+
+#[test]
+fn a_ply_scan_is_placed_as_a_model() {
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/models");
+    let (path, _) = scene_with(&format!(
+        "[[model]]\nfile = \"{}\"\nscale = 8\ntranslate = [0, -0.3, 0]\nmaterial = \"red\"\n",
+        models.join("bun_zipper_res4.ply").display()
+    ));
+    let scene = io::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let alone = io::load_model(&models.join("bun_zipper_res4.ply")).unwrap();
+    assert_eq!(scene.triangle_count(), alone.meshes.iter().map(|m| m.indices.len()).sum::<usize>());
+    let (lo, hi) = bounds(&scene);
+    let (alo, ahi) = (bounds(&stage::stage(alone.clone())).0, bounds(&stage::stage(alone)).1);
+    assert!(
+        (lo - (alo * 8.0 - DVec3::Y * 0.3)).length() < 1e-9
+            && (hi - (ahi * 8.0 - DVec3::Y * 0.3)).length() < 1e-9
+    );
+    let ctx = common::gpu();
+    common::assert_matches_reference(
+        "model-bunny",
+        &common::render_gpu(&ctx, &scene),
+        &common::reference_image(&scene),
+    );
 }

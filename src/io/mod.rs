@@ -6,6 +6,7 @@
 
 pub mod gltf;
 pub mod nff;
+pub mod ply;
 pub mod png;
 pub mod shapes;
 pub mod stage;
@@ -13,6 +14,7 @@ pub mod toml;
 pub mod toml_write;
 
 use crate::scene::Scene;
+use glam::DVec3;
 use std::io::Read;
 use std::path::Path;
 
@@ -112,6 +114,14 @@ pub const FORMATS: &[Format] = &[
         parse: parse_nff,
         model: None,
     },
+    // Binary PLY is the format of big scans; its limit is its own (src/io/ply.rs says why).
+    Format {
+        name: "PLY",
+        extensions: &["ply"],
+        max_bytes: ply::MAX_FILE_BYTES,
+        parse: ply::parse,
+        model: Some(ply::parse_model),
+    },
 ];
 
 fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
@@ -128,8 +138,18 @@ fn parse_nff(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     nff::parse_str(utf8(bytes, origin)?, origin)
 }
 
+/// A vertex normal as loaders keep it: unchanged when it is unit length to within 1e-14 (so a
+/// scene written by `irt convert` loads back bit for bit), else normalised; None when zero or
+/// not finite.
+pub fn unit_normal(n: DVec3) -> Option<DVec3> {
+    if (n.length_squared() - 1.0).abs() <= 1e-14 {
+        return Some(n);
+    }
+    n.try_normalize()
+}
+
 /// The text of a text format, or an error at the first byte that is not UTF-8.
-fn utf8<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str, LoadError> {
+pub(crate) fn utf8<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str, LoadError> {
     std::str::from_utf8(bytes).map_err(|e| {
         let valid = std::str::from_utf8(&bytes[..e.valid_up_to()]).unwrap_or_default();
         LoadError::at(origin, valid, valid.len(), "the file is not valid UTF-8 text")

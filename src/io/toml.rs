@@ -772,10 +772,7 @@ fn normals(n: &Spanned<Vec<Numbers>>, vertex_count: usize) -> Res<Vec<DVec3>> {
     }
     let unit = |v: &Numbers| {
         let n = vec3(v, "normals")?;
-        if (n.length_squared() - 1.0).abs() <= 1e-14 {
-            return Ok(n);
-        }
-        n.try_normalize().ok_or_else(|| located(v.span(), "a normal must not be zero"))
+        super::unit_normal(n).ok_or_else(|| located(v.span(), "a normal must not be zero"))
     };
     n.get_ref().iter().map(unit).collect()
 }
