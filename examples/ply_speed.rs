@@ -1,6 +1,6 @@
 //! The PLY reader's speed and memory (docs/ply.md, "Speed"): writes a terrain of about N
-//! triangles as PLY (`irt::io::ply::write`: float x y z, `uchar uint` faces; binary
-//! little-endian unless `ascii` or `be` follows), then reads it back with
+//! triangles as PLY (`irt::io::ply::write`: float x y z, with `normals` also nx ny nz, `uchar uint`
+//! faces; binary little-endian unless `ascii` or `be` follows), then reads it back with
 //! `irt::io::ply::parse_model` and times that. Run the two steps apart so that `/usr/bin/time -v`
 //! sees the reader alone:
 //!
@@ -14,14 +14,19 @@ use std::time::Instant;
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
-        ["write", path, triangles, ref encoding @ ..] => {
-            let encoding = match encoding {
-                [] | ["le"] => Encoding::BinaryLittleEndian,
-                ["be"] => Encoding::BinaryBigEndian,
-                ["ascii"] => Encoding::Ascii,
-                _ => anyhow::bail!("the encoding is le, be or ascii"),
-            };
-            let mesh = grid(triangles.parse()?);
+        ["write", path, triangles, ref options @ ..] => {
+            let mut encoding = Encoding::BinaryLittleEndian;
+            let mut normals = false;
+            for o in options {
+                match *o {
+                    "le" => encoding = Encoding::BinaryLittleEndian,
+                    "be" => encoding = Encoding::BinaryBigEndian,
+                    "ascii" => encoding = Encoding::Ascii,
+                    "normals" => normals = true,
+                    _ => anyhow::bail!("the options are an encoding (le, be or ascii) and `normals`"),
+                }
+            }
+            let mesh = grid(triangles.parse()?, normals);
             let start = Instant::now();
             write(&mesh, encoding, std::fs::File::create(path)?)?;
             let bytes = std::fs::metadata(path)?.len();
@@ -49,16 +54,19 @@ fn main() -> anyhow::Result<()> {
                 parse * 1e9 / triangles as f64
             );
         }
-        _ => anyhow::bail!("usage: ply_speed write PATH TRIANGLES [le|be|ascii] | ply_speed read PATH"),
+        _ => anyhow::bail!(
+            "usage: ply_speed write PATH TRIANGLES [le|be|ascii] [normals] | ply_speed read PATH"
+        ),
     }
     Ok(())
 }
 
 /// irt's fractal terrain (`io::shapes::terrain`) with at least `triangles` triangles, its
 /// coordinates rounded to f32 as a scan's are (so the file stores floats).
-fn grid(triangles: usize) -> Mesh {
+fn grid(triangles: usize, normals: bool) -> Mesh {
     let side = ((triangles as f64 / 2.0).sqrt().ceil() as u32).max(1) + 1;
-    let mut mesh = irt::io::shapes::terrain(side, 1, false).into_mesh(0);
+    let mut mesh = irt::io::shapes::terrain(side, 1, normals).into_mesh(0);
     mesh.positions.iter_mut().for_each(|p| *p = p.as_vec3().as_dvec3());
+    mesh.normals.iter_mut().flatten().for_each(|n| *n = n.as_vec3().as_dvec3());
     mesh
 }

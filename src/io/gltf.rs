@@ -776,10 +776,10 @@ impl<'a> Builder<'a> {
             return Err("the scene has no triangles to render".into());
         }
         let (center, radius) = stage::bounds(&meshes);
-        let camera = self.camera(&nodes, center, radius)?;
+        let camera = self.camera(&nodes)?;
         let lights = self.lights(&nodes, center, radius)?;
         let model = Model { meshes, materials: self.materials, textures: self.textures };
-        Ok(stage::stage_with(model, Some(camera), lights))
+        Ok(stage::stage_with(model, camera, lights))
     }
 
     /// The primitives to draw, with their vertex and triangle counts checked against the
@@ -1032,8 +1032,8 @@ impl<'a> Builder<'a> {
         Ok(slot)
     }
 
-    /// The first perspective camera in the scene, or one that frames the whole scene.
-    fn camera(&mut self, nodes: &[(::gltf::Node, DMat4)], center: DVec3, radius: f64) -> Res<Camera> {
+    /// The first perspective camera in the scene (None: the stage's, which frames the scene).
+    fn camera(&mut self, nodes: &[(::gltf::Node, DMat4)]) -> Res<Option<Camera>> {
         for (node, world) in nodes {
             let Some(camera) = node.camera() else { continue };
             let at = format!("cameras[{}]", camera.index());
@@ -1077,16 +1077,16 @@ impl<'a> Builder<'a> {
                     node.index()
                 ));
             }
-            return Ok(Camera {
+            return Ok(Some(Camera {
                 eye,
                 look_at: eye + forward,
                 up,
                 vfov_deg: vfov.to_degrees(),
                 width,
                 height,
-            });
+            }));
         }
-        Ok(stage::framing_camera(center, radius))
+        Ok(None)
     }
 
     /// KHR_lights_punctual lights as irt's point lights (docs/gltf.md).

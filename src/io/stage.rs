@@ -64,7 +64,7 @@ pub fn stage(model: Model) -> Scene {
 /// [`headlight`]), the default ambient and background.
 pub fn stage_with(model: Model, camera: Option<Camera>, mut lights: Vec<Light>) -> Scene {
     let (center, radius) = bounds(&model.meshes);
-    let camera = camera.unwrap_or_else(|| framing_camera(center, radius));
+    let camera = camera.unwrap_or_else(|| framing_camera(&model.meshes));
     if lights.is_empty() {
         lights.push(headlight(&camera, center, radius));
     }
@@ -94,20 +94,53 @@ pub fn bounds(meshes: &[Mesh]) -> (DVec3, f64) {
     (0.5 * (lo + hi), if radius > 0.0 && radius.is_finite() { radius } else { 1.0 })
 }
 
-/// A camera that sees the whole sphere (`center`, `radius`), from [`FRAMING_DIRECTION`].
-pub fn framing_camera(center: DVec3, radius: f64) -> Camera {
+/// Corners of the box around every vertex (the unit box about the origin for no vertices).
+pub fn bounding_box(meshes: &[Mesh]) -> (DVec3, DVec3) {
+    let points = meshes.iter().flat_map(|m| &m.positions);
+    let (lo, hi) =
+        points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    if lo.is_finite() && hi.is_finite() {
+        (lo, hi)
+    } else {
+        (DVec3::splat(-0.5), DVec3::splat(0.5))
+    }
+}
+
+/// Fraction of the half field of view (each way) that the framed box may fill.
+const FRAMING_FILL: f64 = 0.9;
+
+/// A camera that looks at the centre of the meshes' bounding box from [`FRAMING_DIRECTION`],
+/// as close as it can while every corner of the box lies within [`FRAMING_FILL`] of the field
+/// of view (vertical and horizontal), and never inside the box's bounding sphere. Fitting the
+/// corners rather than the sphere frames flat and long models as tightly as round ones.
+pub fn framing_camera(meshes: &[Mesh]) -> Camera {
     use super::toml::{DEFAULT_FOV_DEG, DEFAULT_HEIGHT, DEFAULT_WIDTH};
-    let vfov = DEFAULT_FOV_DEG;
-    // The sphere fits the vertical field of view (the horizontal one is wider) with a margin.
-    let distance = 1.1 * radius / (vfov.to_radians() * 0.5).sin();
-    Camera {
-        eye: center + FRAMING_DIRECTION.normalize() * distance,
+    let (lo, hi) = bounding_box(meshes);
+    let center = 0.5 * (lo + hi);
+    let radius = (0.5 * (hi - lo).length()).max(f64::MIN_POSITIVE);
+    let mut camera = Camera {
+        eye: center + FRAMING_DIRECTION.normalize(),
         look_at: center,
         up: DVec3::Y,
-        vfov_deg: vfov,
+        vfov_deg: DEFAULT_FOV_DEG,
         width: DEFAULT_WIDTH,
         height: DEFAULT_HEIGHT,
+    };
+    // The basis's u and v are the image plane's half extents at distance 1.
+    let b = camera.basis();
+    let (tan_x, tan_y) = (b.u.length() * FRAMING_FILL, b.v.length() * FRAMING_FILL);
+    let (right, up) = (b.u.normalize(), b.v.normalize());
+    let mut distance = 1.05 * radius;
+    for i in 0..8 {
+        let corner =
+            DVec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][i >> 1 & 1], [lo.z, hi.z][i >> 2 & 1]) - center;
+        // At eye distance d the corner is d + c·w in front of the eye.
+        let ahead = corner.dot(b.w);
+        distance =
+            distance.max(corner.dot(right).abs() / tan_x - ahead).max(corner.dot(up).abs() / tan_y - ahead);
     }
+    camera.eye = center - b.w * distance;
+    camera
 }
 
 /// The light of a scene without lights: white, above and to the right of the eye, so that what
