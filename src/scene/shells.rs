@@ -48,6 +48,20 @@ pub struct LightShells {
 /// Cells per side of each face of the light buffer's cube.
 pub const SHELL_CELL_RES: u32 = 16;
 
+/// A mesh of at most this many triangles is tested triangle by triangle in the GPU's shell
+/// object loop to tell whether a shadow ray is inside it; a larger one is found by a grid walk
+/// of the segment (docs/shadows.md, Shell objects; the number chosen by measurement there).
+/// Either way the answer is the same one the reference's: does the segment hit one of its
+/// triangles.
+pub const SHELL_DIRECT_TRIANGLES: u32 = 16;
+
+/// Whether a shell shadow ray in `scene` must walk the grid to find the mesh it is inside of:
+/// some mesh has more than [`SHELL_DIRECT_TRIANGLES`] triangles (every mesh is a shell object of
+/// every light).
+pub fn shells_walk_grid(scene: &Scene) -> bool {
+    scene.meshes.iter().any(|m| m.indices.len() > SHELL_DIRECT_TRIANGLES as usize)
+}
+
 /// The light-buffer cell of direction `d` (from the light's centre, not necessarily unit):
 /// face by the largest axis (+x, −x, +y, −y, +z, −z), then row-major on the face. The shader's
 /// `shell_cell` is the same formula.
