@@ -231,21 +231,44 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     let l = to / dist;
     let f = params.shadow.w & 0xffu;
     let product = (params.shadow.w >> 8u) == 1u;
-    // Only meshes of more than SHELL_DIRECT_TRIANGLES triangles use the walk's answer; the
-    // variant compiles it out where there are none (`Variant::shell_walk`).
-    var hit_tri = NO_HIT;
-    if HAS_TRIANGLES && SHELL_WALK {
-        let h = grid_walk(o, l, 0.0, dist - gap, true, true);
-        if h.prim != NO_HIT {
-            hit_tri = prim_index(h.prim);
-        }
-    }
     var s = 1.0;
     let head = texel(section);
     let list = head.z;
     // [first, count, first cone, first mesh] in the cell's list.
     let cell = texel(head.y + shell_cell(-l));
     let objects = section + 1u;
+    // Only meshes of more than SHELL_DIRECT_TRIANGLES triangles use the walk's answer; the
+    // variant compiles it out where there are none (`Variant::shell_walk`). A hit on one lies
+    // inside its bounding sphere, so the walk covers only the part of the segment inside the
+    // bounds of the large meshes listed in the cell (none: no walk).
+    var hit_tri = NO_HIT;
+    if HAS_TRIANGLES && SHELL_WALK {
+        var lo = dist;
+        var hi = 0.0;
+        for (var j = cell.w; j < cell.y; j++) {
+            loop_iters += 1u;
+            let k = shell_listed(list, cell.x + j);
+            let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
+            let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
+            let tc = dot(bound.xyz - o, l);
+            let v = bound.xyz - (o + tc * l);
+            // Grown by 0.1% for the f32 rounding of the bound and of tc.
+            let h2 = bound.w * bound.w * 1.002 - dot(v, v);
+            if rec.y - prim_index(rec.x) > SHELL_DIRECT_TRIANGLES && h2 > 0.0 {
+                let h = sqrt(h2);
+                lo = min(lo, tc - h);
+                hi = max(hi, tc + h);
+            }
+        }
+        lo = max(lo, 0.0);
+        hi = min(hi, dist - gap);
+        if lo < hi {
+            let h = grid_walk(o, l, lo, hi, true, true);
+            if h.prim != NO_HIT {
+                hit_tri = prim_index(h.prim);
+            }
+        }
+    }
     if HAS_SPHERES {
         for (var j = 0u; j < cell.z; j++) {
             loop_iters += 1u;
