@@ -455,7 +455,8 @@ fn meshes_large_and_small_match_the_reference_under_shells() {
 /// f64 ground truth than hard shadows are, by at least the factor of two. Measured at
 /// this size (64x48, 16² ground truth), RMSE hard → shell:disc:min: default 0.01641 → 0.00285
 /// (0.17×), scenes/shadows.toml 0.01646 → 0.00141 (0.09×), scenes/mesh.toml 0.01001 → 0.00077
-/// (0.08×); the tables of docs/tradeoff.md give them at 320x240.
+/// (0.08×), SPD balls_s2 0.01567 → 0.00650 (0.42×, its overlapping penumbrae of small spheres);
+/// the tables of docs/tradeoff.md give them at 320x240 (balls_s2 at 256x256).
 #[test]
 fn the_default_shell_mode_beats_hard_shadows_on_the_tradeoff_scenes() {
     let ctx = gpu();
