@@ -202,11 +202,25 @@ fn shell_cell(d: vec3f) -> u32 {
     return face * n * n + i.y * n + i.x;
 }
 
+// Object `at` of a light-buffer list (object indices, four per texel from `list`).
+fn shell_listed(list: u32, at: u32) -> u32 {
+    return texel(list + at / 4u)[at % 4u];
+}
+
+// `s` with one more object's σ combined in.
+fn shell_combine(s: f32, sigma: f32, product: bool) -> f32 {
+    return select(min(s, sigma), s * sigma, product);
+}
+
 // Single-sample soft shadow (docs/shadows.md, Shell objects): one ray towards the light's
-// centre. A walk of the grid finds a mesh the segment passes through (spheres and cones need no
-// walk: their shells know from the distance alone); then every shell object of this light
+// centre. Whether the segment passes through a mesh comes from its triangles, tested in the
+// object loop for a small mesh and by a walk of the grid for a large one (spheres and cones need
+// no test: their shells know from the distance alone); every shell object of this light
 // (`section`: its first texel, see layout.rs) listed in the light-buffer cell of the ray's
 // direction gives σ and `s` combines them, each object once (objects not listed there give 1).
+// A cell lists its spheres, then its cones, then its meshes, and each kind has a loop of its
+// own: lavapipe runs the whole body of a loop at every iteration (LAVAPIPE.md), so one loop
+// would pay for the mesh code at every sphere.
 fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) -> f32 {
     let to = c - o;
     let dist = length(to);
@@ -217,40 +231,83 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     let l = to / dist;
     let f = params.shadow.w & 0xffu;
     let product = (params.shadow.w >> 8u) == 1u;
-    var hit_tri = NO_HIT;
-    if HAS_TRIANGLES {
-        let h = grid_walk(o, l, 0.0, dist - gap, true, true);
-        if h.prim != NO_HIT {
-            hit_tri = prim_index(h.prim);
-        }
-    }
     var s = 1.0;
     let head = texel(section);
-    let range = texel(head.y + shell_cell(-l)).xy;
-    for (var j = 0u; j < range.y; j++) {
-        loop_iters += 1u;
-        let at = range.x + j;
-        let k = texel(head.z + at / 4u)[at % 4u];
-        let bound = ftexel(section + 1u + SHELL_OBJECT_TEXELS * k);
-        let rec = texel(section + 2u + SHELL_OBJECT_TEXELS * k);
-        var sigma = 1.0;
-        if HAS_SPHERES && prim_kind(rec.x) == PRIM_SPHERE {
-            sigma = sphere_shell(f, o, l, dist, light_r, bound.xyz, bound.w).x;
-        } else if HAS_CONES && prim_kind(rec.x) == PRIM_CONE {
-            let cn = load_cone(prim_index(rec.x));
-            sigma = cone_shell(f, o, l, dist, light_r, cn.base, cn.r0, cn.axis, cn.r1).x;
-        } else {
-            // A mesh: its shell lies within its bounding sphere grown by the light's radius.
-            let inside = hit_tri >= prim_index(rec.x) && hit_tri < rec.y;
-            let tc = clamp(dot(bound.xyz - o, l), 0.0, dist);
-            if inside || length(bound.xyz - (o + tc * l)) < bound.w + light_r {
-                sigma = mesh_shell(f, o, l, dist, light_r, inside, rec.z, rec.w);
+    let list = head.z;
+    // [first, count, first cone, first mesh] in the cell's list.
+    let cell = texel(head.y + shell_cell(-l));
+    let objects = section + 1u;
+    // Only meshes of more than SHELL_DIRECT_TRIANGLES triangles use the walk's answer; the
+    // variant compiles it out where there are none (`Variant::shell_walk`). A hit on one lies
+    // inside its bounding sphere, so the walk covers only the part of the segment inside the
+    // bounds of the large meshes listed in the cell (none: no walk).
+    var hit_tri = NO_HIT;
+    if HAS_TRIANGLES && SHELL_WALK {
+        var lo = dist;
+        var hi = 0.0;
+        for (var j = cell.w; j < cell.y; j++) {
+            loop_iters += 1u;
+            let k = shell_listed(list, cell.x + j);
+            let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
+            let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
+            let tc = dot(bound.xyz - o, l);
+            let v = bound.xyz - (o + tc * l);
+            // Grown by 0.1% for the f32 rounding of the bound and of tc.
+            let h2 = bound.w * bound.w * 1.002 - dot(v, v);
+            if rec.y - prim_index(rec.x) > SHELL_DIRECT_TRIANGLES && h2 > 0.0 {
+                let h = sqrt(h2);
+                lo = min(lo, tc - h);
+                hi = max(hi, tc + h);
             }
         }
-        if product {
-            s *= sigma;
-        } else {
-            s = min(s, sigma);
+        lo = max(lo, 0.0);
+        hi = min(hi, dist - gap);
+        if lo < hi {
+            let h = grid_walk(o, l, lo, hi, true, true);
+            if h.prim != NO_HIT {
+                hit_tri = prim_index(h.prim);
+            }
+        }
+    }
+    if HAS_SPHERES {
+        for (var j = 0u; j < cell.z; j++) {
+            loop_iters += 1u;
+            let bound = ftexel(objects + SHELL_OBJECT_TEXELS * shell_listed(list, cell.x + j));
+            s = shell_combine(s, sphere_shell(f, o, l, dist, light_r, bound.xyz, bound.w).x, product);
+        }
+    }
+    if HAS_CONES {
+        for (var j = cell.z; j < cell.w; j++) {
+            loop_iters += 1u;
+            let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * shell_listed(list, cell.x + j));
+            let cn = load_cone(prim_index(rec.x));
+            s = shell_combine(s, cone_shell(f, o, l, dist, light_r, cn.base, cn.r0, cn.axis, cn.r1).x, product);
+        }
+    }
+    if HAS_TRIANGLES {
+        for (var j = cell.w; j < cell.y; j++) {
+            loop_iters += 1u;
+            let k = shell_listed(list, cell.x + j);
+            let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
+            let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
+            // Its shell lies within its bounding sphere grown by the light's radius (and a
+            // segment through one of its triangles passes within its bound). A small mesh's
+            // triangles are tested here, a large one's hit comes from the walk.
+            let first = prim_index(rec.x);
+            let direct = rec.y - first <= SHELL_DIRECT_TRIANGLES;
+            var inside = !direct && hit_tri >= first && hit_tri < rec.y;
+            let tc = clamp(dot(bound.xyz - o, l), 0.0, dist);
+            let near = length(bound.xyz - (o + tc * l)) < bound.w + light_r;
+            for (var i = first; i < select(first, rec.y, direct && near); i++) {
+                loop_iters += 1u;
+                let tri = load_triangle(i);
+                inside = inside || intersect_triangle(o, l, tri.p0, tri.p1, tri.p2, 0.0, dist - gap).x != MISS;
+            }
+            var sigma = 1.0;
+            if inside || near {
+                sigma = mesh_shell(f, o, l, dist, light_r, inside, rec.z, rec.w);
+            }
+            s = shell_combine(s, sigma, product);
         }
     }
     return s;

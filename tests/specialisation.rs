@@ -31,6 +31,18 @@ fn specialised_pipelines_draw_what_the_uber_pipeline_draws() {
         s.trace.shadows = mode.parse::<ShadowMode>().unwrap();
         scenes.push((if mode == "shell" { "cones, shell shadows" } else { "cones, bundle shadows" }, s));
     }
+    // Shell shadows with the grid walk compiled out (balls: a floor of two triangles, tested
+    // in the object loop) and in (mesh.toml: a 320-triangle icosphere beside small meshes); the
+    // uber-pipeline always walks.
+    for (name, path, radius) in [
+        ("balls, shell shadows", "scenes/spd/balls_s2.nff", 0.25),
+        ("mesh.toml, shell shadows", "scenes/mesh.toml", 0.5),
+    ] {
+        let mut s = load(path, 96);
+        s.lights.iter_mut().for_each(|l| l.radius = radius);
+        s.trace.shadows = "shell".parse::<ShadowMode>().unwrap();
+        scenes.push((name, s));
+    }
     for (name, scene) in scenes {
         let render = |uber_shader| {
             let r = Renderer::new(&ctx, &scene, RenderOptions { uber_shader, ..Default::default() })
@@ -41,6 +53,9 @@ fn specialised_pipelines_draw_what_the_uber_pipeline_draws() {
         // Texture code is compiled in exactly when a material has a texture.
         assert_eq!(spec_variant.textures, scene.materials.iter().any(|m| m.texture.is_some()), "{name}");
         assert_ne!(spec_variant, uber_variant, "{name}: the scene needs everything?");
+        // The shell walk only where a shell ray needs it: a mesh larger than
+        // SHELL_DIRECT_TRIANGLES (mesh.toml's icosphere; cones.toml's floor is a quad).
+        assert_eq!(spec_variant.shell_walk, name == "mesh.toml, shell shadows", "{name}");
         // Same equations on the same inputs; only dead code differs, so the images agree to the
         // last bits (LLVM may still schedule a few operations differently: 1e-6 relative).
         let worst = spec

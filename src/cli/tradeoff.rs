@@ -20,6 +20,10 @@ pub struct TradeoffArgs {
     /// Timed frames per mode, in rounds that time every mode once in turn (median reported).
     #[arg(long, default_value_t = 5)]
     pub frames: u32,
+    /// Only these modes, comma-separated (e.g. `hard,shell`), for quick timing; every mode of
+    /// docs/tradeoff.md when omitted. `hard` is added first if missing (the `× hard` column).
+    #[arg(long, value_delimiter = ',', value_name = "MODE,...")]
+    pub modes: Vec<irt::scene::ShadowMode>,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -56,7 +60,10 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     };
     eprintln!("ground truth took {:.1} s", t.elapsed().as_secs_f64());
     truth.save_png(&args.out_dir.join("ground-truth.png"))?;
-    let modes = irt::tradeoff::modes();
+    let mut modes = if args.modes.is_empty() { irt::tradeoff::modes() } else { args.modes.clone() };
+    if !modes.contains(&irt::scene::ShadowMode::Hard) {
+        modes.insert(0, irt::scene::ShadowMode::Hard);
+    }
     // The machine is shared: its load (1-minute average at the start of the timing and at the
     // end) says how far the absolute times can be trusted; the ratios hold either way.
     let load = || {

@@ -267,7 +267,8 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   `PrimRef` of a sphere or cone (its record is the bound for spheres) or of a mesh's first
 ///   triangle, with `a` its end triangle and `[b, c)` the texels of its contour edges; then the
 ///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`; then the light buffer's cells (`scene::shell_cell`),
-///   `[first, count, 0, 0]` into the list, and the list: object indices, four per texel.
+///   `[first, count, cones, meshes]` into the list (its spheres come first, its cones from
+///   `cones` on, its meshes from `meshes` on), and the list: object indices, four per texel.
 pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     // Sized exactly up front (the shell sections reserve their own): a large mesh's texels are
     // most of the host's memory, and a growing Vec would double them for a moment.
@@ -424,9 +425,17 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
                 t.push(f4(*a - origin, 0));
                 t.push(f4(*b - origin, 0));
             }
+            // A cell's list holds its spheres, then its cones, then its meshes (objects are in
+            // that order and every list in object order), each kind visited by a loop of its own.
             let mut first = 0u32;
             for cell in &sh.cells {
-                t.push([first, cell.len() as u32, 0, 0]);
+                let before = |kind: fn(&ShellShape) -> bool| {
+                    cell.iter().filter(|&&k| kind(&sh.objects[k as usize].shape)).count() as u32
+                };
+                let cones_from = before(|s| matches!(s, ShellShape::Sphere(_)));
+                let meshes_from = cones_from + before(|s| matches!(s, ShellShape::Cone(_)));
+                debug_assert!(cell.windows(2).all(|w| w[0] < w[1]), "a cell's list in object order");
+                t.push([first, cell.len() as u32, cones_from, meshes_from]);
                 first += cell.len() as u32;
             }
             let list: Vec<u32> = sh.cells.concat();
@@ -524,6 +533,7 @@ pub fn wgsl_constants() -> String {
     s += &c("SHELL_OBJECT_TEXELS", SHELL_OBJECT_TEXELS);
     s += &c("SHELL_EDGE_TEXELS", SHELL_EDGE_TEXELS);
     s += &c("SHELL_CELL_RES", crate::scene::SHELL_CELL_RES);
+    s += &c("SHELL_DIRECT_TRIANGLES", crate::scene::SHELL_DIRECT_TRIANGLES);
     s += &c("NO_NORMALS", NO_NORMALS);
     s += &c("UV_TEXELS", UV_TEXELS);
     s += &c("TEXTURE_TEXELS", TEXTURE_TEXELS);

@@ -2,6 +2,7 @@
 //! fixed order, then the entry file. Every variant is validated with naga in tests.
 
 use super::layout;
+use crate::scene::ShadowMode;
 
 /// Shared modules, in dependency order.
 const MODULES: [(&str, &str); 7] = [
@@ -53,6 +54,10 @@ pub struct Variant {
     /// lavapipe an array fetch costs ~5% of a triangle scene's frame (callgrind, SPD gears), so
     /// scenes that fit one layer keep a plain 2D texture.
     pub layered: bool,
+    /// Shell shadows walk the grid to find the mesh a shadow ray is inside of: some mesh is too
+    /// large to test triangle by triangle (`scene::shells_walk_grid`). Off, the walk is compiled
+    /// out; its result is only ever used for such meshes, so the image is the same either way.
+    pub shell_walk: bool,
 }
 
 /// Every material kind.
@@ -73,6 +78,7 @@ impl Variant {
         f64: false,
         textures: true,
         layered: false,
+        shell_walk: true,
     };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
@@ -86,6 +92,8 @@ impl Variant {
             f64: false,
             textures: scene.materials.iter().any(|m| m.texture.is_some()),
             layered: false,
+            shell_walk: matches!(scene.trace.shadows, ShadowMode::Shell { .. })
+                && crate::scene::shells_walk_grid(scene),
         }
     }
 
@@ -106,12 +114,14 @@ impl Variant {
                     f64: false,
                     textures: bits & 2 != 0,
                     layered: bits & 1 != 0,
+                    shell_walk: bits & 6 == 6,
                 });
             }
         }
         v.extend((0..ALL_MATERIALS).map(|materials| Variant { materials, ..Variant::FULL }));
         v.extend([false, true].map(|count_rays| Variant { f64: true, count_rays, ..Variant::FULL }));
         v.push(Variant { textures: false, ..Variant::FULL });
+        v.push(Variant { shell_walk: false, ..Variant::FULL });
         v
     }
 
@@ -124,6 +134,7 @@ impl Variant {
         s += &b("HAS_CONES", self.cones);
         s += &b("COUNT_RAYS", self.count_rays);
         s += &b("HAS_TEXTURES", self.textures);
+        s += &b("SHELL_WALK", self.shell_walk);
         s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);
         s += &format!("const MATERIAL_KINDS: u32 = {}u;\n", self.materials);
         let real = if self.f64 { "f64" } else { "f32" };

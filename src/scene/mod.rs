@@ -12,7 +12,10 @@ mod texture;
 pub use builtin::default_scene;
 use glam::{DVec2, DVec3};
 pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
-pub use shells::{light_shells, shell_cell, LightShells, ShellObject, ShellShape, SHELL_CELL_RES};
+pub use shells::{
+    light_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape, SHELL_CELL_RES,
+    SHELL_DIRECT_TRIANGLES,
+};
 pub use texture::{Filter, Texture, Wrap, MAX_TEXTURES, MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS};
 
 /// Largest image side we accept; larger is refused before anything is allocated.

@@ -48,6 +48,21 @@ pub struct LightShells {
 /// Cells per side of each face of the light buffer's cube.
 pub const SHELL_CELL_RES: u32 = 16;
 
+/// A mesh of at most this many triangles is tested triangle by triangle in the GPU's shell
+/// object loop to tell whether a shadow ray is inside it; a larger one by a grid walk of the part
+/// of the segment inside its bounding sphere. Measured (docs/shadows.md, Shell objects): the two
+/// are even at 12 triangles and the walk is faster from 20 on, while a floor quad's bound holds
+/// the whole scene, so walking it costs the whole segment. The reference asks the same question
+/// of every mesh (does the segment hit one of its triangles).
+pub const SHELL_DIRECT_TRIANGLES: u32 = 16;
+
+/// Whether a shell shadow ray in `scene` must walk the grid to find the mesh it is inside of:
+/// some mesh has more than [`SHELL_DIRECT_TRIANGLES`] triangles (every mesh is a shell object of
+/// every light).
+pub fn shells_walk_grid(scene: &Scene) -> bool {
+    scene.meshes.iter().any(|m| m.indices.len() > SHELL_DIRECT_TRIANGLES as usize)
+}
+
 /// The light-buffer cell of direction `d` (from the light's centre, not necessarily unit):
 /// face by the largest axis (+x, −x, +y, −y, +z, −z), then row-major on the face. The shader's
 /// `shell_cell` is the same formula.
