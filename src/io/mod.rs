@@ -156,6 +156,18 @@ pub(crate) fn utf8<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str, LoadErr
     })
 }
 
+/// `base`, or `base (2)`, `base (3)`, … : the first that is not `taken` (loaders name materials
+/// and textures after what the file calls them, and scene names must be unique).
+pub(crate) fn unique_name(base: String, taken: impl Fn(&str) -> bool) -> String {
+    let mut name = base.clone();
+    let mut k = 2;
+    while taken(&name) {
+        name = format!("{base} ({k})");
+        k += 1;
+    }
+    name
+}
+
 /// Loads and validates a scene file, choosing the format by its extension.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
     load_with_limit(path, u64::MAX)
