@@ -6,6 +6,7 @@
 
 pub mod gltf;
 pub mod nff;
+pub mod obj;
 pub mod ply;
 pub mod png;
 pub mod shapes;
@@ -113,6 +114,14 @@ pub const FORMATS: &[Format] = &[
         max_bytes: MAX_SCENE_FILE_BYTES,
         parse: parse_nff,
         model: None,
+    },
+    // Its limit is its own: the largest mesh irt takes, as text (src/io/obj.rs says why).
+    Format {
+        name: "Wavefront OBJ",
+        extensions: &["obj"],
+        max_bytes: obj::MAX_FILE_BYTES,
+        parse: obj::parse,
+        model: Some(obj::parse_model),
     },
     // Binary PLY is the format of big scans; its limit is its own (src/io/ply.rs says why).
     Format {
