@@ -223,6 +223,23 @@ fn faces_with_and_without_normals_go_to_separate_meshes() {
 }
 
 #[test]
+fn a_position_used_in_many_ways_is_one_vertex_per_way() {
+    // Twelve normals for the same three positions: 36 vertices, past the short list each
+    // position keeps (8 entries); the same faces again add triangles but no vertex.
+    let normals: String = (0..12).map(|k| format!("vn 0 {} 1\n", k as f64 / 12.0)).collect();
+    let faces: String = (1..=12).map(|k| format!("f 1//{k} 2//{k} 3//{k}\n")).collect();
+    let scene = parse_str(&format!("{TRIANGLE}{normals}{faces}{faces}")).unwrap_or_else(|e| panic!("{e}"));
+    let mesh = &scene.meshes[0];
+    assert_eq!((mesh.positions.len(), mesh.indices.len()), (36, 24));
+    assert_eq!(mesh.indices[..12], mesh.indices[12..]);
+    let normals = mesh.normals.as_ref().unwrap();
+    for (k, t) in mesh.indices[..12].iter().enumerate() {
+        let expected = DVec3::new(0.0, k as f64 / 12.0, 1.0).normalize();
+        assert!(t.iter().all(|&i| normals[i as usize] == expected), "face {k}");
+    }
+}
+
+#[test]
 fn faces_without_area_are_skipped_and_counted() {
     let src = format!("{TRIANGLE}v 2 0 0\nf 1 2 3\nf 1 2 4\nf 2 2 2\n");
     let scene = parse_str(&src).unwrap_or_else(|e| panic!("{e}"));
@@ -609,14 +626,11 @@ fn counts_past_the_limits_are_refused_before_parsing() {
 }
 
 #[test]
-fn too_many_materials_are_refused() {
+fn too_many_materials_are_refused_at_the_first_face_past_the_limit() {
     let n = irt::io::MAX_MATERIALS + 1;
     let src: String =
         TRIANGLE.to_string() + &(0..n).map(|i| format!("usemtl m{i}\nf 1 2 3\n")).collect::<String>();
-    let e = parse_str(&src).unwrap_err();
-    // At the `usemtl` of the first material past the limit.
-    assert_eq!(e.line, Some(2 + 2 * n), "{e}");
-    assert!(e.message.contains("more than 65536 materials"), "{e}");
+    fails_at(&src, "f 1 2 3", &["one more than irt's limit of 65536"]);
 }
 
 /// Loads an OBJ that uses `mtl` as its library; the error must be at the last `at` of the MTL.

@@ -536,7 +536,7 @@ impl<'a> Obj<'a> {
             self.corners = corners;
             return Ok(());
         }
-        let m = self.mesh(line.number, normals, uvs);
+        let m = self.mesh(line, normals, uvs)?;
         let mesh = &mut self.meshes[m];
         let before = mesh.positions.len();
         for t in &triangles {
@@ -569,13 +569,20 @@ impl<'a> Obj<'a> {
         Ok(())
     }
 
-    /// The mesh for a face of the current material with or without normals and uvs.
-    fn mesh(&mut self, line: usize, normals: bool, uvs: bool) -> usize {
+    /// The mesh for a face (on `line`) of the current material with or without normals and uvs.
+    fn mesh(&mut self, line: &Line, normals: bool, uvs: bool) -> Result<usize, LoadError> {
         let next = self.slots.len();
         let slot =
             *self.current_slot.get_or_insert_with(|| *self.slot_of.entry(self.current).or_insert(next));
         if slot == next {
-            let line = if self.current.is_some() { self.current_line } else { line };
+            // Here, before the slot's mesh is made: one face per material would take memory fast.
+            if next == MAX_MATERIALS {
+                return Err(self.text.error(
+                    line.keyword,
+                    format!("this face's material is one more than irt's limit of {MAX_MATERIALS}"),
+                ));
+            }
+            let line = if self.current.is_some() { self.current_line } else { line.number };
             self.slots.push(Slot { name: self.current.map(str::to_string), line });
         }
         let next = self.meshes.len();
@@ -591,7 +598,7 @@ impl<'a> Obj<'a> {
                 indices: Vec::new(),
             });
         }
-        m
+        Ok(m)
     }
 
     fn warn_at(&mut self, line: usize, message: String) {
@@ -600,18 +607,6 @@ impl<'a> Obj<'a> {
 
     fn finish(mut self) -> Result<Model, LoadError> {
         self.warn_skipped();
-        if self.slots.len() > MAX_MATERIALS {
-            let line = self.slots[MAX_MATERIALS].line;
-            return Err(LoadError {
-                line: Some(line),
-                ..LoadError::new(
-                    self.text.origin,
-                    format!(
-                        "more than {MAX_MATERIALS} materials (`usemtl` names) are used; irt's limit is that"
-                    ),
-                )
-            });
-        }
         if self.meshes.is_empty() {
             return Err(LoadError::new(
                 self.text.origin,
