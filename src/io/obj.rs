@@ -65,7 +65,7 @@ const SILENT: &[&str] = &[
 /// An absent texture coordinate or normal in a vertex key.
 const NONE: u32 = u32::MAX;
 
-/// Parses an OBJ file and stages it (docs/formats.md: a framing camera and a light).
+/// Parses an OBJ file and stages it ([`stage`]: a framing camera and a light).
 pub fn parse(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     let scene = stage(parse_model(bytes, origin)?);
     // Everything is checked on the way in; this is the scene model's own guard.
@@ -773,8 +773,7 @@ impl Libraries {
             // `mtllib a.mtl b.mtl` names two files, but a file name may contain spaces: the
             // whole text is one name if such a file exists.
             let whole = find(base, &[], names);
-            let files: Vec<&str> =
-                if whole.is_some() { vec![names] } else { names.split_ascii_whitespace().collect() };
+            let files: Vec<&str> = if whole.is_some() { vec![names] } else { args(names).collect() };
             for name in files {
                 let Some(path) = find(base, &[], name) else {
                     warnings.warn(format!(
