@@ -525,6 +525,33 @@ fn spot_samples_its_texture() {
     assert!(mean.min_element() > 0.3, "{mean}");
 }
 
+#[test]
+fn a_model_in_a_toml_scene_finds_its_libraries_and_textures_beside_the_obj() {
+    // The scene is elsewhere: Spot's MTL and PNG must be found relative to spot.obj, not to it.
+    let obj = models().join("spot/spot.obj");
+    let dir = fresh_dir("model");
+    let src = format!(
+        "[camera]\neye = [0, 0.5, 4]\nlook_at = [0, 0, 0]\nfov = 40\nwidth = 48\nheight = 36\n\n\
+         [[light]]\nposition = [3, 5, 4]\ncolor = [1, 1, 1]\n\n\
+         [[model]]\nfile = {:?}\nrotate = [0, 90, 0]\ntranslate = [0, -0.2, 0]\n",
+        obj.display().to_string()
+    );
+    std::fs::write(dir.join("scene.toml"), &src).unwrap();
+    let scene = load(&dir.join("scene.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let alone = irt::io::load_model(&obj).unwrap();
+    assert_eq!(scene.triangle_count(), alone.meshes.iter().map(|m| m.indices.len()).sum::<usize>());
+    assert_eq!(scene.textures.len(), 1);
+    assert!(scene.textures[0].texels == alone.textures[0].texels);
+    assert_eq!(scene.materials[0].texture, Some(0));
+    assert_eq!(scene.meshes[0].uvs, alone.meshes[0].uvs, "the texture coordinates are not moved");
+    let ctx = common::gpu();
+    common::assert_matches_reference(
+        "obj-model-spot",
+        &common::render_gpu(&ctx, &scene),
+        &common::reference_image(&scene),
+    );
+}
+
 // ---- GPU against the CPU reference ---------------------------------------------------------
 
 fn golden(file: &str) {
