@@ -677,9 +677,13 @@ fn decode_base64(text: &str) -> Vec<u8> {
 fn corpus_inputs_load_cleanly() {
     let mut checked = 0;
     let mut findings = Vec::new();
-    for (format, extensions) in
-        [("toml", &["toml"][..]), ("nff", &["nff"]), ("gltf", &["gltf", "glb"]), ("ply", &["ply"]), ("obj", &["obj"])]
-    {
+    for (format, extensions) in [
+        ("toml", &["toml"][..]),
+        ("nff", &["nff"]),
+        ("gltf", &["gltf", "glb"]),
+        ("ply", &["ply"]),
+        ("obj", &["obj"]),
+    ] {
         let inputs = files(&format!("tests/fuzz_corpus/{format}"), extensions);
         assert!(!inputs.is_empty(), "tests/fuzz_corpus/{format} is empty");
         for input in inputs {
