@@ -98,6 +98,16 @@ fn every_ply_model_round_trips() {
     assert!(count >= 4, "only {count} PLY models");
 }
 
+#[test]
+fn every_obj_model_round_trips() {
+    for name in
+        ["cornell/cornell_box.obj", "concave/concave_polygon.obj", "spider/spider.obj", "spot/spot.obj"]
+    {
+        let path = repo("tests/data/models").join(name);
+        round_trip(name, &irt::io::load(&path).unwrap_or_else(|e| panic!("{e}")));
+    }
+}
+
 /// The default scene with every field away from its default and awkward values everywhere.
 fn awkward() -> Scene {
     let mut s = default_scene();
@@ -415,6 +425,20 @@ fn convert_writes_a_ply_as_a_toml_that_loads_as_the_same_scene() {
     let original = irt::io::load(&input).unwrap();
     assert!(original.materials.len() > 1);
     assert_eq!(bits(&irt::io::load(&out).unwrap()), bits(&original));
+}
+
+#[test]
+fn convert_writes_an_obj_model_and_its_texture_as_the_same_scene() {
+    let input = repo("tests/data/models/spot/spot.obj");
+    let dir = fresh_dir();
+    let out = dir.join("spot.toml");
+    let run = irt(&["convert", input.to_str().unwrap(), out.to_str().unwrap()]);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let original = irt::io::load(&input).unwrap();
+    assert_eq!(original.textures.len(), 1);
+    let back = irt::io::load(&out).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(bits(&back), bits(&original));
+    assert!(back.textures[0].texels == original.textures[0].texels);
 }
 
 #[test]

@@ -1,8 +1,9 @@
 //! Structured mutation fuzzing of the scene loaders (issue #5; results in docs/fuzzing.md).
 //!
-//! Every real scene file (`scenes/*.toml`, `scenes/spd/*.nff`, the glTF samples, the PLY models
-//! of `tests/data/models`) is mutated at the byte, line and token level (numbers replaced by
-//! extremes: 0, -0, ±1e308, nan, inf, 2³², 1e9 counts, ...); glTF also gets JSON-aware edits
+//! Every real scene file (`scenes/*.toml`, `scenes/spd/*.nff`, the glTF samples, the PLY and
+//! OBJ models of `tests/data/models` and the OBJ models' MTL libraries) is mutated at the byte,
+//! line and token level (numbers replaced by extremes: 0, -0, ±1e308, nan, inf, 2³², 1e9
+//! counts, ...); glTF also gets JSON-aware edits
 //! (accessor counts, byteLength, byteOffset, buffers moved to external files) and GLB
 //! chunk-length edits; binary PLY gets edits of its header's counts and of its body's bytes.
 //! Each mutant is written into `CARGO_TARGET_TMPDIR` and loaded with [`irt::io::load`], on a
@@ -19,7 +20,7 @@
 //! per file; `IRT_FUZZ_ITERATIONS=N` runs more (`IRT_FUZZ_FILTER=word` keeps only matching
 //! files). Failing inputs are written to `CARGO_TARGET_TMPDIR/fuzz_failures/` for the corpus.
 //!
-//! `tests/fuzz_corpus/{toml,nff,gltf,ply}/` keeps every input that ever failed and some edge
+//! `tests/fuzz_corpus/{toml,nff,gltf,ply,obj}/` keeps every input that ever failed and some edge
 //! inputs; [`corpus_inputs_load_cleanly`] loads each under the same guards.
 
 mod common;
@@ -614,6 +615,47 @@ fn mutated_ply_scenes() {
     fuzz("ply", files("tests/data/models", &["ply"]), |rng, b, _| mutate_ply(rng, b));
 }
 
+/// The real OBJ models (tests/data/models/*/), and their libraries and textures copied into
+/// `format`'s work directory, where the mutants are loaded from, so that they get read.
+fn obj_models(format: &str) -> Vec<PathBuf> {
+    let dir = work_dir(format);
+    let mut objs = Vec::new();
+    let models = root().join("tests/data/models");
+    let mut subdirs: Vec<PathBuf> = std::fs::read_dir(&models).unwrap().map(|e| e.unwrap().path()).collect();
+    subdirs.sort();
+    for model in subdirs.into_iter().filter(|p| p.is_dir()) {
+        for file in std::fs::read_dir(&model).unwrap().map(|e| e.unwrap().path()) {
+            if file.extension().is_some_and(|e| e == "obj") {
+                objs.push(file);
+            } else {
+                std::fs::copy(&file, dir.join(file.file_name().unwrap())).unwrap();
+            }
+        }
+    }
+    objs.sort();
+    assert!(objs.len() >= 4, "the real OBJ files are in tests/data/models");
+    objs
+}
+
+#[test]
+fn mutated_obj_scenes() {
+    fuzz("obj", obj_models("obj"), |rng, b, _| mutate_text(rng, b));
+}
+
+/// The real OBJ files unchanged, one of their MTL libraries mutated: the OBJ's `mtllib` for it
+/// is pointed at the mutant, written beside it.
+#[test]
+fn mutated_mtl_libraries() {
+    fuzz("mtl", obj_models("mtl"), |rng, b, dir| {
+        let text = String::from_utf8(b.to_vec()).unwrap();
+        let libraries: Vec<&str> = text.lines().filter(|l| l.starts_with("mtllib ")).collect();
+        let Some(&line) = libraries.get(rng.below(libraries.len().max(1))) else { return b.to_vec() };
+        let original = std::fs::read(dir.join(line["mtllib ".len()..].trim())).unwrap();
+        std::fs::write(dir.join("mutant-library.mtl"), mutate_text(rng, &original)).unwrap();
+        text.replacen(line, "mtllib mutant-library.mtl", 1).into_bytes()
+    });
+}
+
 fn decode_base64(text: &str) -> Vec<u8> {
     const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let digits: Vec<u32> = text
@@ -635,9 +677,13 @@ fn decode_base64(text: &str) -> Vec<u8> {
 fn corpus_inputs_load_cleanly() {
     let mut checked = 0;
     let mut findings = Vec::new();
-    for (format, extensions) in
-        [("toml", &["toml"][..]), ("nff", &["nff"]), ("gltf", &["gltf", "glb"]), ("ply", &["ply"])]
-    {
+    for (format, extensions) in [
+        ("toml", &["toml"][..]),
+        ("nff", &["nff"]),
+        ("gltf", &["gltf", "glb"]),
+        ("ply", &["ply"]),
+        ("obj", &["obj"]),
+    ] {
         let inputs = files(&format!("tests/fuzz_corpus/{format}"), extensions);
         assert!(!inputs.is_empty(), "tests/fuzz_corpus/{format} is empty");
         for input in inputs {

@@ -138,8 +138,8 @@ fn the_files_are_found_by_extension() {
     let path = dir.join("scene.NFF");
     std::fs::write(&path, BASE).unwrap();
     assert_eq!(irt::io::load(&path).unwrap(), parse(BASE).unwrap());
-    let e = irt::io::load(&dir.join("x.obj")).unwrap_err();
-    assert!(e.message.contains(".nff (NFF)"), "{e}");
+    let e = irt::io::load(&dir.join("x.3ds")).unwrap_err();
+    assert!(e.message.contains(".nff (NFF)") && e.message.contains(".obj (Wavefront OBJ)"), "{e}");
 }
 
 #[test]

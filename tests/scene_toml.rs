@@ -68,7 +68,7 @@ fn missing_file_names_the_path_and_the_reason() {
 
 #[test]
 fn unknown_extension_lists_the_supported_ones() {
-    let e = load(Path::new("scene.obj")).unwrap_err();
+    let e = load(Path::new("scene.3ds")).unwrap_err();
     assert!(e.message.contains("extension") && e.message.contains(".toml"), "{e}");
     let e = load(Path::new("no_extension")).unwrap_err();
     assert!(e.message.contains(".toml"), "{e}");

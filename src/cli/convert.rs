@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args)]
 pub struct ConvertArgs {
-    /// Scene to read (.toml, .gltf, .glb).
+    /// Scene to read (.toml, .gltf, .glb, .nff, .obj, .ply).
     pub input: PathBuf,
     /// TOML file to write (atomically); loading it gives back exactly the scene irt read. Each
     /// texture is written beside it as OUTPUT-STEM.<index>[.<name>].png (replacing such files).

@@ -80,7 +80,7 @@ pub struct DeviceArgs {
 
 #[derive(Args)]
 pub struct SceneArgs {
-    /// Scene file (.toml, .gltf, .glb, .nff); the built-in default scene when omitted.
+    /// Scene file (.toml, .gltf, .glb, .nff, .obj, .ply); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
     /// Image width in pixels (overrides the scene's camera).
     #[arg(long, allow_negative_numbers = true)]

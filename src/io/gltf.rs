@@ -9,7 +9,9 @@
 use super::png::{self, Unusable};
 use super::stage::{self, Model};
 use super::toml::{DEFAULT_HEIGHT, DEFAULT_WIDTH};
-use super::{read_limited, LoadError, MAX_MATERIALS, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
+use super::{
+    read_limited, unique_name, LoadError, MAX_MATERIALS, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES,
+};
 use crate::scene::{
     Camera, Filter, Light, Material, MaterialKind, Mesh, Scene, Texture, Wrap, MAX_LIGHTS, MAX_TEXTURES,
 };
@@ -589,17 +591,6 @@ fn unit(x: f64, what: &str) -> Res<f64> {
     } else {
         Err(format!("{what} is {x}; it must be in [0, 1]"))
     }
-}
-
-/// `base`, or `base (2)`, `base (3)`, … : the first that is not `taken`.
-fn unique_name(base: String, taken: impl Fn(&str) -> bool) -> String {
-    let mut name = base.clone();
-    let mut k = 2;
-    while taken(&name) {
-        name = format!("{base} ({k})");
-        k += 1;
-    }
-    name
 }
 
 /// KHR_texture_transform on a texture reference: texture coordinates become

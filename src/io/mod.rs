@@ -6,6 +6,7 @@
 
 pub mod gltf;
 pub mod nff;
+pub mod obj;
 pub mod ply;
 pub mod png;
 pub mod shapes;
@@ -114,6 +115,14 @@ pub const FORMATS: &[Format] = &[
         parse: parse_nff,
         model: None,
     },
+    // Its limit is its own: the largest mesh irt takes, as text (src/io/obj.rs says why).
+    Format {
+        name: "Wavefront OBJ",
+        extensions: &["obj"],
+        max_bytes: obj::MAX_FILE_BYTES,
+        parse: obj::parse,
+        model: Some(obj::parse_model),
+    },
     // Binary PLY is the format of big scans; its limit is its own (src/io/ply.rs says why).
     Format {
         name: "PLY",
@@ -154,6 +163,18 @@ pub(crate) fn utf8<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str, LoadErr
         let valid = std::str::from_utf8(&bytes[..e.valid_up_to()]).unwrap_or_default();
         LoadError::at(origin, valid, valid.len(), "the file is not valid UTF-8 text")
     })
+}
+
+/// `base`, or `base (2)`, `base (3)`, … : the first that is not `taken` (loaders name materials
+/// and textures after what the file calls them, and scene names must be unique).
+pub(crate) fn unique_name(base: String, taken: impl Fn(&str) -> bool) -> String {
+    let mut name = base.clone();
+    let mut k = 2;
+    while taken(&name) {
+        name = format!("{base} ({k})");
+        k += 1;
+    }
+    name
 }
 
 /// Loads and validates a scene file, choosing the format by its extension.

@@ -7,17 +7,15 @@
 //! recognised by being a number; `#` starts a comment that runs to the end of the line.
 //! Every count is checked against its limit before anything is allocated for it.
 
+use super::shapes::{triangulate, MAX_POLYGON_VERTICES};
 use super::{LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES};
 use crate::scene::{
     Ambient, Camera, Cone, Light, Material, MaterialKind, Mesh, Scene, ShadowMode, Sphere, TraceSettings,
     MAX_IMAGE_SIDE, MAX_LIGHTS,
 };
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use std::collections::HashMap;
 
-/// Vertices of one polygon, at most. Ear clipping costs O(n²) per polygon, so this bounds the
-/// time a single command can take; generators write far smaller polygons (SPD's gears: 144).
-pub const MAX_POLYGON_VERTICES: usize = 4096;
 /// Above this Kd/Ks ratio a reflective opaque surface keeps its diffuse part (polished);
 /// below it, it is a mirror-like metal (docs/nff.md).
 pub const METAL_KD_OVER_KS: f64 = 0.1;
@@ -63,10 +61,15 @@ pub fn material_kind(rgb: DVec3, kd: f64, ks: f64, shine: f64, t: f64, ior: f64)
     } else if kd < METAL_KD_OVER_KS * ks {
         MaterialKind::Metal { color: ks * rgb, exponent: shine }
     } else {
-        // Schlick's R0 = ((eta - 1)/(eta + 1))² = Ks  ⇔  eta = (1 + √Ks)/(1 - √Ks).
-        let r = ks.min(MAX_COAT_KS).sqrt();
-        MaterialKind::Polished { color: kd * rgb, eta: (1.0 + r) / (1.0 - r), exponent: shine }
+        MaterialKind::Polished { color: kd * rgb, eta: coat_eta(ks), exponent: shine }
     }
+}
+
+/// The index of a clear coat that reflects `ks` at normal incidence: Schlick's
+/// R0 = ((eta - 1)/(eta + 1))² = Ks  ⇔  eta = (1 + √Ks)/(1 - √Ks), Ks capped at [`MAX_COAT_KS`].
+pub fn coat_eta(ks: f64) -> f64 {
+    let r = ks.clamp(0.0, MAX_COAT_KS).sqrt();
+    (1.0 + r) / (1.0 - r)
 }
 
 #[derive(Clone, Copy)]
@@ -528,233 +531,9 @@ impl<'a> Parser<'a> {
     }
 }
 
-/// Triangles covering the polygon `p` (vertices in order, convex or concave, any winding), as
-/// index triples wound like the polygon; none for a polygon without area.
-///
-/// Ear clipping in the polygon's plane: Newell's normal (right for concave and slightly
-/// non-planar polygons, unlike the first three vertices) gives the plane and the winding; an ear
-/// is a convex corner whose triangle holds no other remaining vertex. Vertices that make no turn
-/// (collinear, or a spike back along the same line) are dropped without a triangle, so no
-/// zero-area triangle is made. A simple polygon always has an ear; one that is not simple (it
-/// crosses itself) can run out of them, and then the rest is cut corner by corner without the
-/// ear test, so the loop always ends, after O(n²) work at most for such polygons.
-pub fn triangulate(p: &[DVec3]) -> Vec<[usize; 3]> {
-    let n = p.len();
-    if n < 3 {
-        return Vec::new();
-    }
-    let mut normal = DVec3::ZERO;
-    for i in 0..n {
-        let (a, b) = (p[i], p[(i + 1) % n]);
-        normal += DVec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
-    }
-    let Some(normal) = normal.try_normalize() else { return Vec::new() };
-    // (u, v, normal) right-handed: the polygon runs counter-clockwise in (u, v).
-    let u = normal.any_orthonormal_vector();
-    let v = normal.cross(u);
-    let q: Vec<DVec2> = p.iter().map(|&x| DVec2::new((x - p[0]).dot(u), (x - p[0]).dot(v))).collect();
-    let extent = q.iter().fold(0.0f64, |m, x| m.max(x.abs().max_element()));
-    // Twice a triangle's area below this is no turn at all.
-    let eps = 1e-12 * extent * extent;
-    let turn = |a: usize, b: usize, c: usize| (q[b] - q[a]).perp_dot(q[c] - q[b]);
-    let mut prev: Vec<usize> = (0..n).map(|i| (i + n - 1) % n).collect();
-    let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
-    let is_ear = |a: usize, b: usize, c: usize, next: &[usize]| {
-        let mut k = next[c];
-        while k != a {
-            let x = q[k];
-            // Repeated vertices (a polygon touching itself) do not block an ear at their copy.
-            let repeat = x == q[a] || x == q[b] || x == q[c];
-            let inside = (q[b] - q[a]).perp_dot(x - q[a]) >= -eps
-                && (q[c] - q[b]).perp_dot(x - q[b]) >= -eps
-                && (q[a] - q[c]).perp_dot(x - q[c]) >= -eps;
-            if inside && !repeat {
-                return false;
-            }
-            k = next[k];
-        }
-        true
-    };
-    let mut out = Vec::with_capacity(n - 2);
-    let (mut left, mut i, mut misses, mut simple) = (n, 0, 0, true);
-    while left > 3 {
-        let (a, c) = (prev[i], next[i]);
-        let t = turn(a, i, c);
-        simple &= misses < left;
-        let cut = if t.abs() <= eps {
-            true
-        } else if t > 0.0 && (!simple || is_ear(a, i, c, &next)) {
-            out.push([a, i, c]);
-            true
-        } else {
-            !simple
-        };
-        if cut {
-            next[a] = c;
-            prev[c] = a;
-            left -= 1;
-            misses = 0;
-            i = a;
-        } else {
-            misses += 1;
-            i = c;
-        }
-    }
-    let (a, c) = (prev[i], next[i]);
-    if turn(a, i, c) > eps {
-        out.push([a, i, c]);
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Twice the area of the polygon (Newell) and the sum of twice the triangles' areas, each
-    /// triangle's measured along the polygon's normal (negative if wound the other way).
-    fn areas(p: &[DVec3], tris: &[[usize; 3]]) -> (f64, f64) {
-        let mut normal = DVec3::ZERO;
-        for i in 0..p.len() {
-            normal += p[i].cross(p[(i + 1) % p.len()]);
-        }
-        let unit = normal.normalize();
-        let sum = tris.iter().map(|t| (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).dot(unit)).sum();
-        (normal.length(), sum)
-    }
-
-    /// Every triangle wound like the polygon and, together, exactly its area: ears lie inside
-    /// the polygon, so this means they cover it without overlap.
-    fn assert_covers(p: &[DVec3], tris: &[[usize; 3]]) {
-        let (area, sum) = areas(p, tris);
-        let unit = {
-            let mut n = DVec3::ZERO;
-            for i in 0..p.len() {
-                n += p[i].cross(p[(i + 1) % p.len()]);
-            }
-            n.normalize()
-        };
-        for t in tris {
-            assert!((p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).dot(unit) > 0.0, "{t:?} wound backwards");
-        }
-        assert!((area - sum).abs() <= 1e-9 * area, "triangles cover {sum}, the polygon {area}");
-    }
-
-    fn xy(points: &[(f64, f64)]) -> Vec<DVec3> {
-        points.iter().map(|&(x, y)| DVec3::new(x, y, 0.0)).collect()
-    }
-
-    #[test]
-    fn convex_and_concave_polygons() {
-        let square = xy(&[(0., 0.), (1., 0.), (1., 1.), (0., 1.)]);
-        assert_eq!(triangulate(&square).len(), 2);
-        assert_covers(&square, &triangulate(&square));
-        // Clockwise: the triangles follow the polygon's winding.
-        let cw: Vec<DVec3> = square.iter().rev().copied().collect();
-        assert_covers(&cw, &triangulate(&cw));
-        let l_shape = xy(&[(0., 0.), (2., 0.), (2., 1.), (1., 1.), (1., 2.), (0., 2.)]);
-        assert_eq!(triangulate(&l_shape).len(), 4);
-        assert_covers(&l_shape, &triangulate(&l_shape));
-        // A comb: the fan from vertex 0 would cover the gaps between the teeth.
-        let mut comb = vec![(0.0, 0.0), (9.0, 0.0)];
-        for k in (0..5).rev() {
-            let x = 2.0 * k as f64;
-            comb.extend([(x + 1.0, 3.0), (x + 1.0, 1.0), (x, 1.0), (x, 3.0)]);
-        }
-        comb.pop();
-        comb.pop();
-        comb.pop();
-        let comb = xy(&comb);
-        assert_covers(&comb, &triangulate(&comb));
-    }
-
-    #[test]
-    fn tilted_star_shaped_and_gear_polygons() {
-        // Random star-shaped polygons in a tilted plane, far from the origin.
-        let (u, v) = (DVec3::new(1.0, 2.0, 0.5).normalize(), DVec3::new(-2.0, 1.0, 0.3));
-        let v = (v - v.dot(u) * u).normalize();
-        let mut seed = 1u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for n in [3, 5, 17, 144, 1000] {
-            let p: Vec<DVec3> = (0..n)
-                .map(|k| {
-                    let a = std::f64::consts::TAU * k as f64 / n as f64;
-                    let r = 0.2 + rnd();
-                    DVec3::splat(100.0) + r * (a.cos() * u + a.sin() * v)
-                })
-                .collect();
-            let tris = triangulate(&p);
-            assert_eq!(tris.len(), n - 2);
-            assert_covers(&p, &tris);
-        }
-        // A gear face from SPD's gears: 144 vertices, teeth and gaps.
-        let gear: Vec<DVec3> = (0..144)
-            .map(|k| {
-                let a = std::f64::consts::TAU * (k / 4) as f64 / 36.0 + [0.0, 0.05, 0.08, 0.13][k % 4];
-                let r = [1.0, 1.0, 0.9, 0.9][k % 4];
-                DVec3::new(r * a.cos(), r * a.sin(), 1.0)
-            })
-            .collect();
-        let tris = triangulate(&gear);
-        assert_eq!(tris.len(), 142);
-        assert_covers(&gear, &tris);
-    }
-
-    #[test]
-    fn collinear_and_degenerate_vertices() {
-        // A square with a vertex in the middle of an edge: no zero-area triangle (each is wound
-        // forwards, so has area).
-        let p = xy(&[(0., 0.), (0.5, 0.), (1., 0.), (1., 1.), (0., 1.)]);
-        assert_covers(&p, &triangulate(&p));
-        let p = xy(&[(0., 0.), (0.25, 0.), (0.5, 0.), (0.75, 0.), (1., 0.), (0.5, 1.)]);
-        assert_covers(&p, &triangulate(&p));
-        // All on a line, or repeated points: nothing to draw.
-        assert!(triangulate(&xy(&[(0., 0.), (1., 0.), (2., 0.)])).is_empty());
-        assert!(triangulate(&xy(&[(1., 1.), (1., 1.), (1., 1.), (1., 1.)])).is_empty());
-        // A repeated vertex (a polygon touching itself at a point) still triangulates.
-        let p = xy(&[(0., 0.), (2., 0.), (2., 2.), (1., 1.), (0., 2.), (1., 1.)]);
-        let (area, sum) = areas(&p, &triangulate(&p));
-        assert!((area - sum).abs() < 1e-9, "{area} vs {sum}");
-    }
-
-    #[test]
-    fn self_intersecting_polygons_end() {
-        // A bow tie has no valid triangulation; the loop must still end with n - 2 at most.
-        let p = xy(&[(0., 0.), (1., 1.), (1., 0.), (0., 1.)]);
-        assert!(triangulate(&p).len() <= 2);
-        let n = MAX_POLYGON_VERTICES;
-        let star: Vec<DVec3> = (0..n)
-            .map(|k| {
-                let a = std::f64::consts::TAU * (k * (n / 2 - 1)) as f64 / n as f64;
-                DVec3::new(a.cos(), a.sin(), 0.0)
-            })
-            .collect();
-        let t = std::time::Instant::now();
-        assert!(triangulate(&star).len() <= n - 2);
-        assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
-    }
-
-    /// A thin spiral is the classic slow case of ear clipping (most corners are not ears); at
-    /// the vertex limit it must still take well under a second.
-    #[test]
-    fn a_spiral_at_the_vertex_limit_is_fast() {
-        let half = MAX_POLYGON_VERTICES / 2;
-        let arm = |k: usize, r: f64| {
-            let a = 6.0 * std::f64::consts::TAU * k as f64 / half as f64;
-            let r = r + 0.5 * k as f64 / half as f64;
-            DVec3::new(r * a.cos(), r * a.sin(), 0.0)
-        };
-        let mut p: Vec<DVec3> = (0..half).map(|k| arm(k, 0.1)).collect();
-        p.extend((0..half).rev().map(|k| arm(k, 0.12)));
-        let t = std::time::Instant::now();
-        let tris = triangulate(&p);
-        println!("spiral of {} vertices: {:?}", p.len(), t.elapsed());
-        assert_covers(&p, &tris);
-        assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
-    }
 
     #[test]
     fn nff_angle_spans_pixel_centres() {

@@ -13,7 +13,7 @@
 //! Errors give `file:line:column` in the header and in an ASCII body, and `at byte N` in a binary
 //! body. Elements are counted from 0, as PLY's vertex indices are.
 
-use super::nff::{triangulate, MAX_POLYGON_VERTICES};
+use super::shapes::{triangulate, MAX_POLYGON_VERTICES};
 use super::stage::{self, Model};
 use super::toml::DEFAULT_DIFFUSE_COLOR;
 use super::{LoadError, MAX_MATERIALS, MAX_TRIANGLES, MAX_VERTICES};

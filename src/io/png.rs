@@ -84,6 +84,17 @@ impl PixelBudget {
     }
 }
 
+/// The first bytes of a PNG file, up to its declared size (fewer if the file is shorter), so
+/// that a file can be refused by its header before it is read whole.
+pub fn read_header(path: &std::path::Path) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    let cannot = |e: std::io::Error| format!("'{}': cannot read the texture file: {e}", path.display());
+    let mut header = Vec::with_capacity(HEADER_BYTES);
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    file.take(HEADER_BYTES as u64).read_to_end(&mut header).map_err(cannot)?;
+    Ok(header)
+}
+
 /// The bytes every PNG file starts with (PNG §5.2); the IHDR size follows up to byte 24.
 pub const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
 /// Bytes of a PNG up to the end of the image size in its IHDR header.

@@ -19,7 +19,6 @@ use ::toml::Spanned;
 use glam::{DVec2, DVec3};
 use serde::Deserialize;
 use std::collections::HashMap;
-use std::io::Read;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -523,7 +522,7 @@ fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res
     let mut budget = png::PixelBudget::default();
     for (t, (path, ..)) in docs.iter().zip(&settings) {
         let file = &t.get_ref().file;
-        let header = read_header(path).map_err(|m| located(file.span(), m))?;
+        let header = png::read_header(path).map_err(|m| located(file.span(), m))?;
         let (w, h) = png::checked_size(&header, &texture_what(path)).map_err(|e| match e {
             png::Unusable::Refused(m) | png::Unusable::NotPng(m) => located(file.span(), m),
         })?;
@@ -551,15 +550,6 @@ fn texture_what(path: &Path) -> String {
 /// A texture's `file`, relative to the directory of the scene file `origin`.
 fn texture_file(origin: &str, file: &Spanned<String>) -> PathBuf {
     Path::new(origin).parent().unwrap_or(Path::new("")).join(file.get_ref())
-}
-
-/// The first bytes of a PNG, up to its declared size (fewer if the file is shorter).
-fn read_header(path: &Path) -> Result<Vec<u8>, String> {
-    let cannot = |e: std::io::Error| format!("'{}': cannot read the texture file: {e}", path.display());
-    let mut header = Vec::with_capacity(png::HEADER_BYTES);
-    let file = std::fs::File::open(path).map_err(cannot)?;
-    file.take(png::HEADER_BYTES as u64).read_to_end(&mut header).map_err(cannot)?;
-    Ok(header)
 }
 
 /// A word from `names` (the modes of a wrap or filter), or an error listing them.
