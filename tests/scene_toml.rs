@@ -130,7 +130,13 @@ fn the_built_in_default_scene_is_the_file_and_uses_every_feature() {
 #[test]
 fn the_example_in_the_format_docs_loads() {
     let docs = std::fs::read_to_string(scenes_dir().join("../docs/scene-format.md")).unwrap();
-    let example = docs.split("```toml\n").nth(1).and_then(|s| s.split("```").next()).expect("a toml block");
+    // The complete scene under "## Example" (earlier blocks are fragments of one table).
+    let example = docs
+        .split("## Example")
+        .nth(1)
+        .and_then(|s| s.split("```toml\n").nth(1))
+        .and_then(|s| s.split("```").next())
+        .expect("a toml block under ## Example");
     let scene = parse_str(example, "docs/scene-format.md").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!((scene.materials.len(), scene.spheres.len(), scene.meshes.len()), (4, 2, 4));
 }
