@@ -149,3 +149,21 @@ fn a_ply_scan_is_placed_as_a_model() {
         &common::reference_image(&scene),
     );
 }
+
+#[test]
+fn an_open_model_is_seen_from_its_open_side_and_a_closed_one_from_the_front() {
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/models");
+    // The Cornell box has no wall at -z: the camera looks in from there.
+    let cornell = stage::stage(io::load_model(&models.join("cornell/cornell_box.obj")).unwrap());
+    assert!(cornell.camera.eye.z < cornell.camera.look_at.z, "eye {}", cornell.camera.eye);
+    // A single flat polygon facing +x is seen face on, not edge on.
+    let ring = stage::stage(io::load_model(&models.join("concave/concave_polygon.obj")).unwrap());
+    let view = (ring.camera.eye - ring.camera.look_at).normalize();
+    assert!(view.x > 0.7, "view from {view}");
+    // Closed (or nearly closed) models keep the front view from +z, right and above.
+    for f in ["bun_zipper_res4.ply", "spot/spot.obj"] {
+        let s = stage::stage(io::load_model(&models.join(f)).unwrap());
+        let view = (s.camera.eye - s.camera.look_at).normalize();
+        assert!((view - stage::FRAMING_DIRECTION.normalize()).length() < 1e-12, "{f}: {view}");
+    }
+}

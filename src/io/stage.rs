@@ -49,7 +49,13 @@ pub const DEFAULT_BACKGROUND: DVec3 = DVec3::new(0.32, 0.36, 0.42);
 
 /// Direction from the model's centre to the eye of the framing camera: in front (+z), a little
 /// to the right and above, with +y up (the convention of glTF, and of most OBJ and PLY files).
+/// An open model is seen from its open side instead ([`framing_direction`]).
 pub const FRAMING_DIRECTION: DVec3 = DVec3::new(0.5, 0.45, 1.0);
+
+/// The net area-weighted normal of a model, as a fraction of its area, from which it counts as
+/// open to one side: 0 for a closed mesh, 1 for a flat one; 0.15 for the Cornell box (open at
+/// −z), 0.02 for the Stanford bunny's holes in its base.
+pub const OPEN_SIDE_FRACTION: f64 = 0.1;
 
 /// Radius of the staging light as a fraction of the model's bounding radius (soft shadow modes
 /// use it; hard shadows treat it as a point).
@@ -119,7 +125,7 @@ pub fn framing_camera(meshes: &[Mesh]) -> Camera {
     let center = 0.5 * (lo + hi);
     let radius = (0.5 * (hi - lo).length()).max(f64::MIN_POSITIVE);
     let mut camera = Camera {
-        eye: center + FRAMING_DIRECTION.normalize(),
+        eye: center + framing_direction(meshes),
         look_at: center,
         up: DVec3::Y,
         vfov_deg: DEFAULT_FOV_DEG,
@@ -141,6 +147,38 @@ pub fn framing_camera(meshes: &[Mesh]) -> Camera {
     }
     camera.eye = center - b.w * distance;
     camera
+}
+
+/// Where the framing camera looks from: [`FRAMING_DIRECTION`], unless the triangles' net
+/// area-weighted normal (their windings' sum, which cancels on a closed mesh) reaches
+/// [`OPEN_SIDE_FRACTION`] of their area: then the model is open to that side — a box without
+/// its front wall, a single sheet — and is seen from there (the same offsets turned about y, or
+/// from above or below).
+pub fn framing_direction(meshes: &[Mesh]) -> DVec3 {
+    let (mut net, mut area) = (DVec3::ZERO, 0.0);
+    for m in meshes {
+        for t in &m.indices {
+            let p = t.map(|i| m.positions[i as usize]);
+            let twice = (p[1] - p[0]).cross(p[2] - p[0]);
+            net += twice;
+            area += twice.length();
+        }
+    }
+    let d = FRAMING_DIRECTION;
+    // Also the default when the sums are not finite (NaN fails every comparison).
+    let open = area > 0.0 && net.length() >= OPEN_SIDE_FRACTION * area;
+    if !open {
+        return d.normalize();
+    }
+    let a = net.abs();
+    let dir = if a.y >= a.x && a.y >= a.z {
+        DVec3::new(d.x, d.z * net.y.signum(), d.y)
+    } else if a.x >= a.z {
+        DVec3::new(d.z * net.x.signum(), d.y, -d.x * net.x.signum())
+    } else {
+        DVec3::new(d.x * net.z.signum(), d.y, d.z * net.z.signum())
+    };
+    dir.normalize()
 }
 
 /// The light of a scene without lights: white, above and to the right of the eye, so that what
