@@ -69,7 +69,10 @@ fn workload_is_lambert_and_peer_refuses_the_rest() {
     let scene = primary_shadow(&full);
     assert_eq!(scene.trace.max_depth, 1);
     assert!(scene.materials.iter().all(|m| matches!(m.kind, irt::scene::MaterialKind::Diffuse { .. })));
-    let cones = primary_shadow(&irt::io::load_or_default(Some(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cones.toml"))).unwrap());
+    let cones = primary_shadow(
+        &irt::io::load_or_default(Some(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cones.toml")))
+            .unwrap(),
+    );
     let err = NativePeer::new(&cones, &Grid::build(&cones)).err().expect("cones refused");
     assert!(err.contains("cones"), "{err}");
 }

@@ -125,7 +125,16 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let rays = counting.render(&ctx, &mut |_, _| {}).rays;
     if let Some(Peer::Native) = args.peer {
         let name = scene_args.name_or("default");
-        return peer_native(&name, &scene, &renderer, &ctx, rays.total(), args.frames, args.peer_threads, args.markdown);
+        return peer_native(
+            &name,
+            &scene,
+            &renderer,
+            &ctx,
+            rays.total(),
+            args.frames,
+            args.peer_threads,
+            args.markdown,
+        );
     }
     let frame = renderer.median_frame_time(&ctx, args.frames);
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
@@ -217,8 +226,15 @@ fn peer_native(
         println!("device           {} ({})", ctx.info.name, ctx.info.driver_info);
         println!("rays/frame       irt {irt_rays}, native {peer_rays}");
         println!("irt              {:.1} ms  {irt_m:.2} Mrays/s", irt_t.as_secs_f64() * 1e3);
-        println!("native peer      {:.1} ms  {peer_m:.2} Mrays/s ({threads} threads)", peer_t.as_secs_f64() * 1e3);
-        println!("irt / native     {:.2} (throughput; median of {} interleaved rounds)", irt_m / peer_m, frames.max(1));
+        println!(
+            "native peer      {:.1} ms  {peer_m:.2} Mrays/s ({threads} threads)",
+            peer_t.as_secs_f64() * 1e3
+        );
+        println!(
+            "irt / native     {:.2} (throughput; median of {} interleaved rounds)",
+            irt_m / peer_m,
+            frames.max(1)
+        );
     }
     Ok(())
 }

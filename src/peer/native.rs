@@ -95,13 +95,17 @@ impl NativePeer {
             return Err("the native peer traces spheres and triangles only; this scene has cones".into());
         }
         if scene.trace.max_depth != 1 || scene.trace.shadows != ShadowMode::Hard {
-            return Err("the native peer traces the primary-shadow workload only (depth 1, hard shadows)".into());
+            return Err(
+                "the native peer traces the primary-shadow workload only (depth 1, hard shadows)".into()
+            );
         }
         let eye = scene.camera.eye;
-        let color = |m: u32| match scene.materials[m as usize].kind {
-            MaterialKind::Diffuse { color } => Ok(f(color)),
-            _ => Err("the native peer shades diffuse materials only (use the primary-shadow workload)".to_string()),
-        };
+        let color =
+            |m: u32| match scene.materials[m as usize].kind {
+                MaterialKind::Diffuse { color } => Ok(f(color)),
+                _ => Err("the native peer shades diffuse materials only (use the primary-shadow workload)"
+                    .to_string()),
+            };
         let spheres = scene
             .spheres
             .iter()
@@ -131,7 +135,11 @@ impl NativePeer {
             height: scene.camera.height,
             cam: [f(b.u), f(b.v), f(b.w)],
             background: f(scene.background),
-            lights: scene.lights.iter().map(|l| LightF { position: f(l.position - eye), color: f(l.color) }).collect(),
+            lights: scene
+                .lights
+                .iter()
+                .map(|l| LightF { position: f(l.position - eye), color: f(l.color) })
+                .collect(),
             spheres,
             triangles,
             grid: GridF {
@@ -277,9 +285,8 @@ impl NativePeer {
                 let s = &self.spheres[i];
                 sphere_t(o, d, s, t_min, t_max).map(|t| Hit { t, prim: r, b: (0.0, 0.0) })
             }
-            PrimKind::Triangle => {
-                triangle_t(o, d, &self.triangles[i].p, t_min, t_max).map(|(t, b1, b2)| Hit { t, prim: r, b: (b1, b2) })
-            }
+            PrimKind::Triangle => triangle_t(o, d, &self.triangles[i].p, t_min, t_max)
+                .map(|(t, b1, b2)| Hit { t, prim: r, b: (b1, b2) }),
             // Refused in `new`.
             PrimKind::Cone => None,
         }
@@ -363,7 +370,7 @@ struct Surface {
 /// `v` normalised, or `fallback` when it cannot be (never a NaN normal).
 fn unit_or(v: Vec3, fallback: Vec3) -> Vec3 {
     let len2 = v.dot(v);
-    if !(len2 > 1.0e-30) || len2 > 1.0e30 {
+    if len2.is_nan() || len2 <= 1.0e-30 || len2 > 1.0e30 {
         let m = v.abs().max_element();
         return if m > 0.0 && m < 3.0e38 { (v / m).normalize() } else { fallback };
     }
