@@ -60,19 +60,28 @@ fn mesh_scene_matches_gpu() {
     check("mesh", Some("scenes/mesh.toml"), 160);
 }
 
+#[test]
+fn cones_match_gpu() {
+    check("cones", Some("scenes/cones.toml"), 160);
+}
+
+#[test]
+fn spd_jacks_matches_gpu() {
+    check("jacks_s2", Some("scenes/spd/jacks_s2.nff"), 160);
+}
+
 /// The workload leaves nothing the peer would shade differently, and the peer refuses what it
-/// does not trace instead of drawing something else.
+/// does not trace (deeper rays, other materials) instead of drawing something else.
 #[test]
 fn workload_is_lambert_and_peer_refuses_the_rest() {
     let full = irt::io::load_or_default(None).unwrap();
-    assert!(NativePeer::new(&full, &Grid::build(&full)).is_err(), "full scene (depth > 1) refused");
+    let err = NativePeer::new(&full, &Grid::build(&full)).err().expect("full scene (depth > 1) refused");
+    assert!(err.contains("primary-shadow"), "{err}");
     let scene = primary_shadow(&full);
     assert_eq!(scene.trace.max_depth, 1);
     assert!(scene.materials.iter().all(|m| matches!(m.kind, irt::scene::MaterialKind::Diffuse { .. })));
-    let cones = primary_shadow(
-        &irt::io::load_or_default(Some(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cones.toml")))
-            .unwrap(),
-    );
-    let err = NativePeer::new(&cones, &Grid::build(&cones)).err().expect("cones refused");
-    assert!(err.contains("cones"), "{err}");
+    let mut metal = scene.clone();
+    metal.materials[0].kind = irt::scene::MaterialKind::Metal { color: glam::DVec3::ONE, exponent: 10.0 };
+    let err = NativePeer::new(&metal, &Grid::build(&metal)).err().expect("metal refused");
+    assert!(err.contains("diffuse"), "{err}");
 }

@@ -5,8 +5,7 @@
 //! algorithm?", so it is deliberately not faster or cleverer than the shader (no SIMD packets, no
 //! BVH). It is not the oracle: `crate::reference` (f64, its own BVH) stays that.
 //!
-//! Traces spheres and triangles (mesh vertex normals included). Cones are refused
-//! ([`NativePeer::new`] says so): the SPD scenes that use them (tree, mount's …) are out of reach.
+//! Traces spheres, triangles (mesh vertex normals included) and open cones.
 //! Only the work [`super::primary_shadow`] leaves: eye rays at pixel centres, one hard-shadow ray
 //! per light facing the hit, diffuse Lambert shading, no ambient, background on a miss.
 
@@ -52,6 +51,15 @@ struct TriangleF {
     color: Vec3,
 }
 
+struct ConeF {
+    base: Vec3,
+    r0: f32,
+    /// `apex - base`.
+    axis: Vec3,
+    r1: f32,
+    color: Vec3,
+}
+
 struct LightF {
     position: Vec3,
     color: Vec3,
@@ -80,6 +88,7 @@ pub struct NativePeer {
     lights: Vec<LightF>,
     spheres: Vec<SphereF>,
     triangles: Vec<TriangleF>,
+    cones: Vec<ConeF>,
     grid: GridF,
 }
 
@@ -91,9 +100,6 @@ impl NativePeer {
     /// `scene` must be the primary-shadow workload (see [`super::primary_shadow`]) and `grid` its
     /// grid; anything the peer does not trace is an error, not a silent difference.
     pub fn new(scene: &Scene, grid: &Grid) -> Result<Self, String> {
-        if !scene.cones.is_empty() {
-            return Err("the native peer traces spheres and triangles only; this scene has cones".into());
-        }
         if scene.trace.max_depth != 1 || scene.trace.shadows != ShadowMode::Hard {
             return Err(
                 "the native peer traces the primary-shadow workload only (depth 1, hard shadows)".into()
@@ -128,6 +134,19 @@ impl NativePeer {
                 })
             })
             .collect::<Result<_, String>>()?;
+        let cones = scene
+            .cones
+            .iter()
+            .map(|c| {
+                Ok(ConeF {
+                    base: f(c.base - eye),
+                    r0: c.base_radius as f32,
+                    axis: f(c.apex - c.base),
+                    r1: c.apex_radius as f32,
+                    color: color(c.material)?,
+                })
+            })
+            .collect::<Result<_, String>>()?;
         let b = scene.camera.basis();
         let res = grid.res;
         Ok(NativePeer {
@@ -142,6 +161,7 @@ impl NativePeer {
                 .collect(),
             spheres,
             triangles,
+            cones,
             grid: GridF {
                 min: f(grid.min - eye),
                 max: f(grid.max - eye),
@@ -287,8 +307,9 @@ impl NativePeer {
             }
             PrimKind::Triangle => triangle_t(o, d, &self.triangles[i].p, t_min, t_max)
                 .map(|(t, b1, b2)| Hit { t, prim: r, b: (b1, b2) }),
-            // Refused in `new`.
-            PrimKind::Cone => None,
+            PrimKind::Cone => {
+                cone_t(o, d, &self.cones[i], t_min, t_max).map(|t| Hit { t, prim: r, b: (0.0, 0.0) })
+            }
         }
     }
 
@@ -317,7 +338,15 @@ impl NativePeer {
                 }
                 color = t.color;
             }
-            _ => {
+            PrimKind::Cone => {
+                let c = &self.cones[h.prim.index() as usize];
+                ng = unit_or(cone_normal(ray_p, c), -d);
+                n = ng;
+                // The point stays the ray's: its error is relative to the ray's numbers.
+                (p, scale) = (ray_p, o.abs().max_element() + h.t);
+                color = c.color;
+            }
+            PrimKind::Sphere => {
                 let s = &self.spheres[h.prim.index() as usize];
                 ng = unit_or(ray_p - s.center, -d);
                 n = ng;
@@ -447,4 +476,59 @@ fn triangle_t(o: Vec3, d: Vec3, p: &[Vec3; 3], t_min: f32, t_max: f32) -> Option
     let inv = 1.0 / det;
     let t = sz * (u * a[kz] + v * b[kz] + w * c[kz]) * inv;
     (t > t_min && t < t_max).then_some((t, v * inv, w * inv))
+}
+
+/// Nearest t in (t_min, t_max) on the open cone (no caps), `d` unit length. As in
+/// intersect.wgsl: the origin moved to the ray's closest approach to the axis midpoint (small
+/// coefficients for distant origins), the discriminant by Lagrange's identity (no difference of
+/// large products), both roots without cancellation, each kept only where it lies on the cone.
+fn cone_t(o: Vec3, d: Vec3, c: &ConeF, t_min: f32, t_max: f32) -> Option<f32> {
+    let h = c.axis.length();
+    let a = c.axis / h;
+    let k = (c.r1 - c.r0) / h;
+    let tc = (c.base + 0.5 * c.axis - o).dot(d);
+    let co = o + tc * d - c.base;
+    let s0 = co.dot(a);
+    let da = d.dot(a);
+    let qo = co - s0 * a;
+    let qd = d - da * a;
+    let ro = c.r0 + k * s0;
+    let qa = qd.dot(qd) - k * k * da * da;
+    let qb = qo.dot(qd) - k * ro * da;
+    let qc = qo.dot(qo) - ro * ro;
+    let w = ro * qd - k * da * qo;
+    let x = qo.cross(qd);
+    let disc = w.dot(w) - x.dot(x);
+    if disc < 0.0 {
+        return None;
+    }
+    let sign = if qb >= 0.0 { 1.0 } else { -1.0 };
+    let q = -(qb + sign * disc.sqrt());
+    let (lo, hi) = if q != 0.0 {
+        let ra = qc / q;
+        let rb = if qa != 0.0 { q / qa } else { ra };
+        (ra.min(rb), ra.max(rb))
+    } else if qa == 0.0 {
+        return None;
+    } else {
+        (0.0, 0.0)
+    };
+    [lo, hi]
+        .into_iter()
+        .find(|&r| {
+            let s = s0 + r * da;
+            s >= 0.0 && s <= h && tc + r > t_min && tc + r < t_max
+        })
+        .map(|r| tc + r)
+}
+
+/// Outward normal of the cone at surface point `p`: away from the axis, tilted by the slope.
+fn cone_normal(p: Vec3, c: &ConeF) -> Vec3 {
+    let h = c.axis.length();
+    let a = c.axis / h;
+    let v = p - c.base;
+    let away = v - v.dot(a) * a;
+    let len = away.length();
+    let u = if len > 0.0 { away / len } else { Vec3::ZERO };
+    (u - ((c.r1 - c.r0) / h) * a).normalize()
 }
