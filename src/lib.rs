@@ -10,6 +10,7 @@ pub mod gpu;
 pub mod image;
 pub mod io;
 pub mod metrics;
+pub mod peer;
 pub mod plot;
 pub mod reference;
 pub mod render;

@@ -285,3 +285,34 @@ fn bad_mode_arguments_are_named() {
     fails_with(&o, &["conventional", "frameless"]);
     assert!(!out.exists());
 }
+
+/// `irt bench --workload primary-shadow --peer native`: both sides trace the same rays (the
+/// counts printed agree) and the ratio is reported; without the workload, a clear refusal.
+#[test]
+fn bench_races_the_native_peer_on_the_same_rays() {
+    let out = irt(&[
+        "bench",
+        "--workload",
+        "primary-shadow",
+        "--peer",
+        "native",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--frames",
+        "1",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let line = stdout.lines().find(|l| l.starts_with("rays/frame")).expect("a rays line");
+    let counts: Vec<&str> =
+        line.split_whitespace().filter(|w| w.chars().all(|c| c.is_ascii_digit() || c == ',')).collect();
+    assert_eq!(counts.len(), 2, "{line}");
+    assert_eq!(counts[0].trim_end_matches(','), counts[1], "irt and the peer traced different rays: {line}");
+    assert!(stdout.contains("irt / native"), "{stdout}");
+    fails_with(
+        &irt(&["bench", "--peer", "native", "--width", "8", "--height", "8"]),
+        &["--workload primary-shadow"],
+    );
+}

@@ -1,0 +1,37 @@
+//! Peers that trace exactly the work `irt bench --workload primary-shadow` gives irt, so that
+//! speed ratios compare like with like (issue 11, item 2).
+//!
+//! The workload is an ordinary scene setting, not a special shader: [`primary_shadow`] rewrites a
+//! scene so that irt's own pipeline traces one eye ray per pixel centre and one hard-shadow ray per
+//! light facing each hit, shaded by Lambert alone. A peer then only has to trace those same rays.
+
+pub mod native;
+
+use crate::scene::{Ambient, MaterialKind, Scene, ShadowMode};
+use glam::DVec3;
+
+/// `scene` as the peer-comparable workload:
+/// - `max_depth = 1` (eye ray = depth 1, SPD's rule): no reflection or refraction rays;
+/// - hard shadows: one shadow ray per light whose direction faces the hit's normal;
+/// - every material diffuse with its colour (metal and polished keep their colour, a dielectric,
+///   which has none, becomes white), no textures: shading is n·l × light colour × colour;
+/// - no ambient (both ambient colours black), so a shadowed point is black.
+///
+/// Camera, lights, background and geometry are unchanged.
+pub fn primary_shadow(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    s.trace.max_depth = 1;
+    s.trace.shadows = ShadowMode::Hard;
+    for m in &mut s.materials {
+        let color = match m.kind {
+            MaterialKind::Diffuse { color } | MaterialKind::Metal { color, .. } => color,
+            MaterialKind::Polished { color, .. } => color,
+            MaterialKind::Dielectric { .. } => DVec3::ONE,
+        };
+        m.kind = MaterialKind::Diffuse { color };
+        m.texture = None;
+    }
+    s.textures.clear();
+    s.ambient = Ambient { sky: DVec3::ZERO, ground: DVec3::ZERO, up: s.ambient.up };
+    s
+}
