@@ -14,7 +14,8 @@ pub struct GpuScene {
     pub params: Params,
     params_buf: wgpu::Buffer,
     texture_view: wgpu::TextureView,
-    /// The scene texture has more than one layer (a 2D array; see `Variant::layered`).
+    /// The scene texture is a 2D array of layers (the scene's rows exceed the device's largest
+    /// texture side; see `Variant::layered`).
     pub layered: bool,
     /// Bytes uploaded (texture + uniforms), for logs and benches.
     pub bytes: u64,
@@ -60,7 +61,7 @@ impl GpuScene {
         let limits = ctx.device.limits();
         let max_side =
             max_rows.map_or(limits.max_texture_dimension_2d, |m| m.min(limits.max_texture_dimension_2d));
-        let (height, layers) = packed.extent(max_side);
+        let (height, layers, layered) = packed.extent(max_side);
         let rows = packed.rows();
         if layers > limits.max_texture_array_layers {
             let most = limits.max_texture_array_layers as u64 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH) as u64;
@@ -74,7 +75,6 @@ impl GpuScene {
                 SCENE_TEX_WIDTH,
             ));
         }
-        let layered = rows > max_side;
         let mut data = packed.texels;
         // Whole rows only: the last row is padded, the last layer is not.
         data.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
@@ -194,6 +194,8 @@ fn bind_group_layout(device: &wgpu::Device, layered: bool) -> wgpu::BindGroupLay
 /// A compiled kernel bound to a scene and its output buffers. Pipelines are created per entry
 /// point on first use (lavapipe compiles each at its first dispatch anyway).
 pub struct Dispatcher {
+    /// What was compiled: the caller's variant with `layered` as the scene's texture is.
+    variant: Variant,
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
     pipelines: Mutex<Vec<(String, wgpu::ComputePipeline)>>,
@@ -236,6 +238,11 @@ impl RayCounts {
 }
 
 impl Dispatcher {
+    /// The variant compiled (what a renderer reports, `layered` included).
+    pub fn variant(&self) -> Variant {
+        self.variant
+    }
+
     /// Compiles `entry` of `kernel` for `variant` and binds it to `scene`, an output buffer of
     /// `out_len` vec4s and the read-only input `inputs` (test kernels; may be empty).
     pub fn new(
@@ -322,6 +329,7 @@ impl Dispatcher {
             ],
         });
         Dispatcher {
+            variant,
             module,
             pipeline_layout,
             pipelines: Mutex::new(Vec::new()),

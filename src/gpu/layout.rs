@@ -225,15 +225,15 @@ impl PackedScene {
         (self.texels.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32
     }
 
-    /// The texture's rows per layer and its layers on a device whose largest texture side is
-    /// `max_side`: one layer of just the rows needed while they fit, else layers of
-    /// [`SCENE_LAYER_ROWS`].
-    pub fn extent(&self, max_side: u32) -> (u32, u32) {
+    /// The texture's rows per layer, its layers, and whether it is layered, on a device whose
+    /// largest texture side is `max_side`: one plain 2D texture of just the rows needed while
+    /// they fit, else a 2D array of [`SCENE_LAYER_ROWS`]-row layers.
+    pub fn extent(&self, max_side: u32) -> (u32, u32, bool) {
         let rows = self.rows();
         if rows <= max_side {
-            (rows, 1)
+            (rows, 1, false)
         } else {
-            (SCENE_LAYER_ROWS, rows.div_ceil(SCENE_LAYER_ROWS))
+            (SCENE_LAYER_ROWS, rows.div_ceil(SCENE_LAYER_ROWS), true)
         }
     }
 }

@@ -134,6 +134,7 @@ impl Renderer {
         };
         let out_len = rays[0] as u64 * rays[1] as u64;
         let dispatcher = Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", out_len, &[]);
+        let variant = dispatcher.variant();
         let timings = SetupTimings { grid_build: t1 - t0, upload: t2 - t1, pipeline: t2.elapsed() };
         let passes = passes(scene);
         Ok(Renderer {

@@ -49,8 +49,8 @@ pub struct Variant {
     pub f64: bool,
     /// Base-colour textures: texture coordinates at hits and texture sampling.
     pub textures: bool,
-    /// The scene texture is a 2D array (the scene needs more than one layer of
-    /// `layout::SCENE_LAYER_ROWS` rows). Set by the dispatcher from the uploaded scene: on
+    /// The scene texture is a 2D array of `layout::SCENE_LAYER_ROWS`-row layers (the scene's rows
+    /// exceed the device's largest texture side). Set by the dispatcher from the uploaded scene: on
     /// lavapipe an array fetch costs ~5% of a triangle scene's frame (callgrind, SPD gears), so
     /// scenes that fit one layer keep a plain 2D texture.
     pub layered: bool,

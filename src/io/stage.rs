@@ -88,14 +88,9 @@ pub fn stage_with(model: Model, camera: Option<Camera>, mut lights: Vec<Light>) 
     }
 }
 
-/// Centre and radius of the box around every vertex (radius 1 for a point or nothing).
+/// Centre and radius of the box around every vertex ([`bounding_box`]).
 pub fn bounds(meshes: &[Mesh]) -> (DVec3, f64) {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in meshes.iter().flat_map(|m| &m.positions) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
+    let (lo, hi) = bounding_box(meshes);
     let radius = 0.5 * (hi - lo).length();
     (0.5 * (lo + hi), if radius > 0.0 && radius.is_finite() { radius } else { 1.0 })
 }
@@ -122,8 +117,7 @@ const FRAMING_FILL: f64 = 0.9;
 pub fn framing_camera(meshes: &[Mesh]) -> Camera {
     use super::toml::{DEFAULT_FOV_DEG, DEFAULT_HEIGHT, DEFAULT_WIDTH};
     let (lo, hi) = bounding_box(meshes);
-    let center = 0.5 * (lo + hi);
-    let radius = (0.5 * (hi - lo).length()).max(f64::MIN_POSITIVE);
+    let (center, radius) = bounds(meshes);
     let mut camera = Camera {
         eye: center + framing_direction(meshes),
         look_at: center,

@@ -345,13 +345,16 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
 /// materials and textures appended to the scene's (named `file:material`), or all with the
 /// scene's `material`.
 fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, names: &Names) -> Res<()> {
-    let path = texture_file(origin, &m.file);
-    let mut model = super::load_model(&path).map_err(|e| located(m.file.span(), format!("model: {e}")))?;
+    // The table's own values first: a typo should not wait for a large model to load.
     let rotate = vec3_or(&m.rotate, "rotate", DVec3::ZERO)?;
     if !rotate.is_finite() {
         return err(span_of(&m.rotate).unwrap_or(table.clone()), "`rotate` must be finite");
     }
-    model.transform(scale(&m.scale)?, rotate, vec3_or(&m.translate, "translate", DVec3::ZERO)?);
+    let (scale, translate) = (scale(&m.scale)?, vec3_or(&m.translate, "translate", DVec3::ZERO)?);
+    let material = m.material.as_ref().map(|name| names.resolve(name)).transpose()?;
+    let path = scene_relative(origin, &m.file);
+    let mut model = super::load_model(&path).map_err(|e| located(m.file.span(), format!("model: {e}")))?;
+    model.transform(scale, rotate, translate);
     let triangles = scene.triangle_count() + model.meshes.iter().map(|m| m.indices.len()).sum::<usize>();
     let vertices = scene.meshes.iter().chain(&model.meshes).map(|m| m.positions.len()).sum::<usize>();
     if triangles > MAX_TRIANGLES || vertices > MAX_VERTICES {
@@ -360,8 +363,7 @@ fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, name
             format!("with this model the scene exceeds {MAX_TRIANGLES} triangles or {MAX_VERTICES} vertices"),
         );
     }
-    if let Some(name) = &m.material {
-        let material = names.resolve(name)?;
+    if let Some(material) = material {
         scene.meshes.extend(model.meshes.into_iter().map(|mesh| Mesh { material, ..mesh }));
         return Ok(());
     }
@@ -517,7 +519,7 @@ fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res
     for doc in docs {
         let t = doc.get_ref();
         names.define(&t.name, src)?;
-        settings.push((texture_file(origin, &t.file), wrap(&t.wrap)?, filter(&t.filter)?));
+        settings.push((scene_relative(origin, &t.file), wrap(&t.wrap)?, filter(&t.filter)?));
     }
     let mut budget = png::PixelBudget::default();
     for (t, (path, ..)) in docs.iter().zip(&settings) {
@@ -547,8 +549,8 @@ fn texture_what(path: &Path) -> String {
     format!("texture file '{}'", path.display())
 }
 
-/// A texture's `file`, relative to the directory of the scene file `origin`.
-fn texture_file(origin: &str, file: &Spanned<String>) -> PathBuf {
+/// A texture's or model's `file`, relative to the directory of the scene file `origin`.
+fn scene_relative(origin: &str, file: &Spanned<String>) -> PathBuf {
     Path::new(origin).parent().unwrap_or(Path::new("")).join(file.get_ref())
 }
 

@@ -147,6 +147,7 @@ impl Session {
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
         let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity);
+        let variant = dispatcher.variant();
         let mut s = Session {
             base,
             passes: crate::gpu::renderer::passes(&scene),
