@@ -266,23 +266,39 @@ impl<'a> Prims<'a> {
         self.scene.spheres.len() + self.mesh_start.last().unwrap() + self.scene.cones.len()
     }
 
-    fn shape(&self, i: usize) -> (PrimRef, Shape) {
+    /// Calls `f` with each primitive of `range` in order. Triangles are reached by walking the
+    /// meshes from the one holding the range's first, not by a search per triangle.
+    fn for_each(&self, range: std::ops::Range<usize>, mut f: impl FnMut(PrimRef, Shape)) {
         let s = self.scene;
-        let triangles = *self.mesh_start.last().unwrap();
-        if i < s.spheres.len() {
+        let (spheres, triangles) = (s.spheres.len(), *self.mesh_start.last().unwrap());
+        for i in range.start.min(spheres)..range.end.min(spheres) {
             let sp = &s.spheres[i];
-            (PrimRef::new(PrimKind::Sphere, i as u32), Shape::Sphere { center: sp.center, radius: sp.radius })
-        } else if i - s.spheres.len() < triangles {
-            let t = i - s.spheres.len();
-            let m = self.mesh_start.partition_point(|&start| start <= t) - 1;
-            let mesh = &s.meshes[m];
-            let p = mesh.indices[t - self.mesh_start[m]].map(|v| mesh.positions[v as usize]);
-            (PrimRef::new(PrimKind::Triangle, t as u32), Shape::Triangle(p))
-        } else {
-            let k = i - s.spheres.len() - triangles;
+            f(
+                PrimRef::new(PrimKind::Sphere, i as u32),
+                Shape::Sphere { center: sp.center, radius: sp.radius },
+            );
+        }
+        let (t0, t1) = (
+            range.start.clamp(spheres, spheres + triangles) - spheres,
+            range.end.clamp(spheres, spheres + triangles) - spheres,
+        );
+        if t0 < t1 {
+            let mut m = self.mesh_start.partition_point(|&start| start <= t0) - 1;
+            for t in t0..t1 {
+                while t >= self.mesh_start[m + 1] {
+                    m += 1;
+                }
+                let mesh = &s.meshes[m];
+                let p = mesh.indices[t - self.mesh_start[m]].map(|v| mesh.positions[v as usize]);
+                f(PrimRef::new(PrimKind::Triangle, t as u32), Shape::Triangle(p));
+            }
+        }
+        let first_cone = spheres + triangles;
+        for i in range.start.max(first_cone)..range.end.max(first_cone) {
+            let k = i - first_cone;
             let c = &s.cones[k];
             let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
-            (PrimRef::new(PrimKind::Cone, k as u32), shape)
+            f(PrimRef::new(PrimKind::Cone, k as u32), shape);
         }
     }
 }
@@ -309,7 +325,8 @@ impl Grid {
     fn build_on(scene: &Scene, threads: usize, progress: &(dyn Fn(usize, usize) + Sync)) -> Grid {
         let prims = Prims::new(scene);
         let n = prims.len();
-        let bounds = (0..n).fold(Aabb::EMPTY, |b, i| b.union(prims.shape(i).1.bounds()));
+        let mut bounds = Aabb::EMPTY;
+        prims.for_each(0..n, |_, shape| bounds = bounds.union(shape.bounds()));
         let (min, max) = padded(bounds);
         let res = resolution(max - min, n);
         let cell_size = (max - min) / DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64);
@@ -325,8 +342,8 @@ impl Grid {
         let done = std::sync::atomic::AtomicUsize::new(0);
         let insert = |range: std::ops::Range<usize>| {
             let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
-            for (k, i) in range.enumerate() {
-                let (r, shape) = prims.shape(i);
+            let mut k = 0;
+            prims.for_each(range, |r, shape| {
                 let b = shape.bounds();
                 let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
                 for z in lo[2]..=hi[2] {
@@ -341,11 +358,12 @@ impl Grid {
                         }
                     }
                 }
-                if k % PROGRESS_STEP == PROGRESS_STEP - 1 {
+                k += 1;
+                if k % PROGRESS_STEP == 0 {
                     let d = done.fetch_add(PROGRESS_STEP, std::sync::atomic::Ordering::Relaxed);
                     progress(d + PROGRESS_STEP, n);
                 }
-            }
+            });
             pairs
         };
         let chunk = n.div_ceil(threads).max(1);
