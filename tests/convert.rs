@@ -370,6 +370,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                     cones,
                     textures,
                     trace,
+                    motions: Vec::new(),
                 },
             )
     })

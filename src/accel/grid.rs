@@ -534,6 +534,7 @@ mod tests {
             cones: vec![],
             textures: vec![],
             trace: TraceSettings::default(),
+            motions: Vec::new(),
         }
     }
 

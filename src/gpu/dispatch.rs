@@ -13,7 +13,12 @@ use std::sync::Mutex;
 pub struct GpuScene {
     pub params: Params,
     params_buf: wgpu::Buffer,
+    texture: wgpu::Texture,
     texture_view: wgpu::TextureView,
+    /// Rows the texture holds (all layers): updates that fit are written in place.
+    capacity_rows: u32,
+    /// The `max_rows` it was uploaded with (updates keep it).
+    max_rows: Option<u32>,
     /// The scene texture is a 2D array of layers (the scene's rows exceed the device's largest
     /// texture side; see `Variant::layered`).
     pub layered: bool,
@@ -58,11 +63,22 @@ impl GpuScene {
         params: Params,
         max_rows: Option<u32>,
     ) -> Result<Self, String> {
+        Self::upload_reserving(ctx, packed, params, max_rows, 0)
+    }
+
+    /// [`Self::upload_packed_with`] into a texture of at least `reserve_rows` rows, so that
+    /// later [`Self::update`]s of a growing scene (moving objects change the grid's lists) fit.
+    fn upload_reserving(
+        ctx: &GpuContext,
+        packed: PackedScene,
+        params: Params,
+        max_rows: Option<u32>,
+        reserve_rows: u32,
+    ) -> Result<Self, String> {
         let limits = ctx.device.limits();
         let max_side =
             max_rows.map_or(limits.max_texture_dimension_2d, |m| m.min(limits.max_texture_dimension_2d));
-        let (height, layers, layered) = packed.extent(max_side);
-        let rows = packed.rows();
+        let (height, layers, layered) = layout::scene_extent(packed.rows().max(reserve_rows), max_side);
         if layers > limits.max_texture_array_layers {
             let most = limits.max_texture_array_layers as u64 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH) as u64;
             return Err(format!(
@@ -75,9 +91,6 @@ impl GpuScene {
                 SCENE_TEX_WIDTH,
             ));
         }
-        let mut data = packed.texels;
-        // Whole rows only: the last row is padded, the last layer is not.
-        data.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
         let size = wgpu::Extent3d { width: SCENE_TEX_WIDTH, height, depth_or_array_layers: layers };
         let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("scene"),
@@ -89,46 +102,83 @@ impl GpuScene {
             usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
-        let bytes = (data.len() * 16 + std::mem::size_of::<Params>()) as u64;
-        for band in (0..rows.div_ceil(SCENE_LAYER_ROWS)).rev() {
-            let first = band * SCENE_LAYER_ROWS;
-            let band_rows = SCENE_LAYER_ROWS.min(rows - first);
-            let origin = if layered {
-                wgpu::Origin3d { x: 0, y: 0, z: band }
-            } else {
-                wgpu::Origin3d { x: 0, y: first, z: 0 }
-            };
-            let start = (first * SCENE_TEX_WIDTH) as usize;
-            ctx.queue.write_texture(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &texture,
-                    mip_level: 0,
-                    origin,
-                    aspect: wgpu::TextureAspect::All,
-                },
-                bytemuck::cast_slice(&data[start..]),
-                wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(SCENE_TEX_WIDTH * 16),
-                    rows_per_image: Some(band_rows),
-                },
-                wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: band_rows, depth_or_array_layers: 1 },
-            );
-            if band > 0 {
-                ctx.queue.submit([]);
-                ctx.wait();
-                data.truncate(start);
-                data.shrink_to_fit();
-            }
-        }
-        drop(data);
+        let bytes = write_rows(ctx, &texture, packed.texels, layered) + std::mem::size_of::<Params>() as u64;
         let params_buf = uniform(ctx, "params", bytemuck::bytes_of(&params));
         let view = texture.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(view_dimension(layered)),
             ..Default::default()
         });
-        Ok(GpuScene { params, params_buf, texture_view: view, layered, bytes })
+        Ok(GpuScene {
+            params,
+            params_buf,
+            texture,
+            texture_view: view,
+            capacity_rows: height * layers,
+            max_rows,
+            layered,
+            bytes,
+        })
     }
+
+    /// Replaces the scene's contents with `packed` (a moved object, an edited light or
+    /// material): written into the texture in place while it fits, else into a new texture
+    /// with a quarter more rows than needed. Returns whether the texture is new (dispatchers
+    /// bound to this scene must then [`Dispatcher::rebind`]).
+    pub fn update(&mut self, ctx: &GpuContext, packed: PackedScene, params: Params) -> Result<bool, String> {
+        let rows = packed.rows();
+        let max_side = self.max_rows.map_or(ctx.device.limits().max_texture_dimension_2d, |m| {
+            m.min(ctx.device.limits().max_texture_dimension_2d)
+        });
+        let fits = rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered;
+        if fits {
+            self.bytes = write_rows(ctx, &self.texture, packed.texels, self.layered)
+                + std::mem::size_of::<Params>() as u64;
+            self.write_params(ctx, params);
+            return Ok(false);
+        }
+        let reserve = rows.saturating_add(rows / 4);
+        *self = Self::upload_reserving(ctx, packed, params, self.max_rows, reserve)?;
+        Ok(true)
+    }
+}
+
+/// Writes `texels` (consumed) into the first rows of `texture`. Bands of [`SCENE_LAYER_ROWS`]
+/// rows go from the last to the first, each followed by a wait (so wgpu's staging copy is one
+/// band) and by freeing that band's host texels, so a large scene is not held twice on the host
+/// while the device's copy fills. Returns the bytes written.
+fn write_rows(ctx: &GpuContext, texture: &wgpu::Texture, texels: Vec<[u32; 4]>, layered: bool) -> u64 {
+    let mut data = texels;
+    let rows = (data.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32;
+    // Whole rows only: the last row is padded.
+    data.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
+    let bytes = data.len() as u64 * 16;
+    for band in (0..rows.div_ceil(SCENE_LAYER_ROWS)).rev() {
+        let first = band * SCENE_LAYER_ROWS;
+        let band_rows = SCENE_LAYER_ROWS.min(rows - first);
+        let origin = if layered {
+            wgpu::Origin3d { x: 0, y: 0, z: band }
+        } else {
+            wgpu::Origin3d { x: 0, y: first, z: 0 }
+        };
+        let start = (first * SCENE_TEX_WIDTH) as usize;
+        ctx.queue.write_texture(
+            wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin, aspect: wgpu::TextureAspect::All },
+            bytemuck::cast_slice(&data[start..]),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(SCENE_TEX_WIDTH * 16),
+                rows_per_image: Some(band_rows),
+            },
+            wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: band_rows, depth_or_array_layers: 1 },
+        );
+        if band > 0 {
+            ctx.queue.submit([]);
+            ctx.wait();
+            data.truncate(start);
+            data.shrink_to_fit();
+        }
+    }
+    bytes
 }
 
 fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
@@ -191,6 +241,27 @@ fn bind_group_layout(device: &wgpu::Device, layered: bool) -> wgpu::BindGroupLay
     })
 }
 
+/// The bind group of bindings 0–8: the scene's uniforms and texture, then `buffers` (out, stats,
+/// tile, test inputs, work, queue, frame).
+fn bind_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    scene: &GpuScene,
+    buffers: [&wgpu::Buffer; 7],
+) -> wgpu::BindGroup {
+    let mut entries = vec![
+        wgpu::BindGroupEntry { binding: 0, resource: scene.params_buf.as_entire_binding() },
+        wgpu::BindGroupEntry {
+            binding: 1,
+            resource: wgpu::BindingResource::TextureView(&scene.texture_view),
+        },
+    ];
+    for (i, b) in buffers.iter().enumerate() {
+        entries.push(wgpu::BindGroupEntry { binding: 2 + i as u32, resource: b.as_entire_binding() });
+    }
+    device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("irt"), layout, entries: &entries })
+}
+
 /// A compiled kernel bound to a scene and its output buffers. Pipelines are created per entry
 /// point on first use (lavapipe compiles each at its first dispatch anyway).
 pub struct Dispatcher {
@@ -200,7 +271,9 @@ pub struct Dispatcher {
     pipeline_layout: wgpu::PipelineLayout,
     pipelines: Mutex<Vec<(String, wgpu::ComputePipeline)>>,
     entry: String,
+    bind_group_layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
+    in_buf: wgpu::Buffer,
     out_buf: wgpu::Buffer,
     stats_buf: wgpu::Buffer,
     tile_buf: wgpu::Buffer,
@@ -312,29 +385,21 @@ impl Dispatcher {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind = |binding, resource| wgpu::BindGroupEntry { binding, resource };
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(entry),
-            layout: &bgl,
-            entries: &[
-                bind(0, scene.params_buf.as_entire_binding()),
-                bind(1, wgpu::BindingResource::TextureView(&scene.texture_view)),
-                bind(2, out_buf.as_entire_binding()),
-                bind(3, stats_buf.as_entire_binding()),
-                bind(4, tile_buf.as_entire_binding()),
-                bind(5, in_buf.as_entire_binding()),
-                bind(6, work_buf.as_entire_binding()),
-                bind(7, queue_buf.as_entire_binding()),
-                bind(8, frame_buf.as_entire_binding()),
-            ],
-        });
+        let bind_group = bind_group(
+            device,
+            &bgl,
+            scene,
+            [&out_buf, &stats_buf, &tile_buf, &in_buf, &work_buf, &queue_buf, &frame_buf],
+        );
         Dispatcher {
             variant,
             module,
             pipeline_layout,
             pipelines: Mutex::new(Vec::new()),
             entry: entry.to_string(),
+            bind_group_layout: bgl,
             bind_group,
+            in_buf,
             out_buf,
             stats_buf,
             tile_buf,
@@ -345,6 +410,35 @@ impl Dispatcher {
             out_len,
             frame_len: modes.frame_len,
         }
+    }
+
+    /// Binds to `scene`'s new texture (after [`GpuScene::update`] replaced it), keeping every
+    /// buffer, the frame buffer's samples included. The texture must be layered as before.
+    pub fn rebind(&mut self, ctx: &GpuContext, scene: &GpuScene) {
+        assert_eq!(scene.layered, self.variant.layered, "a layered scene needs a recompiled kernel");
+        self.bind_group = bind_group(
+            &ctx.device,
+            &self.bind_group_layout,
+            scene,
+            [
+                &self.out_buf,
+                &self.stats_buf,
+                &self.tile_buf,
+                &self.in_buf,
+                &self.work_buf,
+                &self.queue_buf,
+                &self.frame_buf,
+            ],
+        );
+    }
+
+    /// Copies `other`'s frame buffer into this one's (as much as both hold): what a recompiled
+    /// kernel takes over, so the picture on screen does not go black.
+    pub fn copy_frame_from(&self, ctx: &GpuContext, other: &Dispatcher) {
+        let bytes = self.frame_buf.size().min(other.frame_buf.size());
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        enc.copy_buffer_to_buffer(&other.frame_buf, 0, &self.frame_buf, 0, bytes);
+        ctx.queue.submit([enc.finish()]);
     }
 
     fn pipeline(&self, ctx: &GpuContext, entry: &str) -> wgpu::ComputePipeline {

@@ -224,17 +224,16 @@ impl PackedScene {
     pub fn rows(&self) -> u32 {
         (self.texels.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32
     }
+}
 
-    /// The texture's rows per layer, its layers, and whether it is layered, on a device whose
-    /// largest texture side is `max_side`: one plain 2D texture of just the rows needed while
-    /// they fit, else a 2D array of [`SCENE_LAYER_ROWS`]-row layers.
-    pub fn extent(&self, max_side: u32) -> (u32, u32, bool) {
-        let rows = self.rows();
-        if rows <= max_side {
-            (rows, 1, false)
-        } else {
-            (SCENE_LAYER_ROWS, rows.div_ceil(SCENE_LAYER_ROWS), true)
-        }
+/// The scene texture's rows per layer, its layers, and whether it is layered, for `rows` rows on
+/// a device whose largest side is `max_side`: one plain 2D texture of just the rows needed while
+/// they fit, else a 2D array of [`SCENE_LAYER_ROWS`]-row layers.
+pub fn scene_extent(rows: u32, max_side: u32) -> (u32, u32, bool) {
+    if rows <= max_side {
+        (rows.max(1), 1, false)
+    } else {
+        (SCENE_LAYER_ROWS, rows.div_ceil(SCENE_LAYER_ROWS), true)
     }
 }
 

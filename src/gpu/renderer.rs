@@ -106,6 +106,8 @@ impl Renderer {
         opts: RenderOptions,
         progress: SetupProgress,
     ) -> Result<Self, String> {
+        // An animated scene renders at time 0 here; `irt render --time` passes `scene.at(t)`.
+        let scene = &*scene.posed(0.0);
         let t0 = Instant::now();
         let grid = Grid::build_with_progress(scene, &|done, total| {
             progress(SetupStage::Grid, done as u64, total as u64)

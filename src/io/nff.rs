@@ -501,6 +501,7 @@ impl<'a> Parser<'a> {
             cones: self.cones,
             textures: vec![],
             trace: TraceSettings::default(),
+            motions: Vec::new(),
         };
         // What is left to find is about the viewpoint (an `up` along the view, `at` on `from`,
         // too many pixels): point there.

@@ -85,6 +85,7 @@ pub fn stage_with(model: Model, camera: Option<Camera>, mut lights: Vec<Light>) 
         meshes: model.meshes,
         textures: model.textures,
         trace: TraceSettings::default(),
+        motions: Vec::new(),
     }
 }
 

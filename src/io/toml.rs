@@ -334,6 +334,7 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
         materials,
         textures,
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
+        motions: Vec::new(),
     };
     for m in &doc.model {
         place_model(&mut scene, m.get_ref(), &m.span(), origin, &names)?;

@@ -31,6 +31,7 @@ fn scene(eye: DVec3, look_at: DVec3, materials: Vec<MaterialKind>) -> Scene {
         cones: vec![],
         textures: vec![],
         trace: TraceSettings::default(),
+        motions: Vec::new(),
     }
 }
 

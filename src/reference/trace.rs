@@ -111,7 +111,11 @@ impl<'a> Reference<'a> {
     }
 
     /// Prepares `scene` to be traced by testing every primitive for every ray.
+    ///
+    /// `scene` must be a still: an animated scene is traced at a time, `scene.at(t)` (the
+    /// free functions below take time 0, as the GPU renderers do).
     pub fn brute_force(scene: &'a Scene) -> Self {
+        assert!(!scene.is_animated(), "trace an animated scene at a time: Reference::new(&scene.at(t))");
         Reference {
             scene,
             basis: scene.camera.basis(),
@@ -499,15 +503,15 @@ impl<'a> Reference<'a> {
 /// Radiance through image position (`px`, `py`) in pixels (pixel centre: `x + 0.5, y + 0.5`).
 /// Builds a [`Reference`] per call; keep one for many pixels.
 pub fn trace_pixel(scene: &Scene, px: f64, py: f64) -> DVec3 {
-    Reference::new(scene).trace_pixel(px, py, &mut Stats::default())
+    Reference::new(&scene.posed(0.0)).trace_pixel(px, py, &mut Stats::default())
 }
 
 /// The whole image at pixel centres.
 pub fn render(scene: &Scene) -> RadianceImage {
-    Reference::new(scene).render().0
+    Reference::new(&scene.posed(0.0)).render().0
 }
 
 /// The whole image at pixel centres and the rays it took.
 pub fn render_with_stats(scene: &Scene) -> (RadianceImage, Stats) {
-    Reference::new(scene).render()
+    Reference::new(&scene.posed(0.0)).render()
 }

@@ -89,11 +89,35 @@ pub fn refinement_jitter(k: u32) -> [f32; 2] {
     [f(A1), f(A2)]
 }
 
+/// What replacing the scene's contents cost ([`Session::set_time`], [`Session::set_scene`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct UpdateReport {
+    /// Moving the objects to the new time.
+    pub pose: Duration,
+    /// Rebuilding the grid (`None`: no geometry changed, the grid was kept).
+    pub grid: Option<Duration>,
+    /// Packing the scene texture.
+    pub pack: Duration,
+    /// Writing it to the device (and compiling a new kernel, if `recompiled`).
+    pub upload: Duration,
+    /// The scene now needs a different shader variant (a material changed kind).
+    pub recompiled: bool,
+}
+
+impl UpdateReport {
+    pub fn total(&self) -> Duration {
+        self.pose + self.grid.unwrap_or_default() + self.pack + self.upload
+    }
+}
+
 pub struct Session {
-    /// The scene as given (settings are applied to a copy, so that dropping an override
-    /// restores the scene's own value).
+    /// The scene as given, motions included (settings are applied to a copy, so that dropping
+    /// an override restores the scene's own value).
     base: Scene,
+    /// The scene as traced: `base` at `time`, settings applied, the current camera.
     scene: Scene,
+    /// The time `scene` shows (seconds; 0 for a still).
+    time: f64,
     settings: Settings,
     /// Positions were packed relative to this point (the camera's eye when uploaded).
     origin: DVec3,
@@ -131,7 +155,7 @@ impl Session {
     /// the kernel for the scene and `settings`.
     pub fn new(ctx: &GpuContext, scene: &Scene, settings: Settings) -> Result<Self, String> {
         let base = scene.clone();
-        let mut scene = scene.clone();
+        let mut scene = scene.at(0.0);
         settings.apply_to(&mut scene);
         let grid = Grid::build(&scene);
         let origin = scene.camera.eye;
@@ -152,6 +176,7 @@ impl Session {
             base,
             passes: crate::gpu::renderer::passes(&scene),
             scene,
+            time: 0.0,
             settings,
             origin,
             grid,
@@ -184,9 +209,79 @@ impl Session {
         &self.scene
     }
 
-    /// The scene as given to [`Session::new`] (its own camera: what "reset" goes back to).
+    /// The scene as given to [`Session::new`] or [`Session::set_scene`], motions included (its
+    /// own camera: what "reset" goes back to).
     pub fn base_scene(&self) -> &Scene {
         &self.base
+    }
+
+    /// The time the traced scene shows.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Shows the scene at time `t` (seconds; clamped to its keys, see `scene::motion`): the
+    /// moved objects are posed, the grid rebuilt and the texture rewritten, from the next step.
+    /// Restarts refinement; frameless slices carry on over the old pixels. A still scene
+    /// costs nothing.
+    pub fn set_time(&mut self, ctx: &GpuContext, t: f64) -> Result<UpdateReport, String> {
+        self.time = t;
+        if !self.base.is_animated() {
+            return Ok(UpdateReport::default());
+        }
+        let t0 = Instant::now();
+        let posed = self.base.at(t);
+        let mut r = self.update(ctx, posed)?;
+        r.pose = t0.elapsed() - r.grid.unwrap_or_default() - r.pack - r.upload;
+        Ok(r)
+    }
+
+    /// Replaces what the scene holds (lights, materials, objects, motions; the camera stays the
+    /// session's): an edit in the viewer. The grid is rebuilt only if geometry moved; a
+    /// material of a new kind recompiles the kernel. Restarts refinement.
+    pub fn set_scene(&mut self, ctx: &GpuContext, scene: &Scene) -> Result<UpdateReport, String> {
+        scene.validate().map_err(|e| e.0)?;
+        self.base = Scene { camera: self.base.camera.clone(), ..scene.clone() };
+        let posed = self.base.at(self.time);
+        self.update(ctx, posed)
+    }
+
+    fn update(&mut self, ctx: &GpuContext, posed: Scene) -> Result<UpdateReport, String> {
+        let mut report = UpdateReport::default();
+        let mut scene = Scene { camera: self.scene.camera.clone(), ..posed };
+        self.settings.apply_to(&mut scene);
+        let moved = scene.spheres != self.scene.spheres
+            || scene.cones != self.scene.cones
+            || scene.meshes != self.scene.meshes;
+        if moved {
+            let t = Instant::now();
+            self.grid = Grid::build(&scene);
+            report.grid = Some(t.elapsed());
+        }
+        let t = Instant::now();
+        let packed = layout::pack_scene(&scene, &self.grid, self.origin);
+        let mut params = layout::params(&scene, &self.grid, &packed, self.origin);
+        params.eye_grid = self.gpu_scene.params.eye_grid;
+        report.pack = t.elapsed();
+        let t = Instant::now();
+        let new_texture = self.gpu_scene.update(ctx, packed, params)?;
+        let variant = Variant { f64: self.settings.f64, ..Variant::for_scene(&scene, false) };
+        let layered = self.gpu_scene.layered;
+        if (Variant { layered, ..variant }) != self.variant {
+            let fresh = make_dispatcher(ctx, &self.gpu_scene, variant, self.capacity);
+            fresh.copy_frame_from(ctx, &self.dispatcher);
+            self.dispatcher = fresh;
+            self.variant = self.dispatcher.variant();
+            self.configure_mode(ctx)?;
+            report.recompiled = true;
+        } else if new_texture {
+            self.dispatcher.rebind(ctx, &self.gpu_scene);
+        }
+        report.upload = t.elapsed();
+        self.passes = crate::gpu::renderer::passes(&scene);
+        self.scene = scene;
+        self.restart();
+        Ok(report)
     }
 
     pub fn camera(&self) -> &Camera {
@@ -279,6 +374,7 @@ impl Session {
             let base = Scene { camera: self.scene.camera.clone(), ..self.base.clone() };
             let mut fresh = Session::new(ctx, &base, settings.clone())?;
             fresh.base.camera = self.base.camera.clone();
+            fresh.set_time(ctx, self.time)?;
             fresh.camera_version = self.camera_version + 1;
             *self = fresh;
             return Ok(());

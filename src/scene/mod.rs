@@ -5,12 +5,16 @@
 //! reference read it. Units are arbitrary; colours are linear RGB.
 
 mod builtin;
+mod motion;
 mod shadows;
 mod shells;
 mod texture;
 
 pub use builtin::default_scene;
 use glam::{DVec2, DVec3};
+pub use motion::{
+    euler_degrees, Animated, Channel, Interpolation, Keyable, Motion, Rotation, Stage, Target, Trs,
+};
 pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
 pub use shells::{
     light_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape, SHELL_CELL_RES,
@@ -41,6 +45,8 @@ pub struct Scene {
     /// Base-colour textures, referred to by index from materials.
     pub textures: Vec<Texture>,
     pub trace: TraceSettings,
+    /// Objects that move over time; the tracers render [`Scene::at`] a time (empty: a still).
+    pub motions: Vec<Animated>,
 }
 
 /// Pinhole camera. Rays go through pixel centres; `vfov_deg` is the full vertical angle
@@ -368,7 +374,7 @@ impl Scene {
         if !(t.weight_cutoff.is_finite() && (0.0..1.0).contains(&t.weight_cutoff)) {
             return bad(format!("trace.weight_cutoff {} must be in [0, 1)", t.weight_cutoff));
         }
-        Ok(())
+        self.validate_motions()
     }
 }
 

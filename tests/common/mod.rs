@@ -98,6 +98,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
         cones: vec![],
         textures: vec![],
         trace: TraceSettings::default(),
+        motions: Vec::new(),
     }
 }
 
