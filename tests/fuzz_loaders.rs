@@ -101,7 +101,19 @@ fn guarded_load(path: &Path) -> Outcome {
             LIVE.with(|l| l.set(0));
             PEAK.with(|p| p.set(0));
             let result = std::panic::catch_unwind(|| match irt::io::load(&owned) {
-                Ok(scene) => scene.validate().err().map(|e| format!("loaded an invalid scene: {}", e.0)),
+                Ok(scene) => {
+                    scene.validate().err().map(|e| format!("loaded an invalid scene: {}", e.0)).or_else(
+                        || {
+                            // Posing must not panic at any time, in range or not (a posed scene may
+                            // still be invalid, e.g. scaled past f64's range: renderers check it).
+                            let end = scene.duration();
+                            for t in [-1.0, 0.0, 0.37 * end, end, end + 1.0, f64::NAN] {
+                                let _ = scene.at(t).validate();
+                            }
+                            None
+                        },
+                    )
+                }
                 Err(e) if e.message.is_empty() => Some("an error without a message".to_string()),
                 Err(_) => None,
             });

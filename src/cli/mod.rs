@@ -8,6 +8,7 @@ mod bench;
 mod convert;
 mod info;
 mod render;
+mod sequence;
 mod stability;
 mod tradeoff;
 

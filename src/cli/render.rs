@@ -14,9 +14,21 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub scene: SceneArgs,
     /// Output image, written atomically; the extension picks the format: .png (8-bit sRGB) or
-    /// .exr (OpenEXR: linear radiance as 32-bit float RGB, values above 1 kept).
+    /// .exr (OpenEXR: linear radiance as 32-bit float RGB, values above 1 kept). With --frames,
+    /// a pattern with the frame number as `%d` or zero-padded `%04d` (e.g. 'frame_%04d.png').
     #[arg(long, short, default_value = "irt.png")]
     pub out: PathBuf,
+    /// Render an animated scene at this time, in seconds (motions hold their first and last
+    /// keys outside their range; a still scene looks the same at every time).
+    #[arg(long, value_name = "SECONDS", conflicts_with = "frames")]
+    pub time: Option<f64>,
+    /// Render frames A up to (not including) B of the animation as an image sequence, frame k at
+    /// time k / --fps; the scene stays on the device and only what moved is rebuilt per frame.
+    #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+    pub frames: Option<std::ops::Range<u32>>,
+    /// Frames per second of --frames.
+    #[arg(long, default_value_t = 24.0, requires = "frames")]
+    pub fps: f64,
     /// Print rays traced by kind (eye, reflection, refraction, shadow) and the eye rays that hit.
     #[arg(long)]
     pub stats: bool,
@@ -43,6 +55,22 @@ pub fn run(args: RenderArgs) -> Result<()> {
         irt::io::nff::apply_spd_rules(&mut scene);
     }
     let mode = args.mode.mode().map_err(anyhow::Error::msg)?;
+    if let Some(frames) = args.frames.clone() {
+        if args.stats {
+            anyhow::bail!("--stats counts rays of one frame: drop --frames to use it");
+        }
+        return super::sequence::run(&args, &scene, frames, mode);
+    }
+    if let Some(t) = args.time {
+        if !t.is_finite() {
+            anyhow::bail!("--time {t}: give a finite number of seconds");
+        }
+        if !scene.is_animated() {
+            log::info!("the scene has no motion: --time {t} renders it as it is");
+        }
+        scene = scene.at(t);
+        scene.validate().map_err(|e| anyhow::anyhow!("at time {t} s: {}", e.0))?;
+    }
     let ctx = open_device(&args.device)?;
     if let Some(mode) = mode {
         if args.stats {
@@ -114,7 +142,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-fn write(
+/// `A..B` (B excluded), the frames of `--frames`.
+fn parse_frames(s: &str) -> Result<std::ops::Range<u32>, String> {
+    let (a, b) = s.split_once("..").ok_or_else(|| format!("'{s}' is not A..B (e.g. 0..96)"))?;
+    let number =
+        |x: &str| x.trim().parse::<u32>().map_err(|_| format!("'{x}' in '{s}' is not a frame number"));
+    let (a, b) = (number(a)?, number(b)?);
+    if b <= a {
+        return Err(format!("'{s}' has no frames: B must be greater than A (B is not included)"));
+    }
+    Ok(a..b)
+}
+
+pub(super) fn write(
     args: &RenderArgs,
     format: OutputFormat,
     image: &Image,

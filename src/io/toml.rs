@@ -7,13 +7,16 @@
 //! at the offending value, and [`Scene::validate`] checks the rest, reported at the table it
 //! is about.
 
+#[path = "toml_motion.rs"]
+mod motion;
+
 use super::shapes::{self, Geometry, MAX_ICOSPHERE_SUBDIVISIONS};
 use super::{
     line_column, png, LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES,
 };
 use crate::scene::{
-    Ambient, Camera, Cone, Filter, Light, Material, MaterialKind, Mesh, Scene, Sphere, Texture,
-    TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES, MAX_TEXTURE_PIXELS,
+    Ambient, Animated, Camera, Cone, Filter, Light, Material, MaterialKind, Mesh, Scene, Sphere, Target,
+    Texture, TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES, MAX_TEXTURE_PIXELS,
 };
 use ::toml::Spanned;
 use glam::{DVec2, DVec3};
@@ -124,6 +127,9 @@ struct LightDoc {
     color: Option<Numbers>,
     intensity: Option<Number>,
     radius: Option<Number>,
+    /// Stages of the object's motion, outermost first (toml_motion.rs).
+    #[serde(default)]
+    motion: Vec<Spanned<motion::StageDoc>>,
 }
 
 #[derive(Default, Deserialize)]
@@ -178,6 +184,9 @@ struct SphereDoc {
     center: Numbers,
     radius: Number,
     material: Spanned<String>,
+    /// Stages of the object's motion, outermost first (toml_motion.rs).
+    #[serde(default)]
+    motion: Vec<Spanned<motion::StageDoc>>,
 }
 
 /// An open cone or cylinder: `radius` for a cylinder, or `base_radius` and `apex_radius`.
@@ -190,6 +199,9 @@ struct ConeDoc {
     base_radius: Option<Number>,
     apex_radius: Option<Number>,
     material: Spanned<String>,
+    /// Stages of the object's motion, outermost first (toml_motion.rs).
+    #[serde(default)]
+    motion: Vec<Spanned<motion::StageDoc>>,
 }
 
 /// Inline geometry (`positions`, `indices`, `normals`) or a generated `shape` and its
@@ -212,6 +224,9 @@ struct MeshDoc {
     subdivisions: Option<Spanned<u32>>,
     translate: Option<Numbers>,
     scale: Option<Spanned<Scale>>,
+    /// Stages of the object's motion, outermost first (toml_motion.rs).
+    #[serde(default)]
+    motion: Vec<Spanned<motion::StageDoc>>,
 }
 
 #[derive(Clone, Copy, Deserialize)]
@@ -336,10 +351,35 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
         motions: Vec::new(),
     };
+    scene.motions = motions(doc)?;
     for m in &doc.model {
         place_model(&mut scene, m.get_ref(), &m.span(), origin, &names)?;
     }
     Ok(scene)
+}
+
+/// Every object's `motion`, with the object it moves.
+fn motions(doc: &Doc) -> Res<Vec<Animated>> {
+    let mut out = Vec::new();
+    let mut add = |target: Target, stages: &[Spanned<motion::StageDoc>], round: bool| -> Res<()> {
+        if !stages.is_empty() {
+            out.push(Animated { target, motion: motion::motion(stages, round)? });
+        }
+        Ok(())
+    };
+    for (i, l) in doc.light.iter().enumerate() {
+        add(Target::Light(i as u32), &l.get_ref().motion, false)?;
+    }
+    for (i, s) in doc.sphere.iter().enumerate() {
+        add(Target::Sphere(i as u32), &s.get_ref().motion, true)?;
+    }
+    for (i, c) in doc.cone.iter().enumerate() {
+        add(Target::Cone(i as u32), &c.get_ref().motion, true)?;
+    }
+    for (i, m) in doc.mesh.iter().enumerate() {
+        add(Target::Mesh(i as u32), &m.get_ref().motion, false)?;
+    }
+    Ok(out)
 }
 
 /// Loads a `[[model]]`'s file (relative to the scene file) and adds its meshes, with its own

@@ -11,8 +11,8 @@
 //! the text alone, for a caller that names (and writes) the texture files itself.
 
 use super::png;
-use crate::scene::{MaterialKind, Scene};
-use glam::{DVec2, DVec3};
+use crate::scene::{Channel, Interpolation, MaterialKind, Motion, Rotation, Scene, Stage, Target, Trs};
+use glam::{DQuat, DVec2, DVec3};
 use std::collections::HashSet;
 use std::fmt::Write;
 
@@ -115,7 +115,12 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
         ("weight_cutoff", Value::Float(t.weight_cutoff)),
         ("shadows", Value::Str(&shadows)),
     ]);
-    for l in &scene.lights {
+    let motion = |out: &mut String, kind: &str, target: Target| {
+        if let Some(a) = scene.motions.iter().find(|a| a.target == target) {
+            write_motion(out, kind, &a.motion);
+        }
+    };
+    for (i, l) in scene.lights.iter().enumerate() {
         // `intensity` is left at 1: color × 1 is the colour, bit for bit.
         #[rustfmt::skip]
         table(&mut out, "[[light]]", &[
@@ -123,6 +128,7 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
             ("color", Value::Vec3(l.color)),
             ("radius", Value::Float(l.radius)),
         ]);
+        motion(&mut out, "light", Target::Light(i as u32));
     }
     for ((t, name), file) in scene.textures.iter().zip(&texture_names).zip(texture_files) {
         let wrap = t.wrap.map(|w| w.name());
@@ -163,15 +169,16 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
         table(&mut out, "[[material]]", &e);
     }
     let material = |index: u32| Value::Str(names.get(index as usize).map_or("", String::as_str));
-    for s in &scene.spheres {
+    for (i, s) in scene.spheres.iter().enumerate() {
         #[rustfmt::skip]
         table(&mut out, "[[sphere]]", &[
             ("center", Value::Vec3(s.center)),
             ("radius", Value::Float(s.radius)),
             ("material", material(s.material)),
         ]);
+        motion(&mut out, "sphere", Target::Sphere(i as u32));
     }
-    for c in &scene.cones {
+    for (i, c) in scene.cones.iter().enumerate() {
         #[rustfmt::skip]
         table(&mut out, "[[cone]]", &[
             ("base", Value::Vec3(c.base)),
@@ -180,8 +187,9 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
             ("apex_radius", Value::Float(c.apex_radius)),
             ("material", material(c.material)),
         ]);
+        motion(&mut out, "cone", Target::Cone(i as u32));
     }
-    for m in &scene.meshes {
+    for (i, m) in scene.meshes.iter().enumerate() {
         let mut e = vec![
             ("material", material(m.material)),
             ("positions", Value::Vec3s(&m.positions)),
@@ -194,8 +202,101 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
             e.push(("uvs", Value::Vec2s(uv)));
         }
         table(&mut out, "[[mesh]]", &e);
+        motion(&mut out, "mesh", Target::Mesh(i as u32));
     }
     out
+}
+
+/// `[[kind.motion]]` stages: a fixed stage as its `matrix`, a keyed one with its held values
+/// as keys and each channel as a `[kind.motion.property]` sub-table (tangents written out, so a
+/// cubic channel loads back bit for bit).
+fn write_motion(out: &mut String, kind: &str, m: &Motion) {
+    for stage in &m.stages {
+        let _ = write!(out, "\n[[{kind}.motion]]\n");
+        match stage {
+            Stage::Fixed(a) => {
+                let (l, t) = (a.matrix3, a.translation);
+                out.push_str("matrix = [");
+                for (r, row) in [l.row(0), l.row(1), l.row(2)].iter().enumerate() {
+                    if r > 0 {
+                        out.push_str(", ");
+                    }
+                    numbers(out, &[row.x, row.y, row.z, t[r]]);
+                }
+                out.push_str("]\n");
+            }
+            Stage::Keyed { translation, rotation, scale, rest } => {
+                let held = Trs::default();
+                if translation.is_none() && rest.translation != held.translation {
+                    entries(out, &[("translate", Value::Vec3(rest.translation))]);
+                }
+                if rotation.is_none() && rest.rotation != held.rotation {
+                    out.push_str("quaternion = ");
+                    numbers(out, &rest.rotation.to_array());
+                    out.push('\n');
+                }
+                if scale.is_none() && rest.scale != held.scale {
+                    entries(out, &[("scale", Value::Vec3(rest.scale))]);
+                }
+                if let Some(c) = translation {
+                    channel(out, &format!("{kind}.motion.translate"), c, |v| v.to_array().to_vec());
+                }
+                match rotation {
+                    Some(Rotation::EulerDegrees(c)) => {
+                        channel(out, &format!("{kind}.motion.rotate"), c, |v| v.to_array().to_vec())
+                    }
+                    Some(Rotation::Quaternion(c)) => {
+                        channel(out, &format!("{kind}.motion.quaternion"), c, |q: &DQuat| {
+                            q.to_array().to_vec()
+                        })
+                    }
+                    None => {}
+                }
+                if let Some(c) = scale {
+                    channel(out, &format!("{kind}.motion.scale"), c, |v| v.to_array().to_vec());
+                }
+            }
+        }
+    }
+}
+
+fn channel<T>(out: &mut String, header: &str, c: &Channel<T>, parts: impl Fn(&T) -> Vec<f64>) {
+    let _ = write!(out, "\n[{header}]\ninterpolation = ");
+    string(out, c.interpolation.name());
+    out.push_str("\ntimes = ");
+    numbers(out, &c.times);
+    out.push('\n');
+    let cubic = c.interpolation == Interpolation::CubicSpline;
+    let column = |k: usize| -> Vec<Vec<f64>> {
+        if cubic {
+            c.values.iter().skip(k).step_by(3).map(&parts).collect()
+        } else {
+            c.values.iter().map(&parts).collect()
+        }
+    };
+    let mut list = |key: &str, items: Vec<Vec<f64>>| {
+        out.push_str(key);
+        out.push_str(" = ");
+        lines(out, &items, |out, v| numbers(out, v));
+        out.push('\n');
+    };
+    list("values", column(if cubic { 1 } else { 0 }));
+    if cubic {
+        list("in_tangents", column(0));
+        list("out_tangents", column(2));
+    }
+}
+
+/// `[a, b, …]` on one line.
+fn numbers(out: &mut String, v: &[f64]) {
+    out.push('[');
+    for (i, x) in v.iter().enumerate() {
+        if i > 0 {
+            out.push_str(", ");
+        }
+        float(out, *x);
+    }
+    out.push(']');
 }
 
 /// Material or texture names as written: each scene name, with a suffix where a name repeats

@@ -22,7 +22,7 @@ pub mod study;
 pub use args::ModeArgs;
 pub use order::PixelOrder;
 pub use schedule::Schedule;
-pub use session::{Session, StepReport};
+pub use session::{Session, StepReport, UpdateReport};
 
 use crate::scene::{Scene, ShadowMode};
 use std::fmt;

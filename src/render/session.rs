@@ -102,6 +102,8 @@ pub struct UpdateReport {
     pub upload: Duration,
     /// The scene now needs a different shader variant (a material changed kind).
     pub recompiled: bool,
+    /// The scene outgrew its texture, which was replaced (with a quarter more rows to spare).
+    pub reallocated: bool,
 }
 
 impl UpdateReport {
@@ -247,6 +249,8 @@ impl Session {
     }
 
     fn update(&mut self, ctx: &GpuContext, posed: Scene) -> Result<UpdateReport, String> {
+        // Keys can move objects past what f32 (or f64) holds; say so rather than trace NaNs.
+        posed.validate().map_err(|e| format!("at time {} s: {}", self.time, e.0))?;
         let mut report = UpdateReport::default();
         let mut scene = Scene { camera: self.scene.camera.clone(), ..posed };
         self.settings.apply_to(&mut scene);
@@ -265,6 +269,7 @@ impl Session {
         report.pack = t.elapsed();
         let t = Instant::now();
         let new_texture = self.gpu_scene.update(ctx, packed, params)?;
+        report.reallocated = new_texture;
         let variant = Variant { f64: self.settings.f64, ..Variant::for_scene(&scene, false) };
         let layered = self.gpu_scene.layered;
         if (Variant { layered, ..variant }) != self.variant {

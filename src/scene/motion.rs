@@ -143,7 +143,8 @@ impl<T: Keyable> Channel<T> {
         let cubic = self.interpolation == Interpolation::CubicSpline;
         let value = |i: usize| if cubic { self.values[3 * i + 1] } else { self.values[i] };
         let last = self.times.len() - 1;
-        if !(t > self.times[0]) {
+        // NaN compares false: it holds the first key, as times before it do.
+        if t.is_nan() || t <= self.times[0] {
             return value(0);
         }
         if t >= self.times[last] {
@@ -170,6 +171,12 @@ impl<T: Keyable> Channel<T> {
                 .finish()
             }
         }
+    }
+
+    /// The keys' values (without a cubic's tangents).
+    pub fn key_values(&self) -> impl Iterator<Item = &T> {
+        let cubic = self.interpolation == Interpolation::CubicSpline;
+        self.values.iter().skip(cubic as usize).step_by(if cubic { 3 } else { 1 })
     }
 
     /// The last key's time.
@@ -203,7 +210,7 @@ pub fn euler_degrees(d: DVec3) -> DQuat {
 }
 
 /// One link of a motion chain.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub enum Stage {
     /// A fixed transform (a glTF node without channels, a pivot).
     Fixed(DAffine3),
@@ -214,6 +221,29 @@ pub enum Stage {
         scale: Option<Channel<DVec3>>,
         rest: Trs,
     },
+}
+
+/// Equal when they move every point alike at every time: a keyed property's rest value is never
+/// used, so it is not compared (TOML writes a property as keys or as a rest value, not both;
+/// glTF keeps the node's own value there).
+impl PartialEq for Stage {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (Stage::Fixed(a), Stage::Fixed(b)) => a == b,
+            (
+                Stage::Keyed { translation: t0, rotation: r0, scale: s0, rest: a },
+                Stage::Keyed { translation: t1, rotation: r1, scale: s1, rest: b },
+            ) => {
+                t0 == t1
+                    && r0 == r1
+                    && s0 == s1
+                    && (t0.is_some() || a.translation == b.translation)
+                    && (r0.is_some() || a.rotation == b.rotation)
+                    && (s0.is_some() || a.scale == b.scale)
+            }
+            _ => false,
+        }
+    }
 }
 
 /// Translation, rotation and scale.
@@ -236,7 +266,7 @@ impl Stage {
             Stage::Fixed(m) => *m,
             Stage::Keyed { translation, rotation, scale, rest } => DAffine3::from_scale_rotation_translation(
                 scale.as_ref().map_or(rest.scale, |c| c.sample(t)),
-                rotation.as_ref().map_or(rest.rotation, |r| r.sample(t)),
+                rotation.as_ref().map_or(rest.rotation.normalize(), |r| r.sample(t)),
                 translation.as_ref().map_or(rest.translation, |c| c.sample(t)),
             ),
         }
@@ -293,7 +323,8 @@ impl Stage {
         }
     }
 
-    /// Every scale this stage can take (keyed values, or the rest), for the similarity check.
+    /// The scales this stage holds at its keys (or at rest), for the similarity check. (A cubic
+    /// can overshoot between keys; a sphere stays round under any uniform scale.)
     fn scales(&self) -> Vec<DVec3> {
         match self {
             Stage::Fixed(m) => vec![DVec3::new(
@@ -301,7 +332,7 @@ impl Stage {
                 m.matrix3.y_axis.length(),
                 m.matrix3.z_axis.length(),
             )],
-            Stage::Keyed { scale: Some(c), .. } => c.values.clone(),
+            Stage::Keyed { scale: Some(c), .. } => c.key_values().copied().collect(),
             Stage::Keyed { rest, .. } => vec![rest.scale],
         }
     }
@@ -424,7 +455,7 @@ impl Scene {
                 Target::Mesh(i) => (i, self.meshes.len()),
                 Target::Light(i) => (i, self.lights.len()),
             };
-            let who = format!("the motion of {}", a.target);
+            let who = format!("{} motion", a.target);
             if index as usize >= count {
                 return Err(InvalidScene(format!("{who}: there is no such object ({count} exist)")));
             }
