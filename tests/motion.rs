@@ -87,38 +87,58 @@ fn fresh_image(ctx: &irt::gpu::GpuContext, still: &Scene) -> irt::image::Image {
     Renderer::new(ctx, still, RenderOptions::default()).unwrap().render(ctx, &mut |_, _| {}).image
 }
 
-/// A session updated in place to time t draws exactly what a renderer made for `scene.at(t)`
-/// draws, and going back to a time gives back its picture bit for bit.
+/// A session moved to time t re-inserts only the moving primitives into its grid; that draws
+/// exactly what rebuilding the grid (in the same frame) draws, matches the f64 reference of
+/// `scene.at(t)`, and going back to a time gives back its picture bit for bit.
 #[test]
-fn updates_in_place_equal_fresh_renders_bit_for_bit() {
+fn updates_in_place_equal_full_rebuilds_bit_for_bit() {
     let ctx = common::gpu();
     let scene = small(80, 60);
     let mut s = plain_session(&ctx, &scene);
+    let mut full = plain_session(&ctx, &scene);
+    full.incremental = false;
     let first = session_image(&ctx, &mut s);
-    assert_eq!(first, fresh_image(&ctx, &scene.at(0.0)));
-    let mut pictures = Vec::new();
+    assert_eq!(first, session_image(&ctx, &mut full));
     for t in [0.5, 1.25, 3.0] {
         let r = s.set_time(&ctx, t).unwrap();
-        assert!(r.grid.is_some(), "geometry moved: the grid is rebuilt");
+        assert!(r.grid.is_some(), "geometry moved: the grid follows");
+        full.set_time(&ctx, t).unwrap();
+        assert!(s.grid == full.grid, "at {t}: the updated grid is the rebuilt one");
         let image = session_image(&ctx, &mut s);
-        assert_eq!(image, fresh_image(&ctx, &scene.at(t)), "at {t}");
+        assert_eq!(image, session_image(&ctx, &mut full), "at {t}");
         assert_ne!(image, first, "at {t} something moved");
-        pictures.push(image);
+        let posed = scene.at(t);
+        common::assert_matches_reference(&format!("session-t{t}"), &image, &common::reference_image(&posed));
     }
     s.set_time(&ctx, 0.0).unwrap();
     assert_eq!(session_image(&ctx, &mut s), first, "moved and moved back");
 }
 
+/// A still scene's session is a fresh render's, bit for bit, and an edit is the edited
+/// scene's fresh render (the grid is fitted to a still scene as `Renderer` fits it).
+#[test]
+fn a_still_session_equals_a_fresh_render() {
+    let ctx = common::gpu();
+    let scene = small(64, 48).at(1.0);
+    let mut s = plain_session(&ctx, &scene);
+    assert_eq!(session_image(&ctx, &mut s), fresh_image(&ctx, &scene));
+    let mut edited = scene.clone();
+    edited.spheres[0].center.x += 0.5;
+    let r = s.set_scene(&ctx, &edited).unwrap();
+    assert!(r.grid.is_some());
+    assert_eq!(session_image(&ctx, &mut s), fresh_image(&ctx, &edited));
+}
+
 /// A sphere that swells over a field of small ones lands in every cell: the grid's lists
-/// outgrow the texture, which is replaced (the dispatcher rebinds), and the picture is still a
-/// fresh render's; the smaller scene then fits the grown texture.
+/// outgrow the texture, which is replaced (the dispatcher rebinds), and the picture is still
+/// the one a session that never grew draws; the smaller scene then fits the grown texture.
 #[test]
 fn a_growing_scene_gets_a_new_texture() {
     use irt::scene::{Animated, Channel, Interpolation, Motion, Sphere, Stage, Trs};
     let ctx = common::gpu();
     let mut scene = small(64, 48).at(0.0);
     let mut rng = common::Rng::new(7);
-    for _ in 0..10000 {
+    for _ in 0..20000 {
         let center = rng.vec(-3.0, 3.0) + 3.0 * glam::DVec3::Y;
         scene.spheres.push(Sphere { center, radius: 0.02, material: 1 });
     }
@@ -143,10 +163,14 @@ fn a_growing_scene_gets_a_new_texture() {
     let r = s.set_time(&ctx, 1.0).unwrap();
     println!("references {refs_before} → {}", s.grid.prim_refs.len());
     assert!(r.reallocated, "the texture was replaced");
-    assert_eq!(session_image(&ctx, &mut s), fresh_image(&ctx, &scene.at(1.0)));
+    let mut full = plain_session(&ctx, &scene);
+    full.incremental = false;
+    full.set_time(&ctx, 1.0).unwrap();
+    assert_eq!(session_image(&ctx, &mut s), session_image(&ctx, &mut full));
     let r = s.set_time(&ctx, 0.0).unwrap();
     assert!(!r.reallocated, "the smaller scene fits the grown texture");
-    assert_eq!(session_image(&ctx, &mut s), fresh_image(&ctx, &scene.at(0.0)));
+    full.set_time(&ctx, 0.0).unwrap();
+    assert_eq!(session_image(&ctx, &mut s), session_image(&ctx, &mut full));
 }
 
 /// Edits through `set_scene`: a light moved (no grid rebuild, no new kernel), a material of a

@@ -266,6 +266,14 @@ impl<'a> Prims<'a> {
         self.scene.spheres.len() + self.mesh_start.last().unwrap() + self.scene.cones.len()
     }
 
+    fn bounds(&self, ranges: &[std::ops::Range<usize>]) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for r in ranges {
+            self.for_each(r.clone(), |_, shape| b = b.union(shape.bounds()));
+        }
+        b
+    }
+
     /// Calls `f` with each primitive of `range` in order. Triangles are reached by walking the
     /// meshes from the one holding the range's first, not by a search per triangle.
     fn for_each(&self, range: std::ops::Range<usize>, mut f: impl FnMut(PrimRef, Shape)) {
@@ -325,60 +333,31 @@ impl Grid {
     fn build_on(scene: &Scene, threads: usize, progress: &(dyn Fn(usize, usize) + Sync)) -> Grid {
         let prims = Prims::new(scene);
         let n = prims.len();
-        let mut bounds = Aabb::EMPTY;
-        prims.for_each(0..n, |_, shape| bounds = bounds.union(shape.bounds()));
-        let (min, max) = padded(bounds);
-        let res = resolution(max - min, n);
-        let cell_size = (max - min) / DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64);
-        let magnitude = min.abs().max(max.abs()).max_element();
-        let margin =
-            (cell_size * MARGIN_CELL_REL).max(DVec3::splat(magnitude * MARGIN_ULPS * f32::EPSILON as f64));
+        let frame = Frame::fit(prims.bounds(std::slice::from_ref(&(0..n))), n);
+        Self::build_framed(&prims, frame, threads, progress)
+    }
 
-        // Pass 1: (cell, ref) pairs in primitive order; pass 2: a stable counting sort by cell.
-        let cell_of = |p: DVec3| {
-            let c = ((p - min) / cell_size).floor();
-            [0, 1, 2].map(|a| (c[a].max(0.0) as u32).min(res[a] - 1))
-        };
-        let done = std::sync::atomic::AtomicUsize::new(0);
-        let insert = |range: std::ops::Range<usize>| {
-            let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
-            let mut k = 0;
-            prims.for_each(range, |r, shape| {
-                let b = shape.bounds();
-                let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
-                for z in lo[2]..=hi[2] {
-                    for y in lo[1]..=hi[1] {
-                        for x in lo[0]..=hi[0] {
-                            let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
-                            let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
-                            let c = x + res[0] * (y + res[1] * z);
-                            if shape.overlaps(&cell) {
-                                pairs.push((c, r));
-                            }
-                        }
-                    }
-                }
-                k += 1;
-                if k % PROGRESS_STEP == 0 {
-                    let d = done.fetch_add(PROGRESS_STEP, std::sync::atomic::Ordering::Relaxed);
-                    progress(d + PROGRESS_STEP, n);
-                }
-            });
-            pairs
-        };
-        let chunk = n.div_ceil(threads).max(1);
-        let ranges: Vec<_> = (0..threads).map(|t| t * chunk..((t + 1) * chunk).min(n)).collect();
-        let lists: Vec<Vec<(u32, PrimRef)>> = if threads == 1 {
-            vec![insert(0..n)]
-        } else {
-            std::thread::scope(|s| {
-                let handles: Vec<_> = ranges.iter().map(|r| s.spawn(|| insert(r.clone()))).collect();
-                handles.into_iter().map(|h| h.join().expect("grid build thread")).collect()
-            })
-        };
-        progress(n, n);
+    /// [`Grid::build`] in a frame chosen by the caller (which must hold every primitive): what
+    /// a moving scene keeps from frame to frame so that [`Grid::update`] can reuse the cells.
+    pub fn build_in(scene: &Scene, frame: Frame) -> Grid {
+        let prims = Prims::new(scene);
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |t| t.get())
+            .min(prims.len().div_ceil(MIN_PRIMS_PER_THREAD))
+            .max(1);
+        Self::build_framed(&prims, frame, threads, &|_, _| {})
+    }
+
+    fn build_framed(
+        prims: &Prims,
+        frame: Frame,
+        threads: usize,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Grid {
+        let n = prims.len();
+        let lists = frame.insert(prims, std::slice::from_ref(&(0..n)), threads, progress);
+        let cells = frame.cells();
         let pairs = lists.iter().flatten();
-        let cells = res.iter().map(|&r| r as usize).product::<usize>();
         let mut cell_start = vec![0u32; cells + 1];
         for &(c, _) in pairs.clone() {
             cell_start[c as usize + 1] += 1;
@@ -392,33 +371,116 @@ impl Grid {
             prim_refs[fill[c as usize] as usize] = r;
             fill[c as usize] += 1;
         }
+        frame.grid(cell_start, prim_refs)
+    }
 
-        let macro_res = res.map(|r| r.div_ceil(MACRO_FACTOR));
-        let macro_count = macro_res.iter().map(|&r| r as usize).product::<usize>();
-        let mut macro_bits = vec![0u32; macro_count.div_ceil(32)];
-        for z in 0..res[2] {
-            for y in 0..res[1] {
-                for x in 0..res[0] {
-                    let c = (x + res[0] * (y + res[1] * z)) as usize;
-                    if cell_start[c + 1] > cell_start[c] {
-                        let [mx, my, mz] = [x, y, z].map(|v| v / MACRO_FACTOR);
-                        let m = mx + macro_res[0] * (my + macro_res[1] * mz);
-                        macro_bits[(m / 32) as usize] |= 1 << (m % 32);
-                    }
+    /// Where this grid lies and how it is cut.
+    pub fn frame(&self) -> Frame {
+        Frame { min: self.min, max: self.max, res: self.res }
+    }
+
+    /// The grid of `scene` in this grid's frame, reusing the cells of every primitive outside
+    /// `moving` (ranges of primitive indices: spheres, then all triangles, then cones; sorted,
+    /// disjoint): only the moving primitives are inserted again. Equal to
+    /// `Grid::build_in(scene, self.frame())` (a cell lists its primitives in index order either
+    /// way) provided the other primitives are where they were when this grid was built and
+    /// every primitive lies in the frame.
+    pub fn update(&self, scene: &Scene, moving: &[std::ops::Range<usize>]) -> Grid {
+        let prims = Prims::new(scene);
+        let frame = self.frame();
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        let total: usize = moving.iter().map(|r| r.len()).sum();
+        let threads = threads.min(total.div_ceil(MIN_PRIMS_PER_THREAD)).max(1);
+        let fresh: Vec<(u32, PrimRef)> =
+            frame.insert(&prims, moving, threads, &|_, _| {}).into_iter().flatten().collect();
+        let cells = frame.cells();
+        // The fresh pairs by cell (stable: each cell's in primitive order).
+        let mut fresh_start = vec![0u32; cells + 1];
+        for &(c, _) in &fresh {
+            fresh_start[c as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            fresh_start[c + 1] += fresh_start[c];
+        }
+        let mut fill = fresh_start.clone();
+        let mut fresh_refs = vec![PrimRef(0); fresh.len()];
+        for &(c, r) in &fresh {
+            fresh_refs[fill[c as usize] as usize] = r;
+            fill[c as usize] += 1;
+        }
+        let (spheres, triangles) = (scene.spheres.len(), *prims.mesh_start.last().unwrap());
+        let global = |r: PrimRef| match r.kind() {
+            PrimKind::Sphere => r.index() as usize,
+            PrimKind::Triangle => spheres + r.index() as usize,
+            PrimKind::Cone => spheres + triangles + r.index() as usize,
+        };
+        let is_moving = |r: PrimRef| {
+            let g = global(r);
+            let i = moving.partition_point(|m| m.end <= g);
+            i < moving.len() && moving[i].contains(&g)
+        };
+        // Each cell: its kept references merged with its fresh ones. A reference's value orders
+        // as its primitive index does (kind in the top bits, kinds in index order).
+        let mut cell_start = Vec::with_capacity(cells + 1);
+        let mut prim_refs = Vec::with_capacity(self.prim_refs.len() + fresh_refs.len());
+        cell_start.push(0u32);
+        for c in 0..cells {
+            let old = &self.prim_refs[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
+            let new = &fresh_refs[fresh_start[c] as usize..fresh_start[c + 1] as usize];
+            let mut kept = old.iter().copied().filter(|&r| !is_moving(r)).peekable();
+            let mut new = new.iter().copied().peekable();
+            loop {
+                let take_new = match (kept.peek(), new.peek()) {
+                    (Some(k), Some(n)) => n.0 < k.0,
+                    (None, Some(_)) => true,
+                    (Some(_), None) => false,
+                    (None, None) => break,
+                };
+                prim_refs.push(if take_new { new.next() } else { kept.next() }.expect("peeked"));
+            }
+            cell_start.push(prim_refs.len() as u32);
+        }
+        frame.grid(cell_start, prim_refs)
+    }
+
+    /// The primitives that `scene`'s motions move (sphere, cone and mesh targets; lights are
+    /// no primitives), as sorted, disjoint ranges of indices as in [`Grid::update`].
+    pub fn moving_prims(scene: &Scene) -> Vec<std::ops::Range<usize>> {
+        use crate::scene::Target;
+        let prims = Prims::new(scene);
+        let (spheres, triangles) = (scene.spheres.len(), *prims.mesh_start.last().unwrap());
+        let mut ranges: Vec<std::ops::Range<usize>> = scene
+            .motions
+            .iter()
+            .filter_map(|a| match a.target {
+                Target::Sphere(i) => Some(i as usize..i as usize + 1),
+                Target::Mesh(m) => {
+                    let m = m as usize;
+                    Some(spheres + prims.mesh_start[m]..spheres + prims.mesh_start[m + 1])
                 }
+                Target::Cone(k) => {
+                    Some(spheres + triangles + k as usize..spheres + triangles + k as usize + 1)
+                }
+                Target::Light(_) => None,
+            })
+            .filter(|r| !r.is_empty())
+            .collect();
+        ranges.sort_by_key(|r| r.start);
+        let mut merged: Vec<std::ops::Range<usize>> = Vec::new();
+        for r in ranges {
+            match merged.last_mut() {
+                Some(last) if r.start <= last.end => last.end = last.end.max(r.end),
+                _ => merged.push(r),
             }
         }
-        Grid {
-            min,
-            max,
-            res,
-            cell_size,
-            cell_start,
-            prim_refs,
-            macro_factor: MACRO_FACTOR,
-            macro_res,
-            macro_bits,
-        }
+        merged
+    }
+
+    /// The bounds of primitives `ranges` of `scene` (indices as in [`Grid::update`]); `None`
+    /// when there are none.
+    pub fn bounds_of(scene: &Scene, ranges: &[std::ops::Range<usize>]) -> Option<(DVec3, DVec3)> {
+        let b = Prims::new(scene).bounds(ranges);
+        (!b.is_empty()).then_some((b.lo, b.hi))
     }
 
     pub fn cell_count(&self) -> usize {
@@ -452,6 +514,157 @@ impl Grid {
             macro_res: self.macro_res,
             macro_occupied: self.macro_bits.iter().map(|b| b.count_ones() as usize).sum(),
             bytes: 4 * (self.cell_start.len() + self.prim_refs.len() + self.macro_bits.len()),
+        }
+    }
+}
+
+/// Where a grid lies and how it is cut into cells.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub min: DVec3,
+    pub max: DVec3,
+    pub res: [u32; 3],
+}
+
+impl Frame {
+    /// The frame [`Grid::build`] gives `n` primitives whose bounds are `lo`..`hi`.
+    pub fn around(lo: DVec3, hi: DVec3, n: usize) -> Frame {
+        Self::fit(Aabb { lo, hi }, n)
+    }
+
+    fn fit(bounds: Aabb, n: usize) -> Frame {
+        let (min, max) = padded(bounds);
+        Frame { min, max, res: resolution(max - min, n) }
+    }
+
+    /// Whether the box `lo`..`hi` lies inside the frame.
+    pub fn holds(&self, lo: DVec3, hi: DVec3) -> bool {
+        lo.cmpge(self.min).all() && hi.cmple(self.max).all()
+    }
+
+    fn cells(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+
+    fn cell_size(&self) -> DVec3 {
+        (self.max - self.min) / DVec3::new(self.res[0] as f64, self.res[1] as f64, self.res[2] as f64)
+    }
+
+    /// The (cell, reference) pairs of the primitives of `ranges`, in primitive order, on
+    /// `threads` threads (each a contiguous share of the primitives, so the order does not
+    /// depend on the count).
+    fn insert(
+        &self,
+        prims: &Prims,
+        ranges: &[std::ops::Range<usize>],
+        threads: usize,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Vec<Vec<(u32, PrimRef)>> {
+        let (min, max, res) = (self.min, self.max, self.res);
+        let cell_size = self.cell_size();
+        let magnitude = min.abs().max(max.abs()).max_element();
+        let margin =
+            (cell_size * MARGIN_CELL_REL).max(DVec3::splat(magnitude * MARGIN_ULPS * f32::EPSILON as f64));
+        let n: usize = ranges.iter().map(|r| r.len()).sum();
+        let cell_of = |p: DVec3| {
+            let c = ((p - min) / cell_size).floor();
+            [0, 1, 2].map(|a| (c[a].max(0.0) as u32).min(res[a] - 1))
+        };
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        // The k-th to (k + len)-th primitives of `ranges` together.
+        let share = |from: usize, len: usize| -> Vec<std::ops::Range<usize>> {
+            let mut out = Vec::new();
+            let (mut skip, mut left) = (from, len);
+            for r in ranges {
+                if left == 0 {
+                    break;
+                }
+                if skip >= r.len() {
+                    skip -= r.len();
+                    continue;
+                }
+                let start = r.start + skip;
+                let end = (start + left).min(r.end);
+                out.push(start..end);
+                left -= end - start;
+                skip = 0;
+            }
+            out
+        };
+        let insert = |parts: Vec<std::ops::Range<usize>>| {
+            let mut pairs: Vec<(u32, PrimRef)> = Vec::new();
+            let mut k = 0;
+            for range in parts {
+                prims.for_each(range, |r, shape| {
+                    let b = shape.bounds();
+                    let (lo, hi) = (cell_of(b.lo - margin), cell_of(b.hi + margin));
+                    for z in lo[2]..=hi[2] {
+                        for y in lo[1]..=hi[1] {
+                            for x in lo[0]..=hi[0] {
+                                let c_lo = min + DVec3::new(x as f64, y as f64, z as f64) * cell_size;
+                                let cell = Aabb { lo: c_lo - margin, hi: c_lo + cell_size + margin };
+                                let c = x + res[0] * (y + res[1] * z);
+                                if shape.overlaps(&cell) {
+                                    pairs.push((c, r));
+                                }
+                            }
+                        }
+                    }
+                    k += 1;
+                    if k % PROGRESS_STEP == 0 {
+                        let d = done.fetch_add(PROGRESS_STEP, std::sync::atomic::Ordering::Relaxed);
+                        progress(d + PROGRESS_STEP, n);
+                    }
+                });
+            }
+            pairs
+        };
+        let chunk = n.div_ceil(threads.max(1)).max(1);
+        let lists = if threads <= 1 {
+            vec![insert(share(0, n))]
+        } else {
+            std::thread::scope(|s| {
+                let handles: Vec<_> = (0..threads)
+                    .map(|t| {
+                        let part = share(t * chunk, chunk.min(n.saturating_sub(t * chunk)));
+                        s.spawn(|| insert(part))
+                    })
+                    .collect();
+                handles.into_iter().map(|h| h.join().expect("grid build thread")).collect()
+            })
+        };
+        progress(n, n);
+        lists
+    }
+
+    /// The grid of these CSR arrays, with its macro-cell bits.
+    fn grid(&self, cell_start: Vec<u32>, prim_refs: Vec<PrimRef>) -> Grid {
+        let res = self.res;
+        let macro_res = res.map(|r| r.div_ceil(MACRO_FACTOR));
+        let macro_count = macro_res.iter().map(|&r| r as usize).product::<usize>();
+        let mut macro_bits = vec![0u32; macro_count.div_ceil(32)];
+        for z in 0..res[2] {
+            for y in 0..res[1] {
+                for x in 0..res[0] {
+                    let c = (x + res[0] * (y + res[1] * z)) as usize;
+                    if cell_start[c + 1] > cell_start[c] {
+                        let [mx, my, mz] = [x, y, z].map(|v| v / MACRO_FACTOR);
+                        let m = mx + macro_res[0] * (my + macro_res[1] * mz);
+                        macro_bits[(m / 32) as usize] |= 1 << (m % 32);
+                    }
+                }
+            }
+        }
+        Grid {
+            min: self.min,
+            max: self.max,
+            res,
+            cell_size: self.cell_size(),
+            cell_start,
+            prim_refs,
+            macro_factor: MACRO_FACTOR,
+            macro_res,
+            macro_bits,
         }
     }
 }
@@ -550,6 +763,38 @@ mod tests {
             assert!(Grid::build_on(&s, threads, &|_, _| {}) == one, "{threads} threads");
         }
         assert!(one.prim_refs.len() > 900);
+    }
+
+    /// Moving some spheres, triangles and cones and updating gives the grid a full build in the
+    /// same frame gives, reference for reference (on one and on several threads).
+    #[test]
+    fn an_update_equals_a_build_in_the_same_frame() {
+        let s = random_scene(11, 1200, 10.0, DVec3::ZERO);
+        let (spheres, tris) = (s.spheres.len(), s.triangle_count());
+        let grid = Grid::build(&s);
+        // Spheres 3..10, triangles 50..70 and the last cones move (global indices).
+        let n = spheres + tris + s.cones.len();
+        let moving = vec![3..10, spheres + 50..spheres + 70, n - 5..n];
+        let mut moved = s.clone();
+        // Towards the origin, inside the scene's box, so that the frame still holds them.
+        let pull = |p: DVec3| p * 0.8;
+        moved.spheres[3..10].iter_mut().for_each(|sp| sp.center = pull(sp.center));
+        let m = &mut moved.meshes[0];
+        for t in 50..70 {
+            for v in m.indices[t] {
+                m.positions[v as usize] = pull(m.positions[v as usize]);
+            }
+        }
+        let k = moved.cones.len();
+        moved.cones[k - 5..].iter_mut().for_each(|c| (c.base, c.apex) = (pull(c.base), pull(c.apex)));
+        let (lo, hi) = Grid::bounds_of(&moved, std::slice::from_ref(&(0..n))).unwrap();
+        assert!(grid.frame().holds(lo, hi), "the moved scene stays in the frame");
+        let updated = grid.update(&moved, &moving);
+        let full = Grid::build_in(&moved, grid.frame());
+        assert!(updated == full, "update = build in the frame");
+        assert!(updated != grid, "something moved");
+        // And back: the original grid.
+        assert!(updated.update(&s, &moving) == grid);
     }
 
     fn random_scene(seed: u64, n: usize, extent: f64, offset: DVec3) -> Scene {

@@ -29,6 +29,10 @@ pub struct RenderArgs {
     /// Frames per second of --frames.
     #[arg(long, default_value_t = 24.0, requires = "frames")]
     pub fps: f64,
+    /// With --frames: rebuild the whole grid every frame instead of re-inserting only what
+    /// moves (the same grid either way; for measuring what the update saves).
+    #[arg(long, requires = "frames")]
+    pub full_rebuild: bool,
     /// Print rays traced by kind (eye, reflection, refraction, shadow) and the eye rays that hit.
     #[arg(long)]
     pub stats: bool,

@@ -39,6 +39,7 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
     let mode = mode.unwrap_or(Mode::Conventional { schedule: Schedule::Plain, workers: 0 });
     let settings = Settings { mode, f64: args.scene.f64(), max_samples: 1, ..Settings::default() };
     let mut session = Session::new(&ctx, scene, settings).map_err(anyhow::Error::msg)?;
+    session.incremental = !args.full_rebuild;
     let bar = indicatif::ProgressBar::new(frames.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -63,7 +64,7 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
     let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
     eprintln!(
         "wrote {} frames {} … {} ({}x{}, {} primitives, {:.1} s on {}); per frame: update {:.1} ms (grid {:.1}, \
-         pack {:.1}, upload {:.1}; {} of {} frames rebuilt the grid), trace {:.1} ms",
+         pack {:.1}, upload {:.1}; the grid {} in {} of {} frames), trace {:.1} ms",
         frames.len(),
         first.display(),
         pattern.path(frames.end - 1).display(),
@@ -76,6 +77,7 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
         ms(cost.grid),
         ms(cost.pack),
         ms(cost.upload),
+        if args.full_rebuild { "rebuilt" } else { "updated" },
         cost.rebuilds,
         frames.len(),
         ms(cost.trace),

@@ -341,10 +341,10 @@ impl ReplayReport {
 }
 
 /// The ideal images: a second session (same scene upload, same settings, conventional, one
-/// sample), rendering whole frames of any camera.
+/// sample), rendering whole frames of any camera, and of the scene at any time.
 struct Ideal {
     session: Session,
-    last: Option<(Camera, Image)>,
+    last: Option<(Camera, f64, Image)>,
 }
 
 impl Ideal {
@@ -353,13 +353,14 @@ impl Ideal {
         Ok(Ideal { session: Session::new(ctx, scene, settings)?, last: None })
     }
 
-    fn image(&mut self, ctx: &GpuContext, camera: &Camera) -> &Image {
-        if self.last.as_ref().is_none_or(|(c, _)| c != camera) {
+    fn image(&mut self, ctx: &GpuContext, camera: &Camera, t: f64) -> Result<&Image, String> {
+        if self.last.as_ref().is_none_or(|(c, at, _)| c != camera || *at != t) {
             self.session.set_camera(ctx, camera);
+            self.session.set_time(ctx, t)?;
             self.session.complete_pass(ctx);
-            self.last = Some((camera.clone(), self.session.read_image(ctx)));
+            self.last = Some((camera.clone(), t, self.session.read_image(ctx)));
         }
-        &self.last.as_ref().expect("just rendered").1
+        Ok(&self.last.as_ref().expect("just rendered").2)
     }
 }
 
@@ -370,6 +371,8 @@ struct Replayer<'a> {
     size: [u32; 2],
     session: Session,
     ideal: Option<Ideal>,
+    /// The scene's motions end here (0: a still scene).
+    motion_end: f64,
     screen: AgeTracker,
     latency: LatencyTracker,
     end: f64,
@@ -398,7 +401,9 @@ impl Replayer<'_> {
             if t0 > t || t0 > self.end {
                 return;
             }
-            if self.next_input > 0 && self.camera(t0) != self.camera(at(self.next_input - 1)) {
+            // While objects move, every refresh instant is an input (the scene changed).
+            let moving = t0 > 0.0 && t0 <= self.motion_end;
+            if self.next_input > 0 && (moving || self.camera(t0) != self.camera(at(self.next_input - 1))) {
                 self.latency.input(t0);
             }
             self.next_input += 1;
@@ -417,10 +422,21 @@ impl Replayer<'_> {
         t <= self.end && self.opts.error_every > 0 && k.is_multiple_of(self.opts.error_every as u64)
     }
 
-    fn error_of(&mut self, shown: &Image, t: f64) -> f64 {
+    fn error_of(&mut self, shown: &Image, t: f64) -> Result<f64, String> {
         let camera = self.camera(t);
         let ideal = self.ideal.as_mut().expect("error_every > 0 made the ideal session");
-        crate::metrics::rmse(shown, ideal.image(self.ctx, &camera))
+        Ok(crate::metrics::rmse(shown, ideal.image(self.ctx, &camera, t)?))
+    }
+
+    /// Takes the camera and (in an animated scene) the objects of time `t`; returns the host
+    /// time spent moving them.
+    fn take_state(&mut self, t: f64) -> Result<Duration, String> {
+        let c = self.camera(t);
+        self.session.set_camera(self.ctx, &c);
+        if self.motion_end > 0.0 {
+            return Ok(self.session.set_time(self.ctx, t)?.total());
+        }
+        Ok(Duration::ZERO)
     }
 
     /// A new picture at `t`.
@@ -448,7 +464,7 @@ impl Replayer<'_> {
         if t <= self.end {
             let error = if self.error_due(t) {
                 let shown = self.session.read_image(self.ctx);
-                Some(self.error_of(&shown, t))
+                Some(self.error_of(&shown, t)?)
             } else {
                 None
             };
@@ -458,20 +474,21 @@ impl Replayer<'_> {
     }
 
     /// Conventional: a refresh at `t` shows the frame presented last.
-    fn refresh_conventional(&mut self, t: f64) {
+    fn refresh_conventional(&mut self, t: f64) -> Result<(), String> {
         self.read_inputs(t);
         if t > self.end {
-            return;
+            return Ok(());
         }
         let error = if self.error_due(t) {
             let shown = self.held.take().expect("the presented frame is kept while errors are measured");
             let e = self.error_of(&shown, t);
             self.held = Some(shown);
-            Some(e)
+            Some(e?)
         } else {
             None
         };
         self.refreshes.push(Sample { t, age: self.screen.stats(t), error });
+        Ok(())
     }
 }
 
@@ -507,8 +524,10 @@ pub fn replay(
         screen: AgeTracker::new(if conventional { pixels } else { session.pass_len() }, 0.0),
         session,
         ideal,
+        motion_end: scene.duration(),
         latency: LatencyTracker::default(),
-        end: path.duration(),
+        // An animated scene plays to its end even if the camera rests sooner.
+        end: path.duration().max(scene.duration()),
         period: 1.0 / opts.display_hz,
         next_input: 0,
         refresh_count: 0,
@@ -549,12 +568,11 @@ pub fn replay(
             return Err(format!("the replay did not settle within {limit:.0} s of clock time"));
         }
         let t_camera = now;
+        let mut update = Duration::ZERO;
         if !conventional {
-            let c = r.camera(now);
-            r.session.set_camera(ctx, &c);
+            update = r.take_state(now)?;
         } else if !in_frame {
-            let c = r.camera(now);
-            r.session.set_camera(ctx, &c);
+            update = r.take_state(now)?;
             frame_start = now;
             in_frame = true;
         }
@@ -567,7 +585,7 @@ pub fn replay(
             }
             now = now.max(next_refresh);
             if conventional {
-                r.refresh_conventional(now);
+                r.refresh_conventional(now)?;
             } else {
                 r.present_frameless(now)?;
             }
@@ -575,7 +593,8 @@ pub fn replay(
             continue;
         }
         steps += 1;
-        now += opts.clock.cost(&step);
+        // A real clock also pays for moving the objects (the host's work before the step).
+        now += opts.clock.cost(&step) + if opts.clock == Clock::Real { update.as_secs_f64() } else { 0.0 };
         trace_wall += step.trace_time;
         frame_wall += step.trace_time;
         if !conventional || step.frame_done {
@@ -588,7 +607,7 @@ pub fn replay(
         if conventional {
             // Refreshes while this wave ran showed the frame presented before.
             while next_refresh < now {
-                r.refresh_conventional(next_refresh);
+                r.refresh_conventional(next_refresh)?;
                 next_refresh += r.period;
             }
             if step.frame_done {

@@ -6,6 +6,7 @@
 use super::order::{Dissolve, PixelOrder};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, Settings};
+use crate::accel::grid::Frame;
 use crate::accel::Grid;
 use crate::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
 use crate::gpu::layout::{
@@ -150,6 +151,48 @@ pub struct Session {
     positions_since_change: u64,
     /// Loop iterations the last step's busiest invocation group ran (lavapipe's limit).
     pub max_loop_iterations: u32,
+    /// Moving scenes: the primitives that move, and the grid frame that holds them over the
+    /// whole animation (with the box it was fitted to), so that a new time re-inserts only
+    /// them ([`Grid::update`]) instead of rebuilding the grid.
+    moving: Vec<std::ops::Range<usize>>,
+    frame: Option<(Frame, DVec3, DVec3)>,
+    /// Re-insert only the moving primitives when the time changes (else rebuild the grid in the
+    /// same frame: the two give the same grid; this is for measuring).
+    pub incremental: bool,
+}
+
+/// Times at which an animation is posed to find the box its moving objects sweep (plus its
+/// ends); a cubic that overshoots between them makes the frame grow when it happens.
+const FRAME_SAMPLES: u32 = 64;
+
+/// The grid frame for `base`'s whole animation: the box of its still primitives and of its
+/// moving ones at [`FRAME_SAMPLES`] times, grown by 2% so that small overshoots still fit.
+/// `None` for a still scene (its grid is fitted to it as always).
+fn animation_frame(base: &Scene, moving: &[std::ops::Range<usize>]) -> Option<(Frame, DVec3, DVec3)> {
+    if moving.is_empty() {
+        return None;
+    }
+    let end = base.duration();
+    let mut lo = DVec3::INFINITY;
+    let mut hi = DVec3::NEG_INFINITY;
+    let n = base.primitive_count();
+    let mut first = true;
+    for k in 0..=FRAME_SAMPLES {
+        let posed = base.at(end * k as f64 / FRAME_SAMPLES as f64);
+        // The still primitives once; the moving ones at every sample.
+        let ranges: Vec<std::ops::Range<usize>> =
+            if first { std::iter::once(0..n).collect() } else { moving.to_vec() };
+        first = false;
+        if let Some((a, b)) = Grid::bounds_of(&posed, &ranges) {
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
+    let grow = (hi - lo).max_element() * 0.02;
+    let (lo, hi) = (lo - grow, hi + grow);
+    Some((Frame::around(lo, hi, n), lo, hi))
 }
 
 impl Session {
@@ -159,7 +202,12 @@ impl Session {
         let base = scene.clone();
         let mut scene = scene.at(0.0);
         settings.apply_to(&mut scene);
-        let grid = Grid::build(&scene);
+        let moving = Grid::moving_prims(&base);
+        let frame = animation_frame(&base, &moving);
+        let grid = match &frame {
+            Some((f, ..)) => Grid::build_in(&scene, *f),
+            None => Grid::build(&scene),
+        };
         let origin = scene.camera.eye;
         let packed = layout::pack_scene(&scene, &grid, origin);
         let params = layout::params(&scene, &grid, &packed, origin);
@@ -196,6 +244,9 @@ impl Session {
             dissolve: None,
             positions_since_change: 0,
             max_loop_iterations: 0,
+            moving,
+            frame,
+            incremental: true,
         };
         s.configure_mode(ctx)?;
         s.dispatcher.clear_frame(ctx);
@@ -233,7 +284,7 @@ impl Session {
         }
         let t0 = Instant::now();
         let posed = self.base.at(t);
-        let mut r = self.update(ctx, posed)?;
+        let mut r = self.update(ctx, posed, true)?;
         r.pose = t0.elapsed() - r.grid.unwrap_or_default() - r.pack - r.upload;
         Ok(r)
     }
@@ -244,22 +295,30 @@ impl Session {
     pub fn set_scene(&mut self, ctx: &GpuContext, scene: &Scene) -> Result<UpdateReport, String> {
         scene.validate().map_err(|e| e.0)?;
         self.base = Scene { camera: self.base.camera.clone(), ..scene.clone() };
+        self.moving = Grid::moving_prims(&self.base);
+        self.frame = animation_frame(&self.base, &self.moving);
         let posed = self.base.at(self.time);
-        self.update(ctx, posed)
+        self.update(ctx, posed, false)
     }
 
-    fn update(&mut self, ctx: &GpuContext, posed: Scene) -> Result<UpdateReport, String> {
+    /// Draws `posed` from the next step. `motion`: it differs from the scene traced now only by
+    /// where the moving primitives are (a new time), so their cells can be updated alone.
+    fn update(&mut self, ctx: &GpuContext, posed: Scene, motion: bool) -> Result<UpdateReport, String> {
         // Keys can move objects past what f32 (or f64) holds; say so rather than trace NaNs.
         posed.validate().map_err(|e| format!("at time {} s: {}", self.time, e.0))?;
         let mut report = UpdateReport::default();
         let mut scene = Scene { camera: self.scene.camera.clone(), ..posed };
         self.settings.apply_to(&mut scene);
+        if scene == self.scene {
+            // Nothing changed (a time past the last key, an edit undone): keep refining.
+            return Ok(report);
+        }
         let moved = scene.spheres != self.scene.spheres
             || scene.cones != self.scene.cones
             || scene.meshes != self.scene.meshes;
         if moved {
             let t = Instant::now();
-            self.grid = Grid::build(&scene);
+            self.grid = self.regrid(&scene, motion);
             report.grid = Some(t.elapsed());
         }
         let t = Instant::now();
@@ -651,6 +710,30 @@ impl Session {
             );
         }
         out
+    }
+}
+
+impl Session {
+    /// The grid of `scene`: the moving primitives re-inserted into the current grid when only
+    /// they moved and the frame still holds them; else a build in the animation's frame (grown
+    /// to hold the scene if it must) or, for a still scene, a fitted build.
+    fn regrid(&mut self, scene: &Scene, motion: bool) -> Grid {
+        let Some((frame, lo, hi)) = self.frame else { return Grid::build(scene) };
+        let swept = Grid::bounds_of(scene, &self.moving);
+        let inside = swept.is_none_or(|(a, b)| a.cmpge(lo).all() && b.cmple(hi).all());
+        if !inside {
+            // An overshoot the samples missed: a frame holding it too, from now on.
+            let (a, b) = swept.expect("outside means something moved");
+            let (lo, hi) = (lo.min(a), hi.max(b));
+            let frame = Frame::around(lo, hi, scene.primitive_count());
+            self.frame = Some((frame, lo, hi));
+            return Grid::build_in(scene, frame);
+        }
+        if motion && self.incremental && self.grid.frame() == frame {
+            self.grid.update(scene, &self.moving)
+        } else {
+            Grid::build_in(scene, frame)
+        }
     }
 }
 
