@@ -276,7 +276,10 @@ impl Stage {
                     Some(Rotation::EulerDegrees(c)) => c.validate(&format!("{what}: rotation"))?,
                     Some(Rotation::Quaternion(c)) => {
                         c.validate(&format!("{what}: rotation"))?;
-                        if let Some(i) = c.values.iter().position(|q| q.length_squared() == 0.0) {
+                        // A spline's tangents may be zero (the usual ones); its keys may not.
+                        let per_key = if c.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+                        let mut keys = c.values.iter().skip(per_key / 2).step_by(per_key);
+                        if let Some(i) = keys.position(|q| q.length_squared() == 0.0) {
                             return Err(format!("{what}: rotation value {i} is the zero quaternion"));
                         }
                     }
