@@ -204,6 +204,50 @@ fn every_sampler_kind_poses_at_its_keys_between_them_and_clamps_outside() {
 }
 
 #[test]
+fn every_sampler_kind_on_every_property() {
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let r = std::f64::consts::FRAC_1_SQRT_2;
+    // (property, key values, where vertex (1, 0, 0) is at the keys and half way between)
+    type Case<'a> = (&'a str, [&'a [f32]; 2], [DVec3; 3]);
+    let cases: [Case; 3] = [
+        (
+            "translation",
+            [&[0.0, 0.0, 0.0], &[2.0, 0.0, 0.0]],
+            [DVec3::X, DVec3::new(2.0, 0.0, 0.0), 3.0 * DVec3::X],
+        ),
+        ("rotation", [&[0.0, 0.0, 0.0, 1.0], &[0.0, 0.0, h, h]], [DVec3::X, DVec3::new(r, r, 0.0), DVec3::Y]),
+        (
+            "scale",
+            [&[1.0, 1.0, 1.0], &[3.0, 3.0, 3.0]],
+            [DVec3::X, DVec3::new(2.0, 0.0, 0.0), 3.0 * DVec3::X],
+        ),
+    ];
+    for (property, keys, [first, middle, last]) in cases {
+        for interpolation in ["STEP", "LINEAR", "CUBICSPLINE"] {
+            let mut g = Gltf::new();
+            let times = g.floats("SCALAR", &[0.0, 2.0]);
+            let (n, kind) = if property == "rotation" { (4, "VEC4") } else { (3, "VEC3") };
+            let zero = vec![0.0f32; n];
+            let values: Vec<f32> = if interpolation == "CUBICSPLINE" {
+                // Zero tangents: half way is the average, as for LINEAR (nlerp = slerp there).
+                [&zero[..], keys[0], &zero[..], &zero[..], keys[1], &zero[..]].concat()
+            } else {
+                keys.concat()
+            };
+            let output = g.floats(kind, &values);
+            let doc =
+                g.doc(json!([{"mesh": 0}]), json!([animation(times, output, interpolation, 0, property)]));
+            let name = format!("{property}-{interpolation}.gltf");
+            let s = load_json(&name, &doc).unwrap_or_else(|e| panic!("{e}"));
+            let half = if interpolation == "STEP" { first } else { middle };
+            for (t, want) in [(-1.0, first), (0.0, first), (1.0, half), (2.0, last), (3.0, last)] {
+                assert!(close(at(&s, t, 0, 1), want), "{name} at {t}: {} vs {want}", at(&s, t, 0, 1));
+            }
+        }
+    }
+}
+
+#[test]
 fn an_animated_scene_is_framed_on_its_pose_at_time_zero() {
     // The STEP node rests at z = -1 but is at z = 0 at time 0.
     let s = load_json("framed.gltf", &kinds()).unwrap();
