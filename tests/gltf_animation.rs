@@ -445,6 +445,46 @@ fn the_khronos_animated_triangle_turns_about_z() {
     assert!((at(&s, 0.125, 0, 1) - DVec3::new(r, r, 0.0)).length() < 1e-3);
 }
 
+/// Corners of the box around a mesh's vertices.
+fn extent(mesh: &irt::scene::Mesh) -> (DVec3, DVec3) {
+    mesh.positions.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+}
+
+#[test]
+fn the_khronos_box_animated_rises_turns_over_and_sinks() {
+    let s = load(&animated("BoxAnimated.gltf")).unwrap_or_else(|e| panic!("{e}"));
+    // Scene roots 3 (the outer box, still: baked) and 0 → 1 → 2 (the inner box): node 0's
+    // translation and node 2's rotation are keyed; node 1 is the identity (no fixed stage).
+    assert_eq!(s.motions.len(), 1);
+    assert_eq!(s.motions[0].target, Target::Mesh(1));
+    let stages = &s.motions[0].motion.stages;
+    assert!(matches!(stages.as_slice(), [Stage::Keyed { .. }, Stage::Keyed { .. }]), "{stages:?}");
+    assert!((s.duration() - 3.708329916000366).abs() < 1e-9);
+    let inner = |t: f64| extent(&s.at(t).meshes[1]);
+    let (r, h, lift) = (0.33504000306129458, 0.5, 2.5199999809265137);
+    let near = |(lo, hi): (DVec3, DVec3), want_lo: DVec3, want_hi: DVec3| {
+        (lo - want_lo).abs().max_element() < 1e-5 && (hi - want_hi).abs().max_element() < 1e-5
+    };
+    let upright = |y: f64| (DVec3::new(-r, y - h, -r), DVec3::new(r, y + h, r));
+    // Rests in the outer box, rises by 1.25 s (not yet turned: the rotation starts there), has
+    // turned over by 2.5 s (upside down: the same box), and is back down at the end.
+    for (t, y) in [(0.0, 0.0), (1.25, lift), (2.5, lift), (3.708329916000366, 0.0), (9.0, 0.0)] {
+        let (lo, hi) = upright(y);
+        assert!(near(inner(t), lo, hi), "t {t}: {:?}", inner(t));
+    }
+    // Half way through the turn (1.875 s): a quarter turn about x, the box on its side.
+    assert!(
+        near(inner(1.875), DVec3::new(-r, lift - r, -h), DVec3::new(r, lift + r, h)),
+        "{:?}",
+        inner(1.875)
+    );
+    // Translation is linear: half way up half way through its first key interval.
+    let (lo, _) = inner(0.625);
+    assert!((lo.y - (lift / 2.0 - h)).abs() < 1e-5, "{lo}");
+    // The outer box never moves.
+    assert_eq!(s.at(2.0).meshes[0], s.meshes[0]);
+}
+
 #[test]
 fn an_animated_model_in_a_toml_scene_keeps_its_motion_outside_its_placement() {
     let dir = tmp_dir().join("toml");
@@ -475,6 +515,31 @@ fn an_animated_model_in_a_toml_scene_keeps_its_motion_outside_its_placement() {
     }
     // The scene's own mesh does not move.
     assert_eq!(scene.at(1.0).meshes[0], scene.meshes[0]);
+}
+
+#[test]
+fn gpu_matches_the_reference_on_poses_of_box_animated() {
+    let mut s = load(&animated("BoxAnimated.gltf")).unwrap();
+    // Framed on every pose rendered (the file's framing, on time 0, has the risen box out of
+    // view).
+    let times = [0.6, 1.875, 2.5];
+    let all: Vec<_> = times.iter().flat_map(|&t| s.at(t).meshes).collect();
+    s.camera = stage::framing_camera(&all);
+    s.lights = vec![stage::headlight(&s.camera, DVec3::new(0.0, 1.2, 0.0), 2.0)];
+    s.camera.width = 64;
+    s.camera.height = 64;
+    let ctx = common::gpu();
+    for t in times {
+        let still = s.at(t);
+        let gpu = common::render_gpu(&ctx, &still);
+        // Kept to look at: target/tmp/gltf_animation/box-animated-<t>.png.
+        gpu.save_png(&tmp_dir().join(format!("box-animated-{t}.png"))).unwrap();
+        common::assert_matches_reference(
+            &format!("gltf-box-animated-{t}"),
+            &gpu,
+            &common::reference_image(&still),
+        );
+    }
 }
 
 #[test]
