@@ -20,6 +20,17 @@ pub fn run(args: ConvertArgs) -> Result<()> {
     }
     check_output_path(&args.output)?;
     let scene = irt::io::load(&args.input)?;
+    // The TOML writer has no keyframes (yet): an animated scene is written as its pose at
+    // time 0, not as its meshes' own coordinates.
+    let scene = if scene.is_animated() {
+        eprintln!(
+            "warning: {}: its animations are not written; the TOML holds the pose at time 0",
+            args.input.display()
+        );
+        scene.at(0.0)
+    } else {
+        scene
+    };
     let stem = args.output.file_stem().map_or("scene".into(), |s| s.to_string_lossy());
     let files = irt::io::toml_write::to_files(&scene, &stem).map_err(anyhow::Error::msg)?;
     if files.toml.len() as u64 > irt::io::MAX_SCENE_FILE_BYTES {
