@@ -1486,6 +1486,19 @@ mod tests {
     }
 
     #[test]
+    fn normalized_components_map_to_the_unit_range() {
+        // glTF 3.11: signed values clamp at -1 (the most negative integer has no positive twin).
+        assert_eq!(component(&[0x80], DataType::I8, 0), -1.0);
+        assert_eq!(component(&[0x81], DataType::I8, 0), -1.0);
+        assert_eq!(component(&[0x7f], DataType::I8, 0), 1.0);
+        assert_eq!(component(&[0, 0xff], DataType::U8, 1), 1.0);
+        assert_eq!(component(&0x8000u16.to_le_bytes(), DataType::I16, 0), -1.0);
+        assert_eq!(component(&32767i16.to_le_bytes(), DataType::I16, 0), 1.0);
+        assert_eq!(component(&[0, 0, 0xff, 0xff], DataType::U16, 1), 1.0);
+        assert_eq!(component(&0.25f32.to_le_bytes(), DataType::F32, 0), 0.25);
+    }
+
+    #[test]
     fn blinn_exponent_is_monotonic_and_clamped() {
         assert_eq!(blinn_exponent(0.0), MAX_EXPONENT);
         assert_eq!(blinn_exponent(1.0), MIN_EXPONENT);
