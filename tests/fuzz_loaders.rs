@@ -318,8 +318,25 @@ fn json_extreme(rng: &mut Rng, old: &Value) -> Value {
 }
 
 /// Fields a loader must check against its buffers and limits; edited more often.
-const GLTF_FIELDS: &[&str] =
-    &["count", "byteLength", "byteOffset", "byteStride", "bufferView", "componentType"];
+const GLTF_FIELDS: &[&str] = &[
+    "count",
+    "byteLength",
+    "byteOffset",
+    "byteStride",
+    "bufferView",
+    "componentType",
+    // Animations: a channel's sampler and node, a sampler's accessors.
+    "sampler",
+    "node",
+    "input",
+    "output",
+];
+
+/// What an animation's `interpolation` or channel `path` may be set to: each valid name (a
+/// CUBICSPLINE sampler then has a third of its outputs, a rotation reads VEC3 outputs) and one
+/// that is not.
+const ANIMATION_NAMES: &[&str] =
+    &["STEP", "LINEAR", "CUBICSPLINE", "translation", "rotation", "scale", "weights", "sideways"];
 
 /// A JSON-aware mutation of a glTF document.
 fn mutate_json(rng: &mut Rng, doc: &mut Value, dir: &Path) {
@@ -328,8 +345,25 @@ fn mutate_json(rng: &mut Rng, doc: &mut Value, dir: &Path) {
     if pointers.is_empty() {
         return;
     }
-    match rng.below(5) {
-        0 | 1 => {
+    let names: Vec<String> = (0..doc["animations"].as_array().map_or(0, Vec::len))
+        .flat_map(|a| {
+            let n = |key: &str| doc["animations"][a][key].as_array().map_or(0, Vec::len);
+            let samplers =
+                (0..n("samplers")).map(move |s| format!("/animations/{a}/samplers/{s}/interpolation"));
+            let channels =
+                (0..n("channels")).map(move |c| format!("/animations/{a}/channels/{c}/target/path"));
+            samplers.chain(channels).collect::<Vec<_>>()
+        })
+        .collect();
+    match rng.below(6) {
+        5 if !names.is_empty() => {
+            let p = &names[rng.below(names.len())];
+            let name = ANIMATION_NAMES[rng.below(ANIMATION_NAMES.len())];
+            if let Some(slot) = doc.pointer_mut(p) {
+                *slot = json!(name);
+            }
+        }
+        0 | 1 | 5 => {
             let focused: Vec<&String> = pointers
                 .iter()
                 .filter(|p| GLTF_FIELDS.iter().any(|f| p.ends_with(&format!("/{f}"))))
@@ -606,7 +640,11 @@ fn mutated_gltf_scenes() {
     let bin = decode_base64(uri.split_once(',').unwrap().1);
     std::fs::write(dir.join("buffer.bin"), &bin).unwrap();
     std::fs::write(dir.join("short.bin"), &bin[..bin.len() / 2]).unwrap();
-    fuzz("gltf", files("tests/data/scenes/gltf", &["gltf", "glb"]), |rng, b, dir| {
+    // The Khronos samples, and the animated files (a Khronos one, irt's own with every sampler
+    // kind and a node path of keyed and fixed stages).
+    let mut seeds = files("tests/data/scenes/gltf", &["gltf", "glb"]);
+    seeds.extend(files("tests/data/models/animated", &["gltf", "glb"]));
+    fuzz("gltf", seeds, |rng, b, dir| {
         if b.starts_with(b"glTF") {
             return mutate_glb(rng, b, dir);
         }

@@ -38,6 +38,7 @@ fn millions_of_triangles_render_like_the_reference_within_the_memory_bound() {
         meshes: vec![terrain(SIDE, 11, true).into_mesh(0)],
         materials: vec![Material::new("terrain", diffuse)],
         textures: vec![],
+        motions: vec![],
     };
     let mut scene = stage(model);
     // Closer than the framing camera, looking down across the terrain, so that the image is

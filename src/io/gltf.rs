@@ -13,7 +13,8 @@ use super::{
     read_limited, unique_name, LoadError, MAX_MATERIALS, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES,
 };
 use crate::scene::{
-    Camera, Filter, Light, Material, MaterialKind, Mesh, Scene, Texture, Wrap, MAX_LIGHTS, MAX_TEXTURES,
+    Animated, Camera, Channel, Filter, Interpolation, Light, Material, MaterialKind, Mesh, Motion, Rotation,
+    Scene, Stage, Target, Texture, Trs, Wrap, MAX_LIGHTS, MAX_TEXTURES,
 };
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::json;
@@ -22,7 +23,7 @@ use ::gltf::mesh::Mode;
 use ::gltf::scene::Transform;
 use ::gltf::texture::{MagFilter, WrappingMode};
 use ::gltf::{Accessor, Document, Semantic};
-use glam::{DMat3, DMat4, DQuat, DVec2, DVec3};
+use glam::{DAffine3, DMat3, DMat4, DQuat, DVec2, DVec3};
 use std::borrow::Cow;
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
@@ -44,6 +45,11 @@ pub const METAL_MAX_ROUGHNESS: f64 = 0.5;
 /// Range of the Blinn–Phong exponent made from a roughness ([`blinn_exponent`]).
 pub const MIN_EXPONENT: f64 = 1.0;
 pub const MAX_EXPONENT: f64 = 10_000.0;
+/// Most numbers' worth of animation data one file may hold: keys read (every sampler's input
+/// and output counts, summed over the channels that use them), and keys copied into the
+/// meshes' motions (a mesh under an animated node carries that node's channels). Both are known
+/// from declared counts before anything is allocated.
+pub const MAX_ANIMATION_KEYS: usize = 1 << 22;
 
 type Res<T> = Result<T, String>;
 
@@ -543,8 +549,9 @@ fn local_transform(node: &::gltf::Node) -> Res<DMat4> {
     })
 }
 
-/// The nodes of the scene to show, depth first, each with its world transform.
-fn walk(doc: &Document) -> Res<Vec<(::gltf::Node<'_>, DMat4)>> {
+/// The nodes of the scene to show, depth first, each with its world transform (at rest) and the
+/// position of its parent in the list (parents come before their children).
+fn walk(doc: &Document) -> Res<Walk<'_>> {
     let roots: Vec<::gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         // No scene: every node that is nobody's child.
@@ -555,11 +562,11 @@ fn walk(doc: &Document) -> Res<Vec<(::gltf::Node<'_>, DMat4)>> {
         }
     };
     let mut seen = vec![false; doc.nodes().len()];
-    let mut stack: Vec<(::gltf::Node, DMat4)> =
-        roots.into_iter().rev().map(|n| (n, DMat4::IDENTITY)).collect();
-    let mut out = Vec::new();
+    let mut stack: Vec<(::gltf::Node, DMat4, Option<usize>)> =
+        roots.into_iter().rev().map(|n| (n, DMat4::IDENTITY, None)).collect();
+    let mut out = Walk { nodes: Vec::new(), parents: Vec::new() };
     // An explicit stack: a hierarchy may be deeper than the thread's stack.
-    while let Some((node, parent)) = stack.pop() {
+    while let Some((node, parent, parent_at)) = stack.pop() {
         if std::mem::replace(&mut seen[node.index()], true) {
             return Err(format!(
                 "nodes[{}] is reached twice: the node hierarchy must be a tree (a node with two parents, or a cycle)",
@@ -567,13 +574,221 @@ fn walk(doc: &Document) -> Res<Vec<(::gltf::Node<'_>, DMat4)>> {
             ));
         }
         let world = parent * local_transform(&node)?;
+        let at = Some(out.nodes.len());
         let children: Vec<::gltf::Node> = node.children().collect();
-        stack.extend(children.into_iter().rev().map(|c| (c, world)));
-        out.push((node, world));
+        stack.extend(children.into_iter().rev().map(|c| (c, world, at)));
+        out.nodes.push((node, world));
+        out.parents.push(parent_at);
     }
     Ok(out)
 }
 
+/// What [`walk`] finds.
+struct Walk<'d> {
+    nodes: Vec<(::gltf::Node<'d>, DMat4)>,
+    /// Position in `nodes` of each node's parent (None for a root).
+    parents: Vec<Option<usize>>,
+}
+
+// ---- Animations ----------------------------------------------------------------------------
+
+/// The keyed properties of one node, from every animation that targets it, each with the
+/// (animation, channel) it came from.
+#[derive(Default)]
+struct Keyed {
+    translation: Option<(Channel<DVec3>, (usize, usize))>,
+    rotation: Option<(Channel<DQuat>, (usize, usize))>,
+    scale: Option<(Channel<DVec3>, (usize, usize))>,
+}
+
+impl Keyed {
+    fn keys(&self) -> usize {
+        let n = |c: Option<usize>| c.unwrap_or(0);
+        n(self.translation.as_ref().map(|(c, _)| c.times.len() + c.values.len()))
+            + n(self.rotation.as_ref().map(|(c, _)| c.times.len() + c.values.len()))
+            + n(self.scale.as_ref().map(|(c, _)| c.times.len() + c.values.len()))
+    }
+}
+
+/// Component `k` of an element as a number: floats as they are, normalized integers mapped to
+/// [0, 1] or [-1, 1] (glTF 3.11).
+fn component(b: &[u8], t: DataType, k: usize) -> f64 {
+    let two = |k: usize| [b[2 * k], b[2 * k + 1]];
+    match t {
+        DataType::F32 => f32_at(b, k) as f64,
+        DataType::I8 => (b[k] as i8 as f64 / 127.0).max(-1.0),
+        DataType::U8 => b[k] as f64 / 255.0,
+        DataType::I16 => (i16::from_le_bytes(two(k)) as f64 / 32767.0).max(-1.0),
+        DataType::U16 => u16::from_le_bytes(two(k)) as f64 / 65535.0,
+        DataType::U32 => u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap()) as f64,
+    }
+}
+
+/// `N` numbers per element, as [`component`] reads them; finiteness is the channel's check.
+fn read_numbers<const N: usize>(a: &Accessor, buffers: &[Cow<[u8]>]) -> Res<Vec<[f64; N]>> {
+    let e = elements(a, buffers)?;
+    Ok((0..e.count).map(|i| std::array::from_fn(|k| component(e.get(i), a.data_type(), k))).collect())
+}
+
+/// The interpolation of a sampler (the crate's validation refuses unknown names).
+fn interpolation(s: &json::animation::Sampler, at: &str) -> Res<Interpolation> {
+    use json::animation::Interpolation as I;
+    match s.interpolation {
+        json::validation::Checked::Valid(I::Step) => Ok(Interpolation::Step),
+        json::validation::Checked::Valid(I::Linear) => Ok(Interpolation::Linear),
+        json::validation::Checked::Valid(I::CubicSpline) => Ok(Interpolation::CubicSpline),
+        json::validation::Checked::Invalid => {
+            Err(format!("{at}.interpolation is not one of STEP, LINEAR, CUBICSPLINE"))
+        }
+    }
+}
+
+/// Puts `channel` (from animations[a].channels[c], `at`) in its node's `slot`. Two channels of
+/// one animation may not target the same property (glTF 3.11); across animations, which all
+/// play together, the first animation's channel is kept and the later one ignored: a warning.
+fn keep<T>(
+    slot: &mut Option<(Channel<T>, (usize, usize))>,
+    channel: Channel<T>,
+    (a, c): (usize, usize),
+    at: &str,
+) -> Res<Option<String>> {
+    match slot {
+        None => {
+            *slot = Some((channel, (a, c)));
+            Ok(None)
+        }
+        Some((_, (first_a, first_c))) if *first_a == a => Err(format!(
+            "{at} targets the same node property as animations[{a}].channels[{first_c}]; \
+             the channels of one animation must have different targets"
+        )),
+        Some((_, (first_a, first_c))) => Ok(Some(format!(
+            "{at} targets the same node property as animations[{first_a}].channels[{first_c}]; \
+             all animations play together, so the first one's channel is kept and this one ignored"
+        ))),
+    }
+}
+
+impl Builder<'_> {
+    /// Every channel of every animation, by the node it animates (docs/gltf.md, "Animations").
+    /// Read from the raw JSON: the crate's validation does not check a channel's target, and its
+    /// accessors unwrap it.
+    fn animations(&mut self) -> Res<HashMap<usize, Keyed>> {
+        use json::animation::Property;
+        let doc = self.doc;
+        let root = doc.as_json();
+        let mut keyed: HashMap<usize, Keyed> = HashMap::new();
+        let mut keys = 0usize;
+        for (a, animation) in root.animations.iter().enumerate() {
+            for (c, channel) in animation.channels.iter().enumerate() {
+                let at = format!("animations[{a}].channels[{c}]");
+                let node = channel.target.node.value();
+                if node >= root.nodes.len() {
+                    return Err(format!(
+                        "{at}.target.node refers to nodes[{node}], but the file has {} nodes",
+                        root.nodes.len()
+                    ));
+                }
+                let property = match channel.target.path {
+                    json::validation::Checked::Valid(p) => p,
+                    json::validation::Checked::Invalid => {
+                        return Err(format!(
+                            "{at}.target.path is not one of translation, rotation, scale, weights"
+                        ))
+                    }
+                };
+                let name = match property {
+                    Property::Translation => "translation",
+                    Property::Rotation => "rotation",
+                    Property::Scale => "scale",
+                    Property::MorphTargetWeights => {
+                        self.warn(format!("{at} animates morph target weights, which irt ignores"));
+                        continue;
+                    }
+                };
+                if root.nodes[node].matrix.is_some() {
+                    return Err(format!(
+                        "{at} animates nodes[{node}], which has a matrix: glTF animates only nodes \
+                         given by translation, rotation and scale"
+                    ));
+                }
+                let s = channel.sampler.value();
+                let sat = format!("animations[{a}].samplers[{s}]");
+                let sampler =
+                    animation.samplers.get(s).ok_or_else(|| format!("{at}.sampler does not exist"))?;
+                let interpolation = interpolation(sampler, &sat)?;
+                let accessor = |index: usize, use_: &str| {
+                    doc.accessors().nth(index).ok_or_else(|| format!("{sat}.{use_} does not exist"))
+                };
+                let (input, output) =
+                    (accessor(sampler.input.value(), "input")?, accessor(sampler.output.value(), "output")?);
+                keys = keys.saturating_add(input.count()).saturating_add(output.count());
+                if keys > MAX_ANIMATION_KEYS {
+                    return Err(format!(
+                        "{at}: the animations hold more than {MAX_ANIMATION_KEYS} keys in all; irt's limit is that"
+                    ));
+                }
+                let in_use = format!("input of {sat}");
+                expect(&input, &in_use, Dimensions::Scalar, &[DataType::F32], false)?;
+                let times: Vec<f64> =
+                    read_numbers::<1>(&input, self.buffers)?.into_iter().map(|[t]| t).collect();
+                let what = format!("{at} (nodes[{node}].{name}, {sat})");
+                let out_use = format!("output of {sat}");
+                let from = (a, c);
+                match property {
+                    Property::Rotation => {
+                        let types = [DataType::F32, DataType::I8, DataType::U8, DataType::I16, DataType::U16];
+                        expect(&output, &out_use, Dimensions::Vec4, &types, true)?;
+                        let values: Vec<DQuat> = read_numbers::<4>(&output, self.buffers)?
+                            .into_iter()
+                            .map(DQuat::from_array)
+                            .collect();
+                        let channel = Channel { interpolation, times, values };
+                        channel.validate(&what)?;
+                        // A tangent may be zero; a key's value may not.
+                        let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+                        let mut zero = channel.values.iter().skip(per_key / 2).step_by(per_key);
+                        if let Some(k) = zero.position(|q| q.length_squared() == 0.0) {
+                            return Err(format!(
+                                "{what}: key {k} is the zero quaternion, which is no rotation"
+                            ));
+                        }
+                        if let Some(w) =
+                            keep(&mut keyed.entry(node).or_default().rotation, channel, from, &at)?
+                        {
+                            self.warn(w);
+                        }
+                    }
+                    _ => {
+                        expect(&output, &out_use, Dimensions::Vec3, &[DataType::F32], false)?;
+                        let values: Vec<DVec3> = read_numbers::<3>(&output, self.buffers)?
+                            .into_iter()
+                            .map(DVec3::from_array)
+                            .collect();
+                        let channel = Channel { interpolation, times, values };
+                        channel.validate(&what)?;
+                        let entry = keyed.entry(node).or_default();
+                        let slot = if property == Property::Scale {
+                            let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+                            let mut flat = channel.values.iter().skip(per_key / 2).step_by(per_key);
+                            if let Some(k) = flat.position(|v| v.abs().min_element() == 0.0) {
+                                return Err(format!(
+                                    "{what}: key {k} scales an axis by 0; irt needs transforms that stay invertible"
+                                ));
+                            }
+                            &mut entry.scale
+                        } else {
+                            &mut entry.translation
+                        };
+                        if let Some(w) = keep(slot, channel, from, &at)? {
+                            self.warn(w);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(keyed)
+    }
+}
 // ---- Materials -----------------------------------------------------------------------------
 
 /// The Blinn–Phong exponent of a GGX roughness: α = roughness², N = 2/α² − 2 (Walter et al.
@@ -712,6 +927,8 @@ struct Draw<'a> {
     primitive: ::gltf::Primitive<'a>,
     world: DMat4,
     at: String,
+    /// Position of its node in the walk.
+    node: usize,
 }
 
 struct Builder<'a> {
@@ -755,22 +972,116 @@ impl<'a> Builder<'a> {
     }
 
     fn build(mut self) -> Res<Scene> {
-        let nodes = walk(self.doc)?;
-        let draws = self.plan(&nodes)?;
+        let walk = walk(self.doc)?;
+        let keyed = self.animations()?;
+        // Whether each node, or one above it, is animated: its meshes move.
+        let mut moving = vec![false; walk.nodes.len()];
+        for k in 0..walk.nodes.len() {
+            moving[k] =
+                keyed.contains_key(&walk.nodes[k].0.index()) || walk.parents[k].is_some_and(|p| moving[p]);
+        }
+        let mut draws = self.plan(&walk.nodes)?;
         let mut meshes = Vec::with_capacity(draws.len());
-        for d in &draws {
+        let mut motions = Vec::new();
+        let mut copied = 0usize;
+        for d in &mut draws {
+            // A moving mesh stays in its own coordinates; its motion carries the node path.
+            if moving[d.node] {
+                d.world = DMat4::IDENTITY;
+            }
             if let Some(mesh) = self.mesh(d)? {
+                if moving[d.node] {
+                    let motion = self.motion(&walk, d.node, &keyed, &mut copied)?;
+                    motions.push(Animated { target: Target::Mesh(meshes.len() as u32), motion });
+                }
                 meshes.push(mesh);
             }
         }
         if meshes.is_empty() {
             return Err("the scene has no triangles to render".into());
         }
-        let (center, radius) = stage::bounds(&meshes);
-        let camera = self.camera(&nodes)?;
-        let lights = self.lights(&nodes, center, radius)?;
-        let model = Model { meshes, materials: self.materials, textures: self.textures };
+        // An animated scene is framed (and its directional lights placed) on its pose at time 0.
+        let posed = (!motions.is_empty()).then(|| {
+            let still =
+                Scene { meshes: meshes.clone(), motions: motions.clone(), ..stage::stage(Model::default()) };
+            still.at(0.0).meshes
+        });
+        let framing = posed.as_deref().unwrap_or(&meshes);
+        let (center, radius) = stage::bounds(framing);
+        let mut camera = self.camera(&walk.nodes)?;
+        let mut lights = self.lights(&walk.nodes, center, radius)?;
+        if posed.is_some() {
+            let c = camera.unwrap_or_else(|| stage::framing_camera(framing));
+            if lights.is_empty() {
+                lights.push(stage::headlight(&c, center, radius));
+            }
+            camera = Some(c);
+        }
+        let model = Model { meshes, materials: self.materials, textures: self.textures, motions };
         Ok(stage::stage_with(model, camera, lights))
+    }
+
+    /// The motion of a mesh on the node at walk position `at`: the path from its root down,
+    /// each animated node a keyed stage, each run of other nodes one fixed stage. `copied`
+    /// counts the keys and nodes copied into motions so far, against [`MAX_ANIMATION_KEYS`].
+    fn motion(
+        &self,
+        walk: &Walk,
+        at: usize,
+        keyed: &HashMap<usize, Keyed>,
+        copied: &mut usize,
+    ) -> Res<Motion> {
+        let mut path = vec![at];
+        while let Some(p) = walk.parents[*path.last().expect("not empty")] {
+            path.push(p);
+        }
+        *copied = copied.saturating_add(path.len());
+        let mut stages = Vec::new();
+        let mut fixed = DMat4::IDENTITY;
+        for &k in path.iter().rev() {
+            let node = &walk.nodes[k].0;
+            let Some(channels) = keyed.get(&node.index()) else {
+                fixed *= local_transform(node)?;
+                continue;
+            };
+            if fixed != DMat4::IDENTITY {
+                stages.push(Stage::Fixed(DAffine3::from_mat4(fixed)));
+                fixed = DMat4::IDENTITY;
+            }
+            *copied = copied.saturating_add(channels.keys());
+            let Transform::Decomposed { translation, rotation, scale } = node.transform() else {
+                return Err(format!("nodes[{}] is animated but has a matrix", node.index()));
+            };
+            let v = |a: [f32; 3]| DVec3::from_array(a.map(f64::from));
+            let rest = Trs {
+                translation: v(translation),
+                // Checked not zero by local_transform on the walk.
+                rotation: DQuat::from_array(rotation.map(f64::from)).normalize(),
+                scale: v(scale),
+            };
+            if rest.scale.abs().min_element() == 0.0 && channels.scale.is_none() {
+                return Err(format!(
+                    "nodes[{}] is animated with a scale of 0 on an axis; irt needs transforms that stay invertible",
+                    node.index()
+                ));
+            }
+            stages.push(Stage::Keyed {
+                translation: channels.translation.as_ref().map(|(c, _)| c.clone()),
+                rotation: channels.rotation.as_ref().map(|(c, _)| Rotation::Quaternion(c.clone())),
+                scale: channels.scale.as_ref().map(|(c, _)| c.clone()),
+                rest,
+            });
+        }
+        if fixed != DMat4::IDENTITY {
+            stages.push(Stage::Fixed(DAffine3::from_mat4(fixed)));
+        }
+        if *copied > MAX_ANIMATION_KEYS {
+            return Err(format!(
+                "the animated meshes' motions hold more than {MAX_ANIMATION_KEYS} keys and nodes in all \
+                 (every mesh under an animated node carries its channels); irt's limit is that"
+            ));
+        }
+        Ok(Motion { stages })
     }
 
     /// The primitives to draw, with their vertex and triangle counts checked against the
@@ -778,7 +1089,7 @@ impl<'a> Builder<'a> {
     fn plan<'d>(&mut self, nodes: &[(::gltf::Node<'d>, DMat4)]) -> Res<Vec<Draw<'d>>> {
         let (mut vertices, mut triangles) = (0usize, 0usize);
         let mut draws = Vec::new();
-        for (node, world) in nodes {
+        for (k, (node, world)) in nodes.iter().enumerate() {
             let Some(mesh) = node.mesh() else { continue };
             if node.skin().is_some() || mesh.weights().is_some() {
                 self.warn(format!(
@@ -827,7 +1138,7 @@ impl<'a> Builder<'a> {
                          (counting every instance of every mesh); irt's limit is that"
                     ));
                 }
-                draws.push(Draw { primitive, world: *world, at });
+                draws.push(Draw { primitive, world: *world, at, node: k });
             }
         }
         Ok(draws)
@@ -1172,6 +1483,19 @@ mod tests {
         assert_eq!(triangulate(&[0, 1, 2, 3], Mode::TriangleFan), vec![[1, 2, 0], [2, 3, 0]]);
         assert!(triangulate(&[0, 1], Mode::TriangleStrip).is_empty());
         assert_eq!(triangulate(&[0, 1, 2, 3, 4, 5, 6], Mode::Triangles).len(), 2);
+    }
+
+    #[test]
+    fn normalized_components_map_to_the_unit_range() {
+        // glTF 3.11: signed values clamp at -1 (the most negative integer has no positive twin).
+        assert_eq!(component(&[0x80], DataType::I8, 0), -1.0);
+        assert_eq!(component(&[0x81], DataType::I8, 0), -1.0);
+        assert_eq!(component(&[0x7f], DataType::I8, 0), 1.0);
+        assert_eq!(component(&[0, 0xff], DataType::U8, 1), 1.0);
+        assert_eq!(component(&0x8000u16.to_le_bytes(), DataType::I16, 0), -1.0);
+        assert_eq!(component(&32767i16.to_le_bytes(), DataType::I16, 0), 1.0);
+        assert_eq!(component(&[0, 0, 0xff, 0xff], DataType::U16, 1), 1.0);
+        assert_eq!(component(&0.25f32.to_le_bytes(), DataType::F32, 0), 0.25);
     }
 
     #[test]

@@ -140,7 +140,12 @@ fn parse_toml(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
 /// A glTF file's meshes, materials and textures, without its camera and lights.
 fn gltf_model(bytes: &[u8], origin: &str) -> Result<stage::Model, LoadError> {
     let scene = gltf::parse(bytes, origin)?;
-    Ok(stage::Model { meshes: scene.meshes, materials: scene.materials, textures: scene.textures })
+    Ok(stage::Model {
+        meshes: scene.meshes,
+        materials: scene.materials,
+        textures: scene.textures,
+        motions: scene.motions,
+    })
 }
 
 fn parse_nff(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {

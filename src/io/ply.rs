@@ -1114,6 +1114,7 @@ impl<'h> Reader<'h> {
                 meshes: vec![mesh],
                 materials: vec![Material::new("default", kind)],
                 textures: vec![],
+                motions: vec![],
             });
         }
         Ok(split_by_colour(mesh, &self.groups, &self.group_sums))
@@ -1233,7 +1234,7 @@ fn split_by_colour(mesh: Mesh, groups: &[u16], sums: &[([f64; 3], u64)]) -> Mode
     };
     let materials: Vec<Material> = used.iter().map(|&g| material(g)).collect();
     if used.len() == 1 {
-        return Model { meshes: vec![mesh], materials, textures: vec![] };
+        return Model { meshes: vec![mesh], materials, textures: vec![], motions: vec![] };
     }
     // Triangles by group (a counting sort keeps file order within a group).
     let mut start = vec![0usize; sums.len() + 1];
@@ -1279,7 +1280,7 @@ fn split_by_colour(mesh: Mesh, groups: &[u16], sums: &[([f64; 3], u64)]) -> Mode
             remap[v as usize] = u32::MAX;
         }
     }
-    Model { meshes, materials, textures: vec![] }
+    Model { meshes, materials, textures: vec![], motions: vec![] }
 }
 
 // ---- Writing ---------------------------------------------------------------------------------

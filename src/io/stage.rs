@@ -3,29 +3,46 @@
 //! (docs/formats.md, "Staging a model"): a camera that frames its bounding sphere, a light above
 //! and to the right of the eye, the two-colour ambient and a neutral background.
 
-use crate::scene::{Ambient, Camera, Light, Material, Mesh, Scene, Texture, TraceSettings};
-use glam::{DMat3, DVec3};
+use crate::scene::{
+    Ambient, Animated, Camera, Light, Material, Mesh, Scene, Stage, Target, Texture, TraceSettings,
+};
+use glam::{DAffine3, DMat3, DVec3};
 
 /// Geometry and materials without a stage: what a model loader returns and what a TOML scene's
 /// `[[model]]` places. Each mesh's `material` indexes `materials`; each material's `texture`
-/// indexes `textures`.
+/// indexes `textures`; `motions` animate meshes (a glTF file's animations; other formats have
+/// none), their targets indexing `meshes`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Model {
     pub meshes: Vec<Mesh>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
+    pub motions: Vec<Animated>,
 }
 
 impl Model {
     /// Places the model: each axis scaled by `scale`, then rotated by `rotate_deg` (degrees about
     /// x, then y, then z), then moved by `translate`. Normals follow the inverse scale and the
     /// rotation, so they stay perpendicular to the surface. The identity changes nothing.
+    /// Animated meshes stay in their own coordinates: the placement becomes their motion's
+    /// outermost stage.
     pub fn transform(&mut self, scale: DVec3, rotate_deg: DVec3, translate: DVec3) {
         if scale == DVec3::ONE && rotate_deg == DVec3::ZERO && translate == DVec3::ZERO {
             return;
         }
         let r = rotation(rotate_deg);
-        for mesh in &mut self.meshes {
+        let placement = DAffine3::from_mat3_translation(r * DMat3::from_diagonal(scale), translate);
+        let mut moving = vec![false; self.meshes.len()];
+        for a in &mut self.motions {
+            if let Some(m) = match a.target {
+                Target::Mesh(i) => moving.get_mut(i as usize),
+                _ => None,
+            } {
+                *m = true;
+            }
+            a.motion.stages.insert(0, Stage::Fixed(placement));
+        }
+        for (mesh, _) in self.meshes.iter_mut().zip(moving).filter(|(_, moving)| !moving) {
             for p in &mut mesh.positions {
                 *p = r * (*p * scale) + translate;
             }
@@ -85,7 +102,7 @@ pub fn stage_with(model: Model, camera: Option<Camera>, mut lights: Vec<Light>) 
         meshes: model.meshes,
         textures: model.textures,
         trace: TraceSettings::default(),
-        motions: Vec::new(),
+        motions: model.motions,
     }
 }
 

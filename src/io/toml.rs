@@ -404,6 +404,15 @@ fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, name
             format!("with this model the scene exceeds {MAX_TRIANGLES} triangles or {MAX_VERTICES} vertices"),
         );
     }
+    // An animated model's motions follow its meshes to their indices in the scene.
+    let mesh_base = scene.meshes.len() as u32;
+    scene.motions.extend(model.motions.into_iter().map(|a| crate::scene::Animated {
+        target: match a.target {
+            crate::scene::Target::Mesh(i) => crate::scene::Target::Mesh(i + mesh_base),
+            other => other,
+        },
+        ..a
+    }));
     if let Some(material) = material {
         scene.meshes.extend(model.meshes.into_iter().map(|mesh| Mesh { material, ..mesh }));
         return Ok(());

@@ -306,7 +306,10 @@ impl Stage {
                     Some(Rotation::EulerDegrees(c)) => c.validate(&format!("{what}: rotation"))?,
                     Some(Rotation::Quaternion(c)) => {
                         c.validate(&format!("{what}: rotation"))?;
-                        if let Some(i) = c.values.iter().position(|q| q.length_squared() == 0.0) {
+                        // A spline's tangents may be zero (the usual ones); its keys may not.
+                        let per_key = if c.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+                        let mut keys = c.values.iter().skip(per_key / 2).step_by(per_key);
+                        if let Some(i) = keys.position(|q| q.length_squared() == 0.0) {
                             return Err(format!("{what}: rotation value {i} is the zero quaternion"));
                         }
                     }
@@ -426,6 +429,11 @@ impl Scene {
                 Target::Mesh(i) => {
                     let mesh = &mut s.meshes[i as usize];
                     mesh.positions.iter_mut().for_each(|p| *p = m.transform_point3(*p));
+                    // A mirroring pose turns the winding inside out; swapping two corners turns
+                    // it back, as the loaders do when they bake a mirroring transform.
+                    if m.matrix3.determinant() < 0.0 {
+                        mesh.indices.iter_mut().for_each(|t| t.swap(1, 2));
+                    }
                     if let Some(n) = &mut mesh.normals {
                         let nm: DMat3 = m.matrix3.inverse().transpose();
                         n.iter_mut().for_each(|v| *v = (nm * *v).normalize_or_zero());
@@ -462,7 +470,7 @@ impl Scene {
             for s in &a.motion.stages {
                 s.validate(&who).map_err(InvalidScene)?;
                 for v in s.scales() {
-                    if v.min_element() == 0.0 {
+                    if v.abs().min_element() == 0.0 {
                         return Err(InvalidScene(format!("{who}: a scale of 0 flattens the object")));
                     }
                     let round = matches!(a.target, Target::Sphere(_) | Target::Cone(_));
@@ -554,6 +562,38 @@ mod tests {
         assert!(c.validate("t").unwrap_err().contains("value 1"));
         let c: Channel<DVec3> = linear(&[], &[]);
         assert!(c.validate("t").unwrap_err().contains("no keys"));
+    }
+
+    #[test]
+    fn spline_tangents_are_not_scales_and_mirroring_poses_keep_the_winding() {
+        use crate::scene::Mesh;
+        let mut scene = crate::scene::default_scene();
+        scene.meshes.push(Mesh {
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
+            normals: None,
+            uvs: None,
+            indices: vec![[0, 1, 2]],
+            material: 0,
+        });
+        let i = scene.meshes.len() as u32 - 1;
+        // Zero tangents (the usual ones) around keys of scale 1 and -1 on x: a mirror at t = 1.
+        let (one, flip) = (DVec3::ONE, DVec3::new(-1.0, 1.0, 1.0));
+        let scale = Channel {
+            interpolation: Interpolation::CubicSpline,
+            times: vec![0.0, 1.0],
+            values: vec![DVec3::ZERO, one, DVec3::ZERO, DVec3::ZERO, flip, DVec3::ZERO],
+        };
+        let stage =
+            Stage::Keyed { translation: None, rotation: None, scale: Some(scale), rest: Trs::default() };
+        scene.motions = vec![Animated { target: Target::Mesh(i), motion: Motion { stages: vec![stage] } }];
+        scene.validate_motions().expect("tangents of 0 are no scale of 0");
+        let m = |t: f64| scene.at(t).meshes[i as usize].clone();
+        assert_eq!(m(0.0).indices, vec![[0, 1, 2]]);
+        let mirrored = m(1.0);
+        assert_eq!(mirrored.indices, vec![[0, 2, 1]]);
+        // Still counter-clockwise seen from +z, as before the mirror.
+        let p = mirrored.indices[0].map(|k| mirrored.positions[k as usize]);
+        assert!((p[1] - p[0]).cross(p[2] - p[0]).z > 0.0);
     }
 
     #[test]
