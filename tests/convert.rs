@@ -83,6 +83,21 @@ fn every_gltf_sample_round_trips() {
     }
 }
 
+/// Animated glTF (tests/data/models/animated): the motion chains (quaternion keys, cubic
+/// tangents, fixed node transforms) come back from the TOML bit for bit.
+#[test]
+fn every_animated_gltf_round_trips() {
+    let mut count = 0;
+    for entry in std::fs::read_dir(repo("tests/data/models/animated")).unwrap() {
+        let path = entry.unwrap().path();
+        let scene = irt::io::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert!(scene.is_animated(), "{}", path.display());
+        round_trip(&path.display().to_string(), &scene);
+        count += 1;
+    }
+    assert!(count >= 4, "only {count} animated files");
+}
+
 /// The real PLY models (tests/data/models): vertex and face colours (one mesh and material per
 /// colour group), normals and texture coordinates, all three encodings.
 #[test]

@@ -1065,12 +1065,12 @@ impl<'a> Builder<'a> {
                     node.index()
                 ));
             }
-            stages.push(Stage::Keyed {
-                translation: channels.translation.as_ref().map(|(c, _)| c.clone()),
-                rotation: channels.rotation.as_ref().map(|(c, _)| Rotation::Quaternion(c.clone())),
-                scale: channels.scale.as_ref().map(|(c, _)| c.clone()),
+            stages.push(Stage::keyed(
+                channels.translation.as_ref().map(|(c, _)| c.clone()),
+                channels.rotation.as_ref().map(|(c, _)| Rotation::Quaternion(c.clone())),
+                channels.scale.as_ref().map(|(c, _)| c.clone()),
                 rest,
-            });
+            ));
         }
         if fixed != DMat4::IDENTITY {
             stages.push(Stage::Fixed(DAffine3::from_mat4(fixed)));

@@ -129,7 +129,7 @@ fn stage(d: &StageDoc, table: &Span, round: bool, out: &mut Vec<Stage>) -> Res<(
             "a motion stage needs `translate`, `rotate`, `quaternion`, `scale` or `matrix`",
         );
     }
-    let keyed = Stage::Keyed { translation, rotation, scale, rest };
+    let keyed = Stage::keyed(translation, rotation, scale, rest);
     match &d.pivot {
         Some(p) => {
             let p = DVec3::from_array(numbers::<3>(p, "pivot")?);

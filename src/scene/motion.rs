@@ -210,40 +210,18 @@ pub fn euler_degrees(d: DVec3) -> DQuat {
 }
 
 /// One link of a motion chain.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Stage {
     /// A fixed transform (a glTF node without channels, a pivot).
     Fixed(DAffine3),
-    /// `T · R · S`, each property keyed or held at its rest value.
+    /// `T · R · S`, each property keyed or held at its rest value (build it with
+    /// [`Stage::keyed`]).
     Keyed {
         translation: Option<Channel<DVec3>>,
         rotation: Option<Rotation>,
         scale: Option<Channel<DVec3>>,
         rest: Trs,
     },
-}
-
-/// Equal when they move every point alike at every time: a keyed property's rest value is never
-/// used, so it is not compared (TOML writes a property as keys or as a rest value, not both;
-/// glTF keeps the node's own value there).
-impl PartialEq for Stage {
-    fn eq(&self, other: &Self) -> bool {
-        match (self, other) {
-            (Stage::Fixed(a), Stage::Fixed(b)) => a == b,
-            (
-                Stage::Keyed { translation: t0, rotation: r0, scale: s0, rest: a },
-                Stage::Keyed { translation: t1, rotation: r1, scale: s1, rest: b },
-            ) => {
-                t0 == t1
-                    && r0 == r1
-                    && s0 == s1
-                    && (t0.is_some() || a.translation == b.translation)
-                    && (r0.is_some() || a.rotation == b.rotation)
-                    && (s0.is_some() || a.scale == b.scale)
-            }
-            _ => false,
-        }
-    }
 }
 
 /// Translation, rotation and scale.
@@ -261,6 +239,24 @@ impl Default for Trs {
 }
 
 impl Stage {
+    /// A keyed stage; a keyed property's rest value is never used, so it is set to the
+    /// identity's (stages that move alike compare equal, and the TOML writer, which writes a
+    /// property as keys or as a held value, gives them back exactly).
+    pub fn keyed(
+        translation: Option<Channel<DVec3>>,
+        rotation: Option<Rotation>,
+        scale: Option<Channel<DVec3>>,
+        rest: Trs,
+    ) -> Stage {
+        let identity = Trs::default();
+        let rest = Trs {
+            translation: if translation.is_some() { identity.translation } else { rest.translation },
+            rotation: if rotation.is_some() { identity.rotation } else { rest.rotation },
+            scale: if scale.is_some() { identity.scale } else { rest.scale },
+        };
+        Stage::Keyed { translation, rotation, scale, rest }
+    }
+
     pub fn at(&self, t: f64) -> DAffine3 {
         match self {
             Stage::Fixed(m) => *m,
