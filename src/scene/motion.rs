@@ -143,7 +143,7 @@ impl<T: Keyable> Channel<T> {
         let cubic = self.interpolation == Interpolation::CubicSpline;
         let value = |i: usize| if cubic { self.values[3 * i + 1] } else { self.values[i] };
         let last = self.times.len() - 1;
-        if !(t > self.times[0]) {
+        if t.is_nan() || t <= self.times[0] {
             return value(0);
         }
         if t >= self.times[last] {
