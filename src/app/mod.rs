@@ -5,6 +5,7 @@
 
 pub mod blit;
 pub mod camera;
+pub mod edit;
 pub mod hud;
 pub mod viewer;
 
@@ -16,6 +17,14 @@ use std::path::PathBuf;
 /// Every key and mouse binding, as the HUD and `irt view --help` show it.
 pub const KEYS: &[(&str, &str)] = &[
     ("left drag", "orbit around the focus point"),
+    ("left click", "select the object or light under the cursor (the HUD edits it)"),
+    ("Shift+left drag", "move the selected light in the view plane (also: middle drag)"),
+    ("PgUp / PgDn", "move the selected light farther / nearer"),
+    ("L", "select the next light"),
+    ("K", "selected object's material: next kind (diffuse, metal, dielectric, polished)"),
+    ("T", "write the scene as TOML (--save FILE, else irt-scene-YYYYmmdd-HHMMSS.toml, UTC)"),
+    ("Space", "play / pause (animated scenes)"),
+    (", / .", "playback speed /2 / x2"),
     ("right drag", "look around (fly); Q/E move down/up while held"),
     ("W A S D", "fly forward / left / back / right"),
     ("E", "fly up"),
@@ -62,7 +71,7 @@ Examples:
 fn keys_help() -> String {
     let mut s = String::from("Keys and mouse:\n");
     for (k, what) in KEYS {
-        s += &format!("  {k:<14}{what}\n");
+        s += &format!("  {k:<16}{what}\n");
     }
     s
 }
@@ -105,6 +114,16 @@ pub struct ViewArgs {
     /// in the current directory.
     #[arg(long, value_name = "FILE")]
     pub screenshot: Option<PathBuf>,
+    /// Where T (and the HUD's save button) writes the edited scene as TOML, atomically, with its
+    /// textures beside it; otherwise irt-scene-YYYYmmdd-HHMMSS.toml (UTC) in the current directory.
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<PathBuf>,
+    /// Animated scenes: the scene time to start at, in seconds.
+    #[arg(long, value_name = "T", default_value_t = 0.0)]
+    pub time: f64,
+    /// Animated scenes: start paused (Space plays).
+    #[arg(long)]
+    pub paused: bool,
     /// Vulkan adapter: "lavapipe" (default), "gpu" (best hardware GPU), or part of a device
     /// name. Also read from $IRT_ADAPTER.
     #[arg(long, value_name = "NAME")]
