@@ -160,15 +160,16 @@ fn ms(d: Duration) -> String {
     format!("{:.1} ms", d.as_secs_f64() * 1e3)
 }
 
-/// "1.2 ms (grid 0.8 ms, pack 0.1 ms, upload 0.3 ms)": what an update cost.
+/// "1.2 ms (grid 0.8, pack 0.1, upload 0.3)": what an update cost, in milliseconds.
 pub fn update_cost(r: &UpdateReport) -> String {
+    let f = |d: Duration| format!("{:.1}", d.as_secs_f64() * 1e3);
     let grid = match r.grid {
-        Some(g) => format!("grid {}", ms(g)),
+        Some(g) => format!("grid {}", f(g)),
         None => "grid kept".into(),
     };
-    let pose = if r.pose.is_zero() { String::new() } else { format!("pose {}, ", ms(r.pose)) };
-    let kernel = if r.recompiled { ", kernel recompiled" } else { "" };
-    format!("{} ({pose}{grid}, pack {}, upload {}{kernel})", ms(r.total()), ms(r.pack), ms(r.upload))
+    let pose = if r.pose.is_zero() { String::new() } else { format!("pose {}, ", f(r.pose)) };
+    let kernel = if r.recompiled { ", new kernel" } else { "" };
+    format!("{} ({pose}{grid}, pack {}, upload {}{kernel})", ms(r.total()), f(r.pack), f(r.upload))
 }
 
 /// Three drag values in a row; whether one changed.
@@ -469,7 +470,9 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
                 req.screenshot = ui.button("screenshot (P)").clicked();
             });
             ui.separator();
-            edit_section(ui, &v.edit, &mut req);
+            egui::CollapsingHeader::new("edit").default_open(true).show(ui, |ui| {
+                edit_section(ui, &v.edit, &mut req);
+            });
             if !v.status.is_empty() {
                 ui.label(v.status);
             }

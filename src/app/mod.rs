@@ -17,14 +17,6 @@ use std::path::PathBuf;
 /// Every key and mouse binding, as the HUD and `irt view --help` show it.
 pub const KEYS: &[(&str, &str)] = &[
     ("left drag", "orbit around the focus point"),
-    ("left click", "select the object or light under the cursor (the HUD edits it)"),
-    ("Shift+left drag", "move the selected light in the view plane (also: middle drag)"),
-    ("PgUp / PgDn", "move the selected light farther / nearer"),
-    ("L", "select the next light"),
-    ("K", "selected object's material: next kind (diffuse, metal, dielectric, polished)"),
-    ("T", "write the scene as TOML (--save FILE, else irt-scene-YYYYmmdd-HHMMSS.toml, UTC)"),
-    ("Space", "play / pause (animated scenes)"),
-    (", / .", "playback speed /2 / x2"),
     ("right drag", "look around (fly); Q/E move down/up while held"),
     ("W A S D", "fly forward / left / back / right"),
     ("E", "fly up"),
@@ -39,6 +31,14 @@ pub const KEYS: &[(&str, &str)] = &[
     ("[ / ]", "resolution scale down / up (1, 1/2, 1/4)"),
     ("H", "HUD on / off"),
     ("P", "screenshot PNG (--screenshot FILE, else irt-YYYYmmdd-HHMMSS.png, UTC)"),
+    ("left click", "select the object or light under the cursor (the HUD edits it)"),
+    ("Shift+left drag", "move the selected light in the view plane (also: middle drag)"),
+    ("PgUp / PgDn", "move the selected light farther / nearer"),
+    ("L", "select the next light"),
+    ("K", "selected object's material: next kind (diffuse, metal, dielectric, polished)"),
+    ("T", "write the scene as TOML (--save FILE, else irt-scene-YYYYmmdd-HHMMSS.toml, UTC)"),
+    ("Space", "play / pause (animated scenes)"),
+    (", / .", "playback speed /2 / x2"),
     ("Esc, Q", "quit (Q quits unless the right button is held)"),
 ];
 

@@ -540,12 +540,16 @@ impl Viewer {
                     event.repeat
                 );
                 let down = event.state == ElementState::Pressed;
+                // Keys typed into a HUD field (a number being entered) are the HUD's.
+                let typing = self.hud_visible && self.egui.ctx.egui_wants_keyboard_input();
                 if let PhysicalKey::Code(code) = event.physical_key {
-                    self.movement_key(code, down);
+                    if !(down && typing) {
+                        self.movement_key(code, down);
+                    }
                 }
                 // Synthetic presses (keys already held when the window gains the focus) only
                 // update what is held.
-                if down && !event.repeat && !is_synthetic {
+                if down && !event.repeat && !is_synthetic && !typing {
                     self.key(event_loop, &event.logical_key, event.physical_key)?;
                 }
                 self.window.request_redraw();
@@ -1029,9 +1033,12 @@ impl Viewer {
             self.dirty = true;
         }
 
-        // Edits: the light being dragged follows the cursor.
+        // Edits: the light being dragged follows the cursor (conventional: between frames, so
+        // that a drag cannot restart every frame and freeze the picture).
         let [ww, wh] = self.window_size();
-        if let Some(d) = self.input.light_drag {
+        let conventional = matches!(self.session.settings().mode, Mode::Conventional { .. });
+        let between_frames = !conventional || self.waves_in_flight == 0;
+        if let Some(d) = self.input.light_drag.filter(|_| between_frames) {
             let off = edit::view_offset(self.session.camera(), [ww, wh], d.posed, d.offset.0, d.offset.1);
             let to = d.start + off;
             if self.session.base_scene().lights.get(d.light).is_some_and(|l| l.position != to) {
@@ -1040,11 +1047,10 @@ impl Viewer {
         }
 
         // Playback: scene time follows wall time x speed (conventional: between frames).
-        let conventional = matches!(self.session.settings().mode, Mode::Conventional { .. });
         if let Some(p) = &mut self.playback {
             if !p.playing {
                 self.last_play = now;
-            } else if !conventional || self.waves_in_flight == 0 {
+            } else if between_frames {
                 let wall = (now - self.last_play).as_secs_f64();
                 self.last_play = now;
                 if p.advance(wall) {
