@@ -33,14 +33,6 @@ impl Selection {
         }
     }
 
-    /// Whether the selection still names something in `scene` (an edit may remove objects).
-    pub fn exists(&self, scene: &Scene) -> bool {
-        match *self {
-            Selection::Light(i) => i < scene.lights.len(),
-            Selection::Object(p) => object_material(scene, p).is_some(),
-        }
-    }
-
     /// The name and, for an object, its material as a user reads it (what `selected:` prints).
     pub fn describe(&self, scene: &Scene) -> String {
         match *self {

@@ -58,6 +58,13 @@ and resolution live.
 On lavapipe (Vulkan on the CPU, the default device) expect a few frames per second at full size; \
 `[` lowers the resolution, and \"lower resolution while moving\" in the HUD halves it during motion.
 
+Live edits: a click selects the object or light under the cursor (L and the HUD's list select \
+lights too). The HUD edits a light's position, colour, intensity and radius (Shift+left or middle \
+drag moves it in the view plane, PgUp/PgDn in depth) or the material of the picked object (kind, \
+colour, eta, exponent; K switches the kind; every object using that material changes). T writes \
+the edited scene as TOML with the current camera (--save FILE). Animated scenes play: Space, `,` \
+and `.` for the speed, a time slider in the HUD; --time T and --paused set the start.
+
 Scripted use: `irt view --frames N --screenshot FILE` shows N pictures, writes the last one as a PNG \
 and exits 0. With one sample (--max-samples 1, or --mode conventional --frames 1) the PNG equals \
 `irt render` at the same size bit for bit.
@@ -118,7 +125,7 @@ pub struct ViewArgs {
     /// textures beside it; otherwise irt-scene-YYYYmmdd-HHMMSS.toml (UTC) in the current directory.
     #[arg(long, value_name = "FILE")]
     pub save: Option<PathBuf>,
-    /// Animated scenes: the scene time to start at, in seconds.
+    /// Animated scenes: the scene time to start at, in seconds (a still ignores it).
     #[arg(long, value_name = "T", default_value_t = 0.0)]
     pub time: f64,
     /// Animated scenes: start paused (Space plays).
