@@ -288,6 +288,13 @@ pub fn scene_file_name(t: SystemTime) -> String {
 pub fn write_scene(scene: &Scene, path: &Path) -> Result<(), String> {
     let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
     let files = crate::io::toml_write::to_files(scene, &stem)?;
+    if files.toml.len() as u64 > crate::io::MAX_SCENE_FILE_BYTES {
+        return Err(format!(
+            "the TOML would be {} bytes, above the {}-byte limit irt loads: not written",
+            files.toml.len(),
+            crate::io::MAX_SCENE_FILE_BYTES
+        ));
+    }
     let dir = path.parent().unwrap_or(Path::new(""));
     for (name, png) in &files.textures {
         let p = dir.join(name);
