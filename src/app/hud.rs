@@ -1,10 +1,13 @@
 //! The HUD: what the loop measured ([`Stats`]) and the live switches, drawn with egui. The
 //! drawing returns what the user asked for ([`HudRequest`]); the viewer applies it.
 
+use super::edit::{self, Playback, Selection, KINDS};
 use super::KEYS;
 use crate::render::metrics::AgeStats;
+use crate::render::session::UpdateReport;
 use crate::render::{Mode, PixelOrder};
-use crate::scene::ShadowMode;
+use crate::scene::{Light, MaterialKind, Scene, ShadowMode};
+use glam::DVec3;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
@@ -114,6 +117,18 @@ pub struct HudView<'a> {
     pub status: &'a str,
     pub now: Instant,
     pub stats: &'a Stats,
+    pub edit: EditView<'a>,
+}
+
+/// What the HUD's edit and playback sections show.
+pub struct EditView<'a> {
+    /// The scene as given (lights and materials as written: what an edit changes).
+    pub base: &'a Scene,
+    pub selection: Option<Selection>,
+    /// The last update of the device's scene: what caused it, and what it cost.
+    pub last_update: Option<(&'a str, UpdateReport)>,
+    /// The clock of an animated scene (`None`: a still, no playback controls).
+    pub playback: Option<Playback>,
 }
 
 /// What the user changed in the HUD.
@@ -128,6 +143,183 @@ pub struct HudRequest {
     pub frame: bool,
     pub reset: bool,
     pub screenshot: bool,
+    /// Select this (`Some(None)`: nothing).
+    pub select: Option<Option<Selection>>,
+    /// Light `i` becomes this.
+    pub light: Option<(usize, Light)>,
+    /// Material `i` becomes this kind.
+    pub material: Option<(u32, MaterialKind)>,
+    pub save_scene: bool,
+    pub toggle_play: bool,
+    pub seek: Option<f64>,
+    /// Playback speed ×this.
+    pub speed: Option<f64>,
+}
+
+fn ms(d: Duration) -> String {
+    format!("{:.1} ms", d.as_secs_f64() * 1e3)
+}
+
+/// "1.2 ms (grid 0.8, pack 0.1, upload 0.3)": what an update cost, in milliseconds.
+pub fn update_cost(r: &UpdateReport) -> String {
+    let f = |d: Duration| format!("{:.1}", d.as_secs_f64() * 1e3);
+    let grid = match r.grid {
+        Some(g) => format!("grid {}", f(g)),
+        None => "grid kept".into(),
+    };
+    let pose = if r.pose.is_zero() { String::new() } else { format!("pose {}, ", f(r.pose)) };
+    let kernel = if r.recompiled { ", new kernel" } else { "" };
+    format!("{} ({pose}{grid}, pack {}, upload {}{kernel})", ms(r.total()), f(r.pack), f(r.upload))
+}
+
+/// Three drag values in a row; whether one changed.
+fn drag3(ui: &mut egui::Ui, v: &mut DVec3, speed: f64, range: std::ops::RangeInclusive<f64>) -> bool {
+    let mut a = v.to_array();
+    let mut changed = false;
+    for c in &mut a {
+        changed |=
+            ui.add(egui::DragValue::new(c).speed(speed).range(range.clone()).max_decimals(3)).changed();
+    }
+    *v = DVec3::from_array(a);
+    changed
+}
+
+/// A colour button for a linear colour in [0, 1]³; whether it changed.
+fn colour(ui: &mut egui::Ui, c: &mut DVec3) -> bool {
+    let mut rgb = c.as_vec3().to_array();
+    let changed = ui.color_edit_button_rgb(&mut rgb).changed();
+    if changed {
+        *c = glam::Vec3::from_array(rgb).as_dvec3().clamp(DVec3::ZERO, DVec3::ONE);
+    }
+    changed
+}
+
+/// The selection, its editor, saving and playback.
+fn edit_section(ui: &mut egui::Ui, e: &EditView, req: &mut HudRequest) {
+    let scene = e.base;
+    ui.horizontal_wrapped(|ui| {
+        ui.label("lights");
+        for i in 0..scene.lights.len() {
+            let on = e.selection == Some(Selection::Light(i));
+            if ui.selectable_label(on, i.to_string()).clicked() {
+                req.select = Some(if on { None } else { Some(Selection::Light(i)) });
+            }
+        }
+        if scene.lights.is_empty() {
+            ui.label("(none)");
+        }
+    });
+    match e.selection {
+        None => {
+            ui.label("click an object or a light to edit it");
+        }
+        Some(Selection::Light(i)) => {
+            let Some(light) = scene.lights.get(i) else { return };
+            let mut l = light.clone();
+            let (mut hue, mut intensity) = edit::split_light_color(l.color);
+            let mut changed = false;
+            ui.horizontal(|ui| {
+                ui.label(format!("light {i}  position"));
+                let step = (l.position.length() * 0.005).max(0.01);
+                changed |= drag3(ui, &mut l.position, step, f64::MIN..=f64::MAX);
+            });
+            ui.horizontal(|ui| {
+                ui.label("colour");
+                changed |= colour(ui, &mut hue);
+                ui.label("intensity");
+                changed |= ui
+                    .add(egui::DragValue::new(&mut intensity).speed(0.01).range(0.0..=1e6).max_decimals(3))
+                    .changed();
+                ui.label("radius");
+                changed |= ui
+                    .add(egui::DragValue::new(&mut l.radius).speed(0.01).range(0.0..=1e6).max_decimals(3))
+                    .changed();
+            });
+            if changed {
+                l.color = hue * intensity.max(0.0);
+                l.radius = l.radius.max(0.0);
+                if l != *light {
+                    req.light = Some((i, l));
+                }
+            }
+            ui.label("Shift+left drag (or middle drag) moves it; PgUp / PgDn: farther / nearer");
+        }
+        Some(sel @ Selection::Object(p)) => {
+            let Some(m) = edit::object_material(scene, p) else { return };
+            let material = &scene.materials[m as usize];
+            ui.label(format!("{}: material {m} '{}'", sel.name(), material.name));
+            let users = edit::material_users(scene, m);
+            if users > 1 {
+                ui.colored_label(
+                    egui::Color32::from_rgb(255, 200, 80),
+                    format!("{users} objects use this material: an edit changes them all"),
+                );
+            }
+            let (mut c, mut eta, mut exponent) = edit::kind_params(&material.kind);
+            let mut name = edit::kind_name(&material.kind);
+            let mut changed = false;
+            ui.horizontal(|ui| {
+                ui.label("kind");
+                egui::ComboBox::from_id_salt("kind").selected_text(name).show_ui(ui, |ui| {
+                    for k in KINDS {
+                        ui.selectable_value(&mut name, k, k);
+                    }
+                });
+                changed |= name != edit::kind_name(&material.kind);
+                ui.label("(K: next)");
+            });
+            ui.horizontal(|ui| {
+                if name != "dielectric" {
+                    ui.label(if name == "metal" { "metal tint" } else { "colour" });
+                    changed |= colour(ui, &mut c);
+                }
+                if name == "dielectric" || name == "polished" {
+                    ui.label("eta");
+                    changed |= ui
+                        .add(egui::DragValue::new(&mut eta).speed(0.005).range(0.01..=10.0).max_decimals(3))
+                        .changed();
+                }
+                if name != "diffuse" {
+                    ui.label("exponent");
+                    changed |= ui
+                        .add(egui::DragValue::new(&mut exponent).speed(0.5).range(0.0..=1e5).max_decimals(1))
+                        .changed();
+                }
+            });
+            if changed {
+                let kind = edit::make_kind(name, c, eta, exponent);
+                if kind != material.kind {
+                    req.material = Some((m, kind));
+                }
+            }
+            if material.texture.is_some() {
+                ui.label("(textured: the colour multiplies the texture)");
+            }
+        }
+    }
+    if let Some((what, r)) = &e.last_update {
+        ui.label(format!("last update ({what}): {}", update_cost(r)));
+    }
+    req.save_scene = ui.button("save scene (T)").clicked();
+    if let Some(p) = e.playback {
+        ui.separator();
+        ui.horizontal(|ui| {
+            req.toggle_play = ui.button(if p.playing { "pause (Space)" } else { "play (Space)" }).clicked();
+            if ui.small_button("/2").clicked() {
+                req.speed = Some(0.5);
+            }
+            ui.label(format!("speed x{}", p.speed));
+            if ui.small_button("x2").clicked() {
+                req.speed = Some(2.0);
+            }
+            ui.label(format!("t = {:.3} / {:.3} s", p.time, p.duration));
+        });
+        let mut t = p.time;
+        let slider = egui::Slider::new(&mut t, 0.0..=p.duration.max(1e-6)).text("time (s)");
+        if ui.add(slider).changed() {
+            req.seek = Some(t);
+        }
+    }
 }
 
 fn si(x: f64) -> String {
@@ -276,6 +468,10 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
                 req.frame = ui.button("frame scene (F)").clicked();
                 req.reset = ui.button("reset camera (R)").clicked();
                 req.screenshot = ui.button("screenshot (P)").clicked();
+            });
+            ui.separator();
+            egui::CollapsingHeader::new("edit").default_open(true).show(ui, |ui| {
+                edit_section(ui, &v.edit, &mut req);
             });
             if !v.status.is_empty() {
                 ui.label(v.status);

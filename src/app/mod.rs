@@ -5,6 +5,7 @@
 
 pub mod blit;
 pub mod camera;
+pub mod edit;
 pub mod hud;
 pub mod viewer;
 
@@ -30,6 +31,14 @@ pub const KEYS: &[(&str, &str)] = &[
     ("[ / ]", "resolution scale down / up (1, 1/2, 1/4)"),
     ("H", "HUD on / off"),
     ("P", "screenshot PNG (--screenshot FILE, else irt-YYYYmmdd-HHMMSS.png, UTC)"),
+    ("left click", "select the object or light under the cursor (the HUD edits it)"),
+    ("Shift+left drag", "move the selected light in the view plane (also: middle drag)"),
+    ("PgUp / PgDn", "move the selected light farther / nearer"),
+    ("L", "select the next light"),
+    ("K", "selected object's material: next kind (diffuse, metal, dielectric, polished)"),
+    ("T", "write the scene as TOML (--save FILE, else irt-scene-YYYYmmdd-HHMMSS.toml, UTC)"),
+    ("Space", "play / pause (animated scenes)"),
+    (", / .", "playback speed /2 / x2"),
     ("Esc, Q", "quit (Q quits unless the right button is held)"),
 ];
 
@@ -49,6 +58,13 @@ and resolution live.
 On lavapipe (Vulkan on the CPU, the default device) expect a few frames per second at full size; \
 `[` lowers the resolution, and \"lower resolution while moving\" in the HUD halves it during motion.
 
+Live edits: a click selects the object or light under the cursor (L and the HUD's list select \
+lights too). The HUD edits a light's position, colour, intensity and radius (Shift+left or middle \
+drag moves it in the view plane, PgUp/PgDn in depth) or the material of the picked object (kind, \
+colour, eta, exponent; K switches the kind; every object using that material changes). T writes \
+the edited scene as TOML with the current camera (--save FILE). Animated scenes play: Space, `,` \
+and `.` for the speed, a time slider in the HUD; --time T and --paused set the start.
+
 Scripted use: `irt view --frames N --screenshot FILE` shows N pictures, writes the last one as a PNG \
 and exits 0. With one sample (--max-samples 1, or --mode conventional --frames 1) the PNG equals \
 `irt render` at the same size bit for bit.
@@ -62,7 +78,7 @@ Examples:
 fn keys_help() -> String {
     let mut s = String::from("Keys and mouse:\n");
     for (k, what) in KEYS {
-        s += &format!("  {k:<14}{what}\n");
+        s += &format!("  {k:<16}{what}\n");
     }
     s
 }
@@ -105,6 +121,16 @@ pub struct ViewArgs {
     /// in the current directory.
     #[arg(long, value_name = "FILE")]
     pub screenshot: Option<PathBuf>,
+    /// Where T (and the HUD's save button) writes the edited scene as TOML, atomically, with its
+    /// textures beside it; otherwise irt-scene-YYYYmmdd-HHMMSS.toml (UTC) in the current directory.
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<PathBuf>,
+    /// Animated scenes: the scene time to start at, in seconds (a still ignores it).
+    #[arg(long, value_name = "T", default_value_t = 0.0)]
+    pub time: f64,
+    /// Animated scenes: start paused (Space plays).
+    #[arg(long)]
+    pub paused: bool,
     /// Vulkan adapter: "lavapipe" (default), "gpu" (best hardware GPU), or part of a device
     /// name. Also read from $IRT_ADAPTER.
     #[arg(long, value_name = "NAME")]

@@ -14,15 +14,18 @@
 
 use super::blit::Blit;
 use super::camera::{camera_toml, scene_bounds, CameraController, FlyInput};
-use super::hud::{self, HudRequest, HudView, Stats, SCALES, SHADOW_CHOICES};
+use super::edit::{self, Picker, Playback, Selection, CLICK_SLOP};
+use super::hud::{self, EditView, HudRequest, HudView, Stats, SCALES, SHADOW_CHOICES};
 use super::ViewArgs;
 use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use crate::render::metrics::AgeTracker;
+use crate::render::session::UpdateReport;
 use crate::render::{Mode, Session, Settings};
 use crate::scene::{Camera, Scene, MAX_TRACE_DEPTH};
 use anyhow::{anyhow, Context as _, Result};
+use glam::DVec3;
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime};
 use winit::application::ApplicationHandler;
@@ -144,6 +147,12 @@ struct Input {
     cursor: Option<PhysicalPosition<f64>>,
     left: bool,
     right: bool,
+    /// Where the left button went down (outside the HUD), and how far the cursor went from
+    /// there since (a release within `CLICK_SLOP` is a click: it picks).
+    press: Option<PhysicalPosition<f64>>,
+    travel: f64,
+    /// A light being moved in the view plane (Shift+left or middle drag).
+    light_drag: Option<LightDrag>,
     /// Drag accumulated since the last redraw, (dx, dy) in pixels.
     orbit: (f64, f64),
     look: (f64, f64),
@@ -179,8 +188,19 @@ impl Input {
     }
 
     fn active(&self) -> bool {
-        self.left || self.right || !self.fly().is_zero()
+        self.left || self.right || self.light_drag.is_some() || !self.fly().is_zero()
     }
+}
+
+/// A light drag: the light, its position when the drag began (as written, and as posed), and
+/// the cursor's offset since, in window pixels. The position follows from the start and the
+/// whole offset, so a drag back to where it began puts the light back exactly.
+#[derive(Clone, Copy)]
+struct LightDrag {
+    light: usize,
+    start: DVec3,
+    posed: DVec3,
+    offset: (f64, f64),
 }
 
 struct Egui {
@@ -235,6 +255,13 @@ struct Viewer {
     status: String,
     status_until: Option<Instant>,
     gpu_error: Arc<Mutex<Option<String>>>,
+    picker: Picker,
+    selection: Option<Selection>,
+    /// The last update of the device's scene (an edit, a new time) and what it cost.
+    last_update: Option<(&'static str, UpdateReport)>,
+    /// An animated scene's clock (`None` for a still), and when it last advanced.
+    playback: Option<Playback>,
+    last_play: Instant,
 }
 
 /// Frame-buffer size for a window of `window` pixels at divisor `div`.
@@ -248,6 +275,37 @@ fn same_view(a: &Camera, b: &Camera) -> bool {
 
 /// `irt-YYYYmmdd-HHMMSS.png` for now (UTC).
 pub fn screenshot_name(t: SystemTime) -> String {
+    format!("irt-{}.png", utc_stamp(t))
+}
+
+/// `irt-scene-YYYYmmdd-HHMMSS.toml` for now (UTC): where T writes the scene without --save.
+pub fn scene_file_name(t: SystemTime) -> String {
+    format!("irt-scene-{}.toml", utc_stamp(t))
+}
+
+/// Writes `scene` as the native TOML (`io::toml_write`, what `irt convert` writes) to `path`,
+/// atomically, its textures beside it first (the TOML never names a file not yet there).
+pub fn write_scene(scene: &Scene, path: &Path) -> Result<(), String> {
+    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let files = crate::io::toml_write::to_files(scene, &stem)?;
+    if files.toml.len() as u64 > crate::io::MAX_SCENE_FILE_BYTES {
+        return Err(format!(
+            "the TOML would be {} bytes, above the {}-byte limit irt loads: not written",
+            files.toml.len(),
+            crate::io::MAX_SCENE_FILE_BYTES
+        ));
+    }
+    let dir = path.parent().unwrap_or(Path::new(""));
+    for (name, png) in &files.textures {
+        let p = dir.join(name);
+        crate::image::write_atomic(&p, png).map_err(|e| format!("writing {}: {e}", p.display()))?;
+    }
+    crate::image::write_atomic(path, files.toml.as_bytes())
+        .map_err(|e| format!("writing {}: {e}", path.display()))
+}
+
+/// `YYYYmmdd-HHMMSS` (UTC).
+fn utc_stamp(t: SystemTime) -> String {
     let secs = t.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
     let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
     // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
@@ -260,7 +318,7 @@ pub fn screenshot_name(t: SystemTime) -> String {
     let day = doy - (153 * mp + 2) / 5 + 1;
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + (month <= 2) as i64;
-    format!("irt-{year:04}{month:02}{day:02}-{:02}{:02}{:02}.png", rem / 3600, rem / 60 % 60, rem % 60)
+    format!("{year:04}{month:02}{day:02}-{:02}{:02}{:02}", rem / 3600, rem / 60 % 60, rem % 60)
 }
 
 impl Viewer {
@@ -319,7 +377,12 @@ impl Viewer {
             Mode::Conventional { .. } => args.frameless(),
             Mode::Frameless { .. } => args.conventional(),
         };
-        let session = Session::new(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
+        let mut session = Session::new(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
+        let playback = scene.is_animated().then(|| Playback::new(scene.duration(), args.time, args.paused));
+        let mut last_update = None;
+        if let Some(p) = playback {
+            last_update = Some(("time", session.set_time(&ctx, p.time).map_err(|e| anyhow!(e))?));
+        }
         let controller = CameraController::new(&scene.camera, scene_bounds(&scene));
 
         let egui_ctx = egui::Context::default();
@@ -379,6 +442,11 @@ impl Viewer {
             status: String::new(),
             status_until: None,
             gpu_error,
+            picker: Picker::default(),
+            selection: None,
+            last_update,
+            playback,
+            last_play: now,
             session,
             ctx,
         };
@@ -429,7 +497,14 @@ impl Viewer {
             WindowEvent::CursorMoved { position, .. } => {
                 if let Some(old) = self.input.cursor {
                     let (dx, dy) = (position.x - old.x, position.y - old.y);
-                    if self.input.left {
+                    if let Some(p) = self.input.press {
+                        self.input.travel = self.input.travel.max((position.x - p.x).hypot(position.y - p.y));
+                    }
+                    if let Some(d) = &mut self.input.light_drag {
+                        d.offset.0 += dx;
+                        d.offset.1 += dy;
+                        self.window.request_redraw();
+                    } else if self.input.left {
                         self.input.orbit.0 += dx;
                         self.input.orbit.1 += dy;
                     } else if self.input.right {
@@ -449,11 +524,7 @@ impl Viewer {
                 if down && self.over_hud() {
                     return Ok(());
                 }
-                match button {
-                    MouseButton::Left => self.input.left = down,
-                    MouseButton::Right => self.input.right = down,
-                    _ => {}
-                }
+                self.mouse_button(button, down);
                 self.window.request_redraw();
             }
             WindowEvent::MouseWheel { delta, .. } => {
@@ -476,12 +547,16 @@ impl Viewer {
                     event.repeat
                 );
                 let down = event.state == ElementState::Pressed;
+                // Keys typed into a HUD field (a number being entered) are the HUD's.
+                let typing = self.hud_visible && self.egui.ctx.egui_wants_keyboard_input();
                 if let PhysicalKey::Code(code) = event.physical_key {
-                    self.movement_key(code, down);
+                    if !(down && typing) {
+                        self.movement_key(code, down);
+                    }
                 }
                 // Synthetic presses (keys already held when the window gains the focus) only
                 // update what is held.
-                if down && !event.repeat && !is_synthetic {
+                if down && !event.repeat && !is_synthetic && !typing {
                     self.key(event_loop, &event.logical_key, event.physical_key)?;
                 }
                 self.window.request_redraw();
@@ -499,6 +574,206 @@ impl Viewer {
             _ => {}
         }
         Ok(())
+    }
+
+    fn mouse_button(&mut self, button: MouseButton, down: bool) {
+        let light = match self.selection {
+            Some(Selection::Light(i)) if i < self.session.scene().lights.len() => Some(i),
+            _ => None,
+        };
+        let drag_button = match button {
+            MouseButton::Left => self.input.mods.shift_key(),
+            MouseButton::Middle => true,
+            _ => false,
+        };
+        if let (true, true, Some(i), None) = (down, drag_button, light, self.input.light_drag) {
+            self.input.light_drag = Some(LightDrag {
+                light: i,
+                start: self.session.base_scene().lights[i].position,
+                posed: self.session.scene().lights[i].position,
+                offset: (0.0, 0.0),
+            });
+            return;
+        }
+        if !down && matches!(button, MouseButton::Left | MouseButton::Middle) {
+            if let Some(d) = self.input.light_drag.take() {
+                let p = self.session.base_scene().lights.get(d.light).map(|l| l.position);
+                if let Some(p) = p {
+                    self.report_edit(format!("light {} at ({}, {}, {})", d.light, p.x, p.y, p.z));
+                }
+                if button == MouseButton::Middle || !self.input.left {
+                    return;
+                }
+            }
+        }
+        match button {
+            MouseButton::Left => {
+                if down {
+                    self.input.press = self.input.cursor;
+                    self.input.travel = 0.0;
+                } else if self.input.left {
+                    let click = self.input.press.take().filter(|_| self.input.travel <= CLICK_SLOP);
+                    if let Some(at) = click {
+                        self.pick(at);
+                    }
+                }
+                self.input.left = down;
+            }
+            MouseButton::Right => self.input.right = down,
+            _ => {}
+        }
+    }
+
+    /// Selects what shows at window position `at` (a light near it, else the object hit).
+    fn pick(&mut self, at: PhysicalPosition<f64>) {
+        let t = Instant::now();
+        let sel = self.picker.pick(self.session.scene(), [at.x, at.y], self.window_size());
+        let took = t.elapsed();
+        self.select(sel);
+        log::info!("pick at ({}, {}): {:.2} ms", at.x, at.y, took.as_secs_f64() * 1e3);
+    }
+
+    fn select(&mut self, sel: Option<Selection>) {
+        self.selection = sel;
+        let text = sel.map_or("nothing".into(), |s| s.describe(self.session.base_scene()));
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "selected: {text}");
+        let _ = out.flush();
+        self.say(format!("selected {text}"));
+    }
+
+    /// Prints `edit: <what>` with the last update's cost on stdout (and the HUD's message line).
+    fn report_edit(&mut self, what: String) {
+        let cost = self.last_update.map_or(String::new(), |(_, r)| format!(" [{}]", hud::update_cost(&r)));
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "edit: {what}{cost}");
+        let _ = out.flush();
+        self.say(what);
+    }
+
+    /// Applies `f` to a copy of the scene as given and hands it to the session (from the next
+    /// step; refinement restarts). A scene the session refuses leaves everything as it was and
+    /// says why in the HUD.
+    fn edit(&mut self, what: &'static str, f: impl FnOnce(&mut Scene)) -> bool {
+        let mut s = self.session.base_scene().clone();
+        f(&mut s);
+        if s == *self.session.base_scene() {
+            return false;
+        }
+        let ok = match self.session.set_scene(&self.ctx, &s) {
+            Ok(r) => {
+                self.last_update = Some((what, r));
+                true
+            }
+            Err(e) => {
+                self.say(format!("edit refused: {e}"));
+                false
+            }
+        };
+        self.waves_in_flight = 0;
+        self.dirty = true;
+        self.window.request_redraw();
+        ok
+    }
+
+    fn selected_light(&mut self, key: &str) -> Option<usize> {
+        match self.selection {
+            Some(Selection::Light(i)) if i < self.session.scene().lights.len() => Some(i),
+            _ => {
+                self.say(format!("{key}: select a light first (click near it, L, or the HUD's list)"));
+                None
+            }
+        }
+    }
+
+    /// PgUp / PgDn: the selected light a tenth of its distance farther / nearer.
+    fn light_depth(&mut self, steps: f64) {
+        let Some(i) = self.selected_light("PgUp/PgDn") else { return };
+        let off = edit::depth_offset(self.session.camera(), self.session.scene().lights[i].position, steps);
+        if self.edit("light moved", |s| s.lights[i].position += off) {
+            let p = self.session.base_scene().lights[i].position;
+            self.report_edit(format!("light {i} at ({}, {}, {})", p.x, p.y, p.z));
+        }
+    }
+
+    /// K: the selected object's material becomes the next kind.
+    fn next_material_kind(&mut self) {
+        let Some(Selection::Object(p)) = self.selection else {
+            self.say("K: select an object first (click it)");
+            return;
+        };
+        let Some(m) = edit::object_material(self.session.base_scene(), p) else { return };
+        let kind = edit::next_kind(&self.session.base_scene().materials[m as usize].kind);
+        let name = edit::kind_name(&kind);
+        if self.edit("material", |s| s.materials[m as usize].kind = kind) {
+            self.report_edit(format!("material {m} is now {name}"));
+        }
+    }
+
+    /// L: selects the light after the selected one (the first if none is).
+    fn next_light(&mut self) {
+        let n = self.session.scene().lights.len();
+        if n == 0 {
+            self.say("the scene has no lights");
+            return;
+        }
+        let i = match self.selection {
+            Some(Selection::Light(i)) => (i + 1) % n,
+            _ => 0,
+        };
+        self.select(Some(Selection::Light(i)));
+    }
+
+    /// T: writes the scene as given, edits included, with the current camera (at the window's
+    /// size) and the shadow mode and depth in effect.
+    fn save_scene(&mut self) {
+        let path =
+            self.args.save.clone().unwrap_or_else(|| PathBuf::from(scene_file_name(SystemTime::now())));
+        let [w, h] = self.window_size();
+        let mut scene = self.session.base_scene().clone();
+        scene.camera = self.controller.camera(w.max(1), h.max(1));
+        scene.trace = self.session.scene().trace.clone();
+        match write_scene(&scene, &path) {
+            Ok(()) => {
+                println!("scene: {}", path.display());
+                let _ = std::io::stdout().flush();
+                self.say(format!("wrote {}", path.display()));
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                self.say(format!("could not save: {e}"));
+            }
+        }
+    }
+
+    fn toggle_play(&mut self) {
+        match &mut self.playback {
+            Some(p) => {
+                p.playing = !p.playing;
+                self.last_play = Instant::now();
+                let what = if p.playing { "playing" } else { "paused" };
+                self.say(what);
+            }
+            None => self.say("a still scene: nothing to play"),
+        }
+    }
+
+    fn play_speed(&mut self, factor: f64) {
+        if let Some(p) = &mut self.playback {
+            p.scale_speed(factor);
+            let msg = format!("playback speed x{}", p.speed);
+            self.say(msg);
+        }
+    }
+
+    /// Shows scene time `t` from the next step.
+    fn set_time(&mut self, t: f64) {
+        match self.session.set_time(&self.ctx, t) {
+            Ok(r) => self.last_update = Some(("time", r)),
+            Err(e) => self.say(format!("time {t}: {e}")),
+        }
+        self.waves_in_flight = 0;
+        self.dirty = true;
     }
 
     fn over_hud(&self) -> bool {
@@ -566,6 +841,14 @@ impl Viewer {
                 self.dirty = true;
             }
             ("p", _) => self.screenshot()?,
+            ("t", _) => self.save_scene(),
+            ("k", _) => self.next_material_kind(),
+            ("l", _) => self.next_light(),
+            (",", _) => self.play_speed(0.5),
+            (".", _) => self.play_speed(2.0),
+            (_, Some(KeyCode::Space)) => self.toggle_play(),
+            (_, Some(KeyCode::PageUp)) => self.light_depth(1.0),
+            (_, Some(KeyCode::PageDown)) => self.light_depth(-1.0),
             ("m", _) => self.toggle_mode(),
             ("+", _) | ("=", _) | (_, Some(KeyCode::NumpadAdd)) => self.change_depth(1),
             ("-", _) | (_, Some(KeyCode::NumpadSubtract)) => self.change_depth(-1),
@@ -680,6 +963,39 @@ impl Viewer {
             // Errors here are reported by the next redraw's GPU check.
             let _ = self.screenshot();
         }
+        if let Some(sel) = r.select {
+            self.select(sel);
+        }
+        if let Some((i, light)) = r.light {
+            self.edit("light", |s| {
+                if let Some(l) = s.lights.get_mut(i) {
+                    *l = light;
+                }
+            });
+        }
+        if let Some((m, kind)) = r.material {
+            self.edit("material", |s| {
+                if let Some(x) = s.materials.get_mut(m as usize) {
+                    x.kind = kind;
+                }
+            });
+        }
+        if r.save_scene {
+            self.save_scene();
+        }
+        if r.toggle_play {
+            self.toggle_play();
+        }
+        if let Some(f) = r.speed {
+            self.play_speed(f);
+        }
+        if let Some(t) = r.seek {
+            if let Some(p) = &mut self.playback {
+                p.seek(t);
+                let t = p.time;
+                self.set_time(t);
+            }
+        }
         self.dirty = true;
     }
 
@@ -724,15 +1040,40 @@ impl Viewer {
             self.dirty = true;
         }
 
-        // Camera, with the conventional frame's hold.
+        // Edits: the light being dragged follows the cursor (conventional: between frames, so
+        // that a drag cannot restart every frame and freeze the picture).
         let [ww, wh] = self.window_size();
+        let conventional = matches!(self.session.settings().mode, Mode::Conventional { .. });
+        let between_frames = !conventional || self.waves_in_flight == 0;
+        if let Some(d) = self.input.light_drag.filter(|_| between_frames) {
+            let off = edit::view_offset(self.session.camera(), [ww, wh], d.posed, d.offset.0, d.offset.1);
+            let to = d.start + off;
+            if self.session.base_scene().lights.get(d.light).is_some_and(|l| l.position != to) {
+                self.edit("light moved", |s| s.lights[d.light].position = to);
+            }
+        }
+
+        // Playback: scene time follows wall time x speed (conventional: between frames).
+        if let Some(p) = &mut self.playback {
+            if !p.playing {
+                self.last_play = now;
+            } else if between_frames {
+                let wall = (now - self.last_play).as_secs_f64();
+                self.last_play = now;
+                if p.advance(wall) {
+                    let t = p.time;
+                    self.set_time(t);
+                }
+            }
+        }
+
+        // Camera, with the conventional frame's hold.
         let camera = self.controller.camera(ww, wh);
         let changed = !same_view(&camera, self.session.camera());
         if changed || self.input.active() {
             self.last_move = Some(now);
         }
         let moving = self.last_move.is_some_and(|t| now - t < MOVING_GRACE);
-        let conventional = matches!(self.session.settings().mode, Mode::Conventional { .. });
         let in_flight = conventional && self.waves_in_flight > 0;
         let hold = changed && in_flight && (self.waves_in_flight > 1 || self.cancelled);
 
@@ -814,7 +1155,14 @@ impl Viewer {
             }
         }
         // Keep going while there is work or motion; a held camera change needs the frame done.
-        let busy = !idle || self.input.active() || changed || scripted || self.pending.is_some() || moving;
+        let playing = self.playback.is_some_and(|p| p.playing && p.duration > 0.0);
+        let busy = !idle
+            || self.input.active()
+            || changed
+            || scripted
+            || self.pending.is_some()
+            || moving
+            || playing;
         Ok(busy || (self.dirty && self.retry_at.is_none()))
     }
 
@@ -892,6 +1240,12 @@ impl Viewer {
                 status: &self.status,
                 now,
                 stats: &self.stats,
+                edit: EditView {
+                    base: self.session.base_scene(),
+                    selection: self.selection,
+                    last_update: self.last_update,
+                    playback: self.playback,
+                },
             };
             let mut request = HudRequest::default();
             let mut rect = None;
@@ -1057,5 +1411,6 @@ mod tests {
         let t = SystemTime::UNIX_EPOCH + Duration::from_secs(951_782_400 + 3 * 3600 + 4 * 60 + 5);
         assert_eq!(screenshot_name(t), "irt-20000229-030405.png");
         assert_eq!(screenshot_name(SystemTime::UNIX_EPOCH), "irt-19700101-000000.png");
+        assert_eq!(scene_file_name(t), "irt-scene-20000229-030405.toml");
     }
 }

@@ -20,7 +20,8 @@ pub use shading::{
 };
 pub use texture::{cone_uv, material_at, sample_texture, sphere_uv, wrap_index};
 pub use trace::{
-    render, render_with_stats, trace_pixel, RadianceImage, Reference, Stats, SurfaceHit, RAY_OFFSET_REL,
+    render, render_with_stats, trace_pixel, Geometry, Primitive, RadianceImage, Reference, Stats, SurfaceHit,
+    RAY_OFFSET_REL,
 };
 
 #[cfg(test)]

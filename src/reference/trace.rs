@@ -72,6 +72,23 @@ pub struct SurfaceHit {
     pub uv: DVec2,
 }
 
+/// Which primitive a ray hit, by its index in the scene's lists: sphere `i`, cone `i`, or
+/// triangle `triangle` of mesh `mesh` (the viewer's picking names it so).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Primitive {
+    Sphere(usize),
+    Triangle { mesh: usize, triangle: usize },
+    Cone(usize),
+}
+
+/// The parts of a [`Reference`] that depend on the primitives alone (resolved triangles and the
+/// BVH): kept by a caller that asks rays of scenes whose geometry does not change, so that a
+/// big mesh's BVH is built once ([`Reference::into_geometry`], [`Reference::with_geometry`]).
+pub struct Geometry {
+    triangles: Vec<Triangle>,
+    bvh: Option<Bvh>,
+}
+
 #[derive(Clone, Copy)]
 enum Prim {
     Sphere(usize),
@@ -110,16 +127,34 @@ impl<'a> Reference<'a> {
         r
     }
 
+    /// The triangles and BVH, to prepare another scene with the same primitives again
+    /// ([`Reference::with_geometry`]) without building them anew.
+    pub fn into_geometry(self) -> Geometry {
+        Geometry { triangles: self.triangles, bvh: self.bvh }
+    }
+
+    /// Prepares `scene` with `geometry` from [`Reference::into_geometry`] of a scene with the
+    /// same spheres, meshes and cones (the caller checks; other primitives give wrong hits).
+    pub fn with_geometry(scene: &'a Scene, geometry: Geometry) -> Self {
+        let mut r = Self::prepare(scene, geometry.triangles);
+        r.bvh = geometry.bvh;
+        r
+    }
+
     /// Prepares `scene` to be traced by testing every primitive for every ray.
     ///
     /// `scene` must be a still: an animated scene is traced at a time, `scene.at(t)` (the
     /// free functions below take time 0, as the GPU renderers do).
     pub fn brute_force(scene: &'a Scene) -> Self {
+        Self::prepare(scene, scene.triangles().collect())
+    }
+
+    fn prepare(scene: &'a Scene, triangles: Vec<Triangle>) -> Self {
         assert!(!scene.is_animated(), "trace an animated scene at a time: Reference::new(&scene.at(t))");
         Reference {
             scene,
             basis: scene.camera.basis(),
-            triangles: scene.triangles().collect(),
+            triangles,
             // docs/shading.md wants a unit `up`; the scene only guarantees non-zero.
             up: scene.ambient.up.normalize(),
             bvh: None,
@@ -157,6 +192,11 @@ impl<'a> Reference<'a> {
     /// exact tie the lowest primitive index (spheres, then triangles, then cones, each in scene
     /// order).
     pub fn intersect(&self, o: DVec3, d: DVec3, t_max: f64) -> Option<SurfaceHit> {
+        self.intersect_primitive(o, d, t_max).map(|(_, hit)| hit)
+    }
+
+    /// [`Reference::intersect`], and which primitive the hit is on.
+    pub fn intersect_primitive(&self, o: DVec3, d: DVec3, t_max: f64) -> Option<(Primitive, SurfaceHit)> {
         let best: Cell<Option<(f64, PrimId, Prim)>> = Cell::new(None);
         let consider = |id: PrimId| {
             if let Some((t, prim)) = self.hit_prim(id, o, d) {
@@ -179,7 +219,24 @@ impl<'a> Reference<'a> {
             }
             None => (0..self.prim_count()).for_each(consider),
         }
-        best.get().map(|(t, _, prim)| self.resolve(o, d, t, prim))
+        best.get().map(|(t, _, prim)| (self.primitive(prim), self.resolve(o, d, t, prim)))
+    }
+
+    fn primitive(&self, prim: Prim) -> Primitive {
+        match prim {
+            Prim::Sphere(i) => Primitive::Sphere(i),
+            Prim::Cone(i) => Primitive::Cone(i),
+            Prim::Triangle { index, .. } => {
+                let mut first = 0;
+                for (mesh, m) in self.scene.meshes.iter().enumerate() {
+                    if index < first + m.indices.len() {
+                        return Primitive::Triangle { mesh, triangle: index - first };
+                    }
+                    first += m.indices.len();
+                }
+                unreachable!("triangle {index} is in no mesh")
+            }
+        }
     }
 
     /// Whether anything blocks the segment `o + t d`, `0 < t < t_max` (`d` unit).
