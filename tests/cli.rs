@@ -316,3 +316,76 @@ fn bench_races_the_native_peer_on_the_same_rays() {
         &["--workload primary-shadow"],
     );
 }
+
+/// `--frames` writes one numbered file per frame, each what `--time` renders for its instant
+/// (the sequence's session updates in place; the single render builds afresh: the same picture
+/// within the golden tolerance, since their grid frames differ).
+#[test]
+fn frames_write_a_numbered_sequence_of_the_animation() {
+    let dir = tmp("frames");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/animated.toml");
+    let pattern = dir.join("f_%03d.png");
+    let out = irt(&[
+        "render",
+        scene,
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--frames",
+        "2..5",
+        "--fps",
+        "2",
+        "--out",
+        pattern.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("wrote 3 frames") && stderr.contains("per frame: update"), "{stderr}");
+    let mut names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into()).collect();
+    names.sort();
+    assert_eq!(names, ["f_002.png", "f_003.png", "f_004.png"]);
+    // Frame 3 at 2 frames/s is t = 1.5 s.
+    let single = dir.join("single.png");
+    let out = irt(&[
+        "render",
+        scene,
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--time",
+        "1.5",
+        "--out",
+        single.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    // Pixels off by more than 2 of 255 in a channel (the golden tolerance's measure).
+    let off = |a: &std::path::Path, b: &std::path::Path| {
+        let (a, b) = (image::open(a).unwrap().to_rgb8(), image::open(b).unwrap().to_rgb8());
+        let bad =
+            a.pixels().zip(b.pixels()).filter(|(p, q)| (0..3).any(|c| p.0[c].abs_diff(q.0[c]) > 2)).count();
+        bad as f64 / (a.width() * a.height()) as f64
+    };
+    assert!(off(&dir.join("f_003.png"), &single) <= 0.0025, "frame 3 is the scene at 1.5 s");
+    assert!(off(&dir.join("f_002.png"), &single) > 0.01, "frames 2 and 3 differ");
+}
+
+#[test]
+fn animation_arguments_are_checked() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/animated.toml");
+    let png = tmp("anim.png");
+    let png = png.to_str().unwrap();
+    fails_with(&irt(&["render", scene, "--frames", "0..4", "--out", png]), &["no frame number", "%04d"]);
+    fails_with(&irt(&["render", scene, "--frames", "4..4", "--out", "f_%d.png"]), &["no frames"]);
+    fails_with(&irt(&["render", scene, "--frames", "a..4", "--out", "f_%d.png"]), &["not a frame number"]);
+    fails_with(&irt(&["render", scene, "--frames", "0..4", "--fps", "0", "--out", "f_%d.png"]), &["--fps"]);
+    fails_with(&irt(&["render", scene, "--time", "nan", "--out", png]), &["--time", "finite"]);
+    fails_with(
+        &irt(&["render", scene, "--time", "1", "--frames", "0..2", "--out", "f_%d.png"]),
+        &["cannot be used with"],
+    );
+}
