@@ -1000,11 +1000,12 @@ impl<'a> Builder<'a> {
         if meshes.is_empty() {
             return Err("the scene has no triangles to render".into());
         }
-        // An animated scene is framed (and its directional lights placed) on its pose at time 0.
+        // An animated scene is framed (and its directional lights placed) on the poses it
+        // takes over its animation, so that nothing moves out of view.
         let posed = (!motions.is_empty()).then(|| {
             let still =
                 Scene { meshes: meshes.clone(), motions: motions.clone(), ..stage::stage(Model::default()) };
-            still.at(0.0).meshes
+            stage::swept_meshes(&still)
         });
         let framing = posed.as_deref().unwrap_or(&meshes);
         let (center, radius) = stage::bounds(framing);

@@ -195,6 +195,21 @@ pub fn framing_direction(meshes: &[Mesh]) -> DVec3 {
 
 /// The light of a scene without lights: white, above and to the right of the eye, so that what
 /// the camera sees is lit and shadows fall behind and below it.
+/// Poses at which [`swept_meshes`] frames an animation (its two ends included).
+pub const FRAMING_POSES: u32 = 9;
+/// Above this many vertices over all poses, an animation is framed on its pose at time 0 alone.
+const MAX_FRAMING_VERTICES: usize = 1 << 22;
+
+/// The meshes of `scene` at [`FRAMING_POSES`] times over its animation, one after another: what
+/// a stage frames so that nothing moves out of view (only for bounds and directions; a still
+/// scene gives its meshes once).
+pub fn swept_meshes(scene: &Scene) -> Vec<Mesh> {
+    let vertices: usize = scene.meshes.iter().map(|m| m.positions.len()).sum();
+    let poses = if vertices * FRAMING_POSES as usize > MAX_FRAMING_VERTICES { 1 } else { FRAMING_POSES };
+    let end = scene.duration();
+    (0..poses).flat_map(|k| scene.at(end * k as f64 / (FRAMING_POSES - 1) as f64).meshes).collect()
+}
+
 pub fn headlight(camera: &Camera, center: DVec3, radius: f64) -> Light {
     let b = camera.basis();
     let reach = (center - camera.eye).length().max(radius);
