@@ -225,6 +225,27 @@ impl Viewer {
 }
 
 /// The window of the viewer, once it is mapped.
+/// `irt view` of the default scene at 256×192, conventional, one sample, no HUD, screenshots to
+/// `shot` (and `extra`), its window focused for xdotool's input; with the window's id.
+fn focused_viewer(x: &Xvfb, shot: &Path, extra: &[&str]) -> (Viewer, String) {
+    let mut args = vec![
+        "--size",
+        "256x192",
+        "--mode",
+        "conventional",
+        "--max-samples",
+        "1",
+        "--no-hud",
+        "--screenshot",
+        shot.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let v = Viewer::start(x, &args);
+    let wid = window_id(x);
+    x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+    (v, wid)
+}
+
 fn window_id(x: &Xvfb) -> String {
     let out = x.xdotool(&["search", "--sync", "--onlyvisible", "--name", "^irt"], Duration::from_secs(60));
     out.lines().next().expect("a window id").trim().to_string()
@@ -333,22 +354,7 @@ fn mouse_drag_and_keys_change_the_picture_and_escape_exits() {
     let x = Xvfb::start();
     let dir = TempDir::new("b");
     let shot = dir.join("b.png");
-    let mut v = Viewer::start(
-        &x,
-        &[
-            "--size",
-            "256x192",
-            "--mode",
-            "conventional",
-            "--max-samples",
-            "1",
-            "--no-hud",
-            "--screenshot",
-            shot.to_str().unwrap(),
-        ],
-    );
-    let wid = window_id(&x);
-    x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+    let (mut v, wid) = focused_viewer(&x, &shot, &[]);
     let before = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
     x.xdotool(&["mousemove", "--window", &wid, "128", "96"], Duration::from_secs(10));
     x.xdotool(&["mousedown", "1"], Duration::from_secs(10));
@@ -471,24 +477,7 @@ fn click_selects_a_sphere_and_the_edited_scene_saves_as_toml() {
         })
         .expect("the default scene shows a sphere");
     let m = scene.spheres[sphere].material as usize;
-    let mut v = Viewer::start(
-        &x,
-        &[
-            "--size",
-            "256x192",
-            "--mode",
-            "conventional",
-            "--max-samples",
-            "1",
-            "--no-hud",
-            "--screenshot",
-            shot.to_str().unwrap(),
-            "--save",
-            saved.to_str().unwrap(),
-        ],
-    );
-    let wid = window_id(&x);
-    x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+    let (mut v, wid) = focused_viewer(&x, &shot, &["--save", saved.to_str().unwrap()]);
     let before = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
     x.xdotool(&["mousemove", "--window", &wid, &px.to_string(), &py.to_string()], Duration::from_secs(10));
     x.xdotool(&["click", "1"], Duration::from_secs(10));
@@ -520,22 +509,7 @@ fn a_dragged_light_changes_the_picture_and_dragging_back_restores_it() {
     let x = Xvfb::start();
     let dir = TempDir::new("f");
     let shot = dir.join("f.png");
-    let mut v = Viewer::start(
-        &x,
-        &[
-            "--size",
-            "256x192",
-            "--mode",
-            "conventional",
-            "--max-samples",
-            "1",
-            "--no-hud",
-            "--screenshot",
-            shot.to_str().unwrap(),
-        ],
-    );
-    let wid = window_id(&x);
-    x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+    let (mut v, wid) = focused_viewer(&x, &shot, &[]);
     x.xdotool(&["key", "l"], Duration::from_secs(10));
     assert_eq!(v.line_starting("selected:", Duration::from_secs(20)), "selected: light 0");
     let before = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
