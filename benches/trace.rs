@@ -4,7 +4,7 @@
 //! - `primitives`: fractal terrains of 10k, 100k and 1M triangles at 512²;
 //! - `resolution`: the default scene at 128² to 1024²;
 //! - `native_peer`: irt and `irt::peer::native` on the primary-shadow workload, same scene and
-//!   grid, same run; the summary prints irt / native.
+//!   grid, same run, each side alone and both interleaved; the summary prints irt / native.
 //!
 //! Throughput is rays per second, the ray count from one counted frame. Thread scaling and cold
 //! vs warm start need fresh processes: `benches/process.rs`.
@@ -90,11 +90,37 @@ fn native_peer(c: &mut Criterion, ctx: &GpuContext) {
         bench_frames(&mut g, &format!("{name}/native_{threads}t"), peer_rays, t.primitives, || {
             std::hint::black_box(peer.render(threads));
         });
+        // Both in one iteration, one frame each, so that a change in the machine's load falls on
+        // both alike (as `irt bench --peer native`); criterion's number here is the pair's time,
+        // the summary's ratio is that of the two sides' medians.
+        let (irt_id, peer_id) = (
+            format!("native_peer/{name}/irt (interleaved)"),
+            format!("native_peer/{name}/native_{threads}t (interleaved)"),
+        );
+        g.throughput(criterion::Throughput::Elements(t.rays + peer_rays));
+        g.bench_function(format!("{name}/interleaved"), |b| {
+            b.iter_custom(|iters| {
+                let mut total = std::time::Duration::ZERO;
+                for _ in 0..iters {
+                    let start = std::time::Instant::now();
+                    t.renderer.render(ctx, &mut |_, _| {});
+                    let mid = std::time::Instant::now();
+                    std::hint::black_box(peer.render(threads));
+                    let (a, b) = (mid - start, mid.elapsed());
+                    common::record(&irt_id, t.rays, t.primitives, vec![a]);
+                    common::record(&peer_id, peer_rays, t.primitives, vec![b]);
+                    total += a + b;
+                }
+                total
+            })
+        });
+        let label = format!("irt / native ({name}, primary-shadow, 512², {threads} threads)");
         common::ratio(
-            &format!("irt / native ({name}, primary-shadow, 512², {threads} threads)"),
+            &format!("{label}, separate benches"),
             &format!("native_peer/{name}/irt"),
             &format!("native_peer/{name}/native_{threads}t"),
         );
+        common::ratio(&format!("{label}, interleaved"), &irt_id, &peer_id);
     }
     g.finish();
 }
