@@ -269,14 +269,16 @@ fn peer_rounds(
     } else {
         println!("scene            {name} ({w}x{h}, {} primitives), primary-shadow", scene.primitive_count());
         println!("device           {} ({})", ctx.info.name, ctx.info.driver_info);
-        println!("irt              {} ms  {irt_m:.2} Mrays/s  ({irt_rays} rays/frame)", ms(&irt_t));
+        let counts: Vec<String> =
+            peers.iter().zip(&peer_rays).map(|(p, r)| format!("{} {r}", p.name())).collect();
+        println!("rays/frame        irt {irt_rays}, {}", counts.join(", "));
+        println!("irt               {} ms  {irt_m:.2} Mrays/s", ms(&irt_t));
         for (i, p) in peers.iter().enumerate() {
             println!(
-                "{:<17} {} ms  {:.2} Mrays/s  ({} rays/frame, {threads} threads)",
+                "{:<17} {} ms  {:.2} Mrays/s ({threads} threads)",
                 format!("{} peer", p.name()),
                 ms(&peer_t[i]),
                 peer_m[i],
-                peer_rays[i]
             );
         }
         for (i, p) in peers.iter().enumerate() {
