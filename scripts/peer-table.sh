@@ -9,7 +9,7 @@
 set -euo pipefail
 # Build with the Embree peer when libembree3 is installed (scripts/setup.sh --with-embree) and
 # IRT_FEATURES does not say otherwise.
-if [ -z "${IRT_FEATURES+set}" ] && ldconfig -p 2>/dev/null | grep -q 'libembree3\.so '; then
+if [ -z "${IRT_FEATURES+set}" ] && ldconfig -p 2>/dev/null | grep 'libembree3\.so ' >/dev/null; then
     IRT_FEATURES=embree
 fi
 source "$(dirname "$0")/bench-lib.sh"

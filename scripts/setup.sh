@@ -115,7 +115,7 @@ fi
 
 # The Embree 3 peer of `irt bench --peer embree` (cargo feature `embree`), only when asked for.
 if [ "$WITH_EMBREE" = 1 ]; then
-    if ldconfig -p 2>/dev/null | grep -q 'libembree3\.so '; then
+    if ldconfig -p 2>/dev/null | grep 'libembree3\.so ' >/dev/null; then
         echo "setup: Embree 3 already installed (build the peer with cargo build --release --features embree)"
     else
         echo "setup: installing libembree-dev for the Embree peer"
