@@ -1,5 +1,5 @@
 //! The Embree peer (irt::peer::embree, feature `embree`) traces the same work as the native peer:
-//! same image, same rays. Both shade through the same code from the same f32 primitives relative
+//! same image, same rays, with single rays and with 8-wide packets (each checked alike). Both shade through the same code from the same f32 primitives relative
 //! to the eye; they differ only in how hits are found (Embree's BVH and its own f32 triangle and
 //! sphere tests against irt's grid with the watertight triangle and anchor-form sphere tests;
 //! cones go through a user geometry calling the same cone test). Where both find the same
@@ -27,21 +27,24 @@ fn check(name: &str, file: Option<&str>, size: u32) {
     scene.camera.width = size;
     scene.camera.height = size;
     let native = NativePeer::new(&scene, &Grid::build(&scene)).expect("native peer").render(2);
-    let embree = EmbreePeer::new(&scene).expect("embree peer").render(2);
-    let diff = irt::metrics::compare(&embree.image, &native.image);
-    let differing = embree.image.pixels.iter().zip(&native.image.pixels).filter(|(a, b)| a != b).count();
-    println!(
-        "{name}: {diff}; pixels not bit-equal {differing}; shadow rays native {} embree {}",
-        native.rays.shadow, embree.rays.shadow
-    );
-    assert!(
-        diff.bad_pixels <= 1e-3 && diff.p999 <= 0.5 / 255.0 && diff.non_finite == 0,
-        "{name}: the Embree peer differs from the native peer: {diff}"
-    );
-    assert_eq!(embree.rays.eye, native.rays.eye, "{name}: eye rays");
-    let (n, e) = (native.rays.shadow as f64, embree.rays.shadow as f64);
-    assert!(n > 0.0, "{name}: the workload casts shadow rays");
-    assert!((n - e).abs() <= 1e-3 * n, "{name}: shadow rays native {n} vs embree {e}");
+    for packets in [false, true] {
+        let embree = EmbreePeer::with_options(&scene, true, packets).expect("embree peer").render(2);
+        let what = if packets { "8-wide packets" } else { "single rays" };
+        let diff = irt::metrics::compare(&embree.image, &native.image);
+        let differing = embree.image.pixels.iter().zip(&native.image.pixels).filter(|(a, b)| a != b).count();
+        println!(
+            "{name} ({what}): {diff}; pixels not bit-equal {differing}; shadow rays native {} embree {}",
+            native.rays.shadow, embree.rays.shadow
+        );
+        assert!(
+            diff.bad_pixels <= 1e-3 && diff.p999 <= 0.5 / 255.0 && diff.non_finite == 0,
+            "{name}: the Embree peer ({what}) differs from the native peer: {diff}"
+        );
+        assert_eq!(embree.rays.eye, native.rays.eye, "{name}: eye rays");
+        let (n, e) = (native.rays.shadow as f64, embree.rays.shadow as f64);
+        assert!(n > 0.0, "{name}: the workload casts shadow rays");
+        assert!((n - e).abs() <= 1e-3 * n, "{name}: shadow rays native {n} vs embree ({what}) {e}");
+    }
 }
 
 #[test]
@@ -131,6 +134,11 @@ fn ffi_layouts_match_embree_headers() {
     assert_eq!(offset_of!(sys::RTCIntersectFunctionNArguments, rayhit), 32);
     assert_eq!(offset_of!(sys::RTCIntersectFunctionNArguments, n), 40);
     assert_eq!(offset_of!(sys::RTCIntersectFunctionNArguments, geom_id), 44);
+    assert_eq!((size_of::<sys::RTCRay8>(), align_of::<sys::RTCRay8>()), (384, 32));
+    assert_eq!((size_of::<sys::RTCHit8>(), align_of::<sys::RTCHit8>()), (256, 32));
+    assert_eq!((size_of::<sys::RTCRayHit8>(), align_of::<sys::RTCRayHit8>()), (640, 32));
+    assert_eq!(offset_of!(sys::RTCRayHit8, hit), 384);
+    assert_eq!(offset_of!(sys::RTCHit8, geom_id), 192);
     assert_eq!(size_of::<sys::RTCOccludedFunctionNArguments>(), 48);
     assert_eq!(offset_of!(sys::RTCOccludedFunctionNArguments, ray), 32);
 }

@@ -61,6 +61,9 @@ pub enum Peer {
     Embree,
     /// As `embree` with Embree's default scene flags: its fastest traversal, not watertight.
     EmbreeFast,
+    /// As `embree` with 8-wide ray packets (`rtcIntersect8` / `rtcOccluded8`), eight pixels of a
+    /// row at a time.
+    EmbreePacket,
 }
 
 const NO_EMBREE: &str =
@@ -76,12 +79,16 @@ fn make_peer(
             Box::new(irt::peer::native::NativePeer::new(scene, grid).map_err(anyhow::Error::msg)?)
         }
         #[cfg(feature = "embree")]
-        Peer::Embree | Peer::EmbreeFast => Box::new(
-            irt::peer::embree::EmbreePeer::with_robust(scene, peer == Peer::Embree)
-                .map_err(anyhow::Error::msg)?,
+        Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => Box::new(
+            irt::peer::embree::EmbreePeer::with_options(
+                scene,
+                peer != Peer::EmbreeFast,
+                peer == Peer::EmbreePacket,
+            )
+            .map_err(anyhow::Error::msg)?,
         ),
         #[cfg(not(feature = "embree"))]
-        Peer::Embree | Peer::EmbreeFast => bail!(NO_EMBREE),
+        Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => bail!(NO_EMBREE),
     })
 }
 
@@ -120,7 +127,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if !args.peer.is_empty() && args.workload != Workload::PrimaryShadow {
         bail!("--peer traces only the peer-comparable work: add --workload primary-shadow");
     }
-    if args.peer.iter().any(|p| matches!(p, Peer::Embree | Peer::EmbreeFast)) && !cfg!(feature = "embree") {
+    if args.peer.iter().any(|&p| p != Peer::Native) && !cfg!(feature = "embree") {
         bail!(NO_EMBREE);
     }
     let mut scene_args = args.scene;

@@ -8,7 +8,9 @@
 //! hits differs: Embree's BVH (scene build quality HIGH, `RTC_SCENE_FLAG_ROBUST`, see
 //! [`EmbreePeer::new`]) and its
 //! single-ray kernels `rtcIntersect1` / `rtcOccluded1`, which is what the acceptance
-//! (irt ≥ 0.5× Embree) compares with. No ray packets here.
+//! (irt ≥ 0.5× Embree) compares with. With `packets` ([`EmbreePeer::with_options`], `irt bench
+//! --peer embree-packet`) it traces eight pixels of a row at a time with `rtcIntersect8` /
+//! `rtcOccluded8` instead, reported separately.
 //!
 //! Geometry: triangles as one `RTC_GEOMETRY_TYPE_TRIANGLE` (float3 vertices, uint3 indices, three
 //! vertices per triangle so Embree's primitive ids are irt's triangle indices), spheres as one
@@ -20,7 +22,7 @@
 //! from the primitive and Embree's t and barycentrics, so an image differs from the native
 //! peer's only where the two find different hits (silhouettes and shadow edges, f32 rounding).
 
-use super::native::{cone_normal, cone_t, Caster, ConeF, Hit, Shade};
+use super::native::{cone_normal, cone_t, Caster, Caster8, ConeF, Hit, Shade};
 use super::{Peer, PeerFrame};
 use crate::accel::{PrimKind, PrimRef};
 use crate::scene::Scene;
@@ -52,6 +54,7 @@ pub mod sys {
     pub const RTC_SCENE_FLAG_ROBUST: u32 = 1 << 2;
     pub const RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT: u32 = 0;
     pub const RTC_DEVICE_PROPERTY_VERSION: u32 = 0;
+    pub const RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED: u32 = 33;
     pub const RTC_ERROR_NONE: u32 = 0;
 
     #[repr(C, align(16))]
@@ -90,6 +93,49 @@ pub mod sys {
         pub ray: RTCRay,
         pub hit: RTCHit,
     }
+
+    /// `RTCRay8`: each field of [`RTCRay`] for eight rays (structure of arrays).
+    #[repr(C, align(32))]
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct RTCRay8 {
+        pub org_x: [f32; 8],
+        pub org_y: [f32; 8],
+        pub org_z: [f32; 8],
+        pub tnear: [f32; 8],
+        pub dir_x: [f32; 8],
+        pub dir_y: [f32; 8],
+        pub dir_z: [f32; 8],
+        pub time: [f32; 8],
+        pub tfar: [f32; 8],
+        pub mask: [u32; 8],
+        pub id: [u32; 8],
+        pub flags: [u32; 8],
+    }
+
+    #[repr(C, align(32))]
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct RTCHit8 {
+        pub ng_x: [f32; 8],
+        pub ng_y: [f32; 8],
+        pub ng_z: [f32; 8],
+        pub u: [f32; 8],
+        pub v: [f32; 8],
+        pub prim_id: [u32; 8],
+        pub geom_id: [u32; 8],
+        pub inst_id: [[u32; 8]; 1],
+    }
+
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct RTCRayHit8 {
+        pub ray: RTCRay8,
+        pub hit: RTCHit8,
+    }
+
+    /// The valid mask of a packet call (-1: a ray, 0: none), aligned as the packet.
+    #[repr(C, align(32))]
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct Valid8(pub [i32; 8]);
 
     pub type RTCFilterFunctionN = Option<unsafe extern "C" fn(args: *const c_void)>;
 
@@ -197,6 +243,18 @@ pub mod sys {
         pub fn rtcSetGeometryOccludedFunction(geometry: RTCGeometry, f: RTCOccludedFunctionN);
         pub fn rtcIntersect1(scene: RTCScene, context: *mut RTCIntersectContext, rayhit: *mut RTCRayHit);
         pub fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
+        pub fn rtcIntersect8(
+            valid: *const i32,
+            scene: RTCScene,
+            context: *mut RTCIntersectContext,
+            rayhit: *mut RTCRayHit8,
+        );
+        pub fn rtcOccluded8(
+            valid: *const i32,
+            scene: RTCScene,
+            context: *mut RTCIntersectContext,
+            ray: *mut RTCRay8,
+        );
     }
 }
 
@@ -231,6 +289,7 @@ pub fn version() -> Result<String, String> {
 /// traces a frame.
 pub struct EmbreePeer {
     robust: bool,
+    packets: bool,
     shade: Shade,
     device: RTCDevice,
     scene: RTCScene,
@@ -259,12 +318,14 @@ impl EmbreePeer {
     /// edges shared by two triangles (measured: SPD rings_s2 at 160², four eye rays along a
     /// quad's diagonal see the background through the floor), while irt's test is watertight.
     pub fn new(scene: &Scene) -> Result<Self, String> {
-        Self::with_robust(scene, true)
+        Self::with_options(scene, true, false)
     }
 
     /// As [`EmbreePeer::new`], `robust = false` leaving Embree's default scene flags (its fastest
-    /// traversal, not watertight); `irt bench --peer embree-fast` times it.
-    pub fn with_robust(scene: &Scene, robust: bool) -> Result<Self, String> {
+    /// traversal, not watertight; `irt bench --peer embree-fast`), `packets` tracing eight
+    /// pixels of a row at a time with `rtcIntersect8` / `rtcOccluded8` (and each light's shadow
+    /// rays of those pixels as one packet; `--peer embree-packet`) instead of single rays.
+    pub fn with_options(scene: &Scene, robust: bool, packets: bool) -> Result<Self, String> {
         let shade = Shade::new(scene, "embree")?;
         // SAFETY: every pointer Embree returns is checked before use; buffers are written within
         // the item counts they were created with; the cone user data points into
@@ -281,7 +342,10 @@ impl EmbreePeer {
                 return Err(format!("rtcNewScene: {e}"));
             }
             // From here on, Drop releases both on an error.
-            let mut peer = EmbreePeer { robust, shade, device, scene: rtc_scene, kinds: Vec::new() };
+            let mut peer = EmbreePeer { robust, packets, shade, device, scene: rtc_scene, kinds: Vec::new() };
+            if packets && rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) == 0 {
+                return Err("this Embree was built without 8-wide ray packets".into());
+            }
             rtcSetSceneFlags(rtc_scene, if robust { RTC_SCENE_FLAG_ROBUST } else { RTC_SCENE_FLAG_NONE });
             rtcSetSceneBuildQuality(rtc_scene, RTC_BUILD_QUALITY_HIGH);
             peer.add_triangles()?;
@@ -381,7 +445,25 @@ impl EmbreePeer {
 
     /// One frame on `threads` threads, as the native peer's.
     pub fn render(&self, threads: usize) -> PeerFrame {
-        self.shade.render(self, threads)
+        if self.packets {
+            self.shade.render8(self, threads)
+        } else {
+            self.shade.render(self, threads)
+        }
+    }
+
+    fn ray8(o: &[Vec3; 8], d: &[Vec3; 8], t_max: &[f32; 8]) -> RTCRay8 {
+        RTCRay8 {
+            org_x: o.map(|v| v.x),
+            org_y: o.map(|v| v.y),
+            org_z: o.map(|v| v.z),
+            dir_x: d.map(|v| v.x),
+            dir_y: d.map(|v| v.y),
+            dir_z: d.map(|v| v.z),
+            tfar: *t_max,
+            mask: [u32::MAX; 8],
+            ..Default::default()
+        }
     }
 
     fn ray(o: Vec3, d: Vec3, t_max: f32) -> RTCRay {
@@ -437,12 +519,60 @@ impl Caster for EmbreePeer {
     }
 }
 
+impl Caster8 for EmbreePeer {
+    type Ctx = RTCIntersectContext;
+
+    fn context(&self) -> RTCIntersectContext {
+        RTCIntersectContext::new()
+    }
+
+    fn nearest8(
+        &self,
+        ctx: &mut RTCIntersectContext,
+        o: &[Vec3; 8],
+        d: &[Vec3; 8],
+        t_max: &[f32; 8],
+        active: &[bool; 8],
+    ) -> [Option<Hit>; 8] {
+        let valid = Valid8(active.map(|a| if a { -1 } else { 0 }));
+        let mut rh = RTCRayHit8 { ray: Self::ray8(o, d, t_max), hit: RTCHit8::default() };
+        rh.hit.geom_id = [RTC_INVALID_GEOMETRY_ID; 8];
+        rh.hit.inst_id = [[RTC_INVALID_GEOMETRY_ID; 8]];
+        // SAFETY: a committed scene, an initialised context, 32-byte aligned mask and packet.
+        unsafe { rtcIntersect8(valid.0.as_ptr(), self.scene, ctx, &mut rh) };
+        let h = &rh.hit;
+        std::array::from_fn(|i| {
+            (active[i] && h.geom_id[i] != RTC_INVALID_GEOMETRY_ID).then(|| Hit {
+                t: rh.ray.tfar[i],
+                prim: PrimRef::new(self.kinds[h.geom_id[i] as usize], h.prim_id[i]),
+                b: (h.u[i], h.v[i]),
+            })
+        })
+    }
+
+    fn occluded8(
+        &self,
+        ctx: &mut RTCIntersectContext,
+        o: &[Vec3; 8],
+        d: &[Vec3; 8],
+        t_max: &[f32; 8],
+        active: &[bool; 8],
+    ) -> [bool; 8] {
+        let valid = Valid8(active.map(|a| if a { -1 } else { 0 }));
+        let mut ray = Self::ray8(o, d, t_max);
+        // SAFETY: as in `nearest8`.
+        unsafe { rtcOccluded8(valid.0.as_ptr(), self.scene, ctx, &mut ray) };
+        std::array::from_fn(|i| active[i] && ray.tfar[i] == f32::NEG_INFINITY)
+    }
+}
+
 impl Peer for EmbreePeer {
     fn name(&self) -> &'static str {
-        if self.robust {
-            "embree"
-        } else {
-            "embree-fast"
+        match (self.robust, self.packets) {
+            (true, false) => "embree",
+            (false, false) => "embree-fast",
+            (true, true) => "embree-packet",
+            (false, true) => "embree-fast-packet",
         }
     }
     fn render(&self, threads: usize) -> PeerFrame {

@@ -102,6 +102,44 @@ pub(super) trait Caster: Sync {
     fn occluded(&self, ctx: &mut Self::Ctx, o: Vec3, d: Vec3, t_max: f32) -> bool;
 }
 
+/// [`Caster`] for packets of eight rays; `active[i]` false: lane `i` is no ray.
+#[cfg(feature = "embree")]
+pub(super) trait Caster8: Sync {
+    type Ctx;
+    fn context(&self) -> Self::Ctx;
+    fn nearest8(
+        &self,
+        ctx: &mut Self::Ctx,
+        o: &[Vec3; 8],
+        d: &[Vec3; 8],
+        t_max: &[f32; 8],
+        active: &[bool; 8],
+    ) -> [Option<Hit>; 8];
+    fn occluded8(
+        &self,
+        ctx: &mut Self::Ctx,
+        o: &[Vec3; 8],
+        d: &[Vec3; 8],
+        t_max: &[f32; 8],
+        active: &[bool; 8],
+    ) -> [bool; 8];
+}
+
+/// The shadow ray from `sf` to `light` (origin, unit direction, t_max, n·l), or None where the
+/// surface faces away from the light (SPD's rule, as irt: no ray then).
+fn shadow_ray(sf: &Surface, light: &LightF) -> Option<(Vec3, Vec3, f32, f32)> {
+    let l = (light.position - sf.p).normalize();
+    let nl = sf.n.dot(l);
+    if nl <= 0.0 {
+        return None;
+    }
+    let so = offset_origin(sf, l);
+    let ends = so.abs().max(light.position.abs());
+    let gap = RAY_OFFSET_REL * ends.max_element();
+    let dist = (light.position - so).length();
+    Some((so, l, dist - gap, nl))
+}
+
 /// The scene and grid prepared once; [`NativePeer::render`] traces a frame.
 pub struct NativePeer {
     shade: Shade,
@@ -211,31 +249,106 @@ impl Shade {
     }
 
     fn pixel<C: Caster>(&self, caster: &C, ctx: &mut C::Ctx, x: u32, y: u32, shadow_rays: &mut u64) -> Vec3 {
-        let [u, v, w] = self.cam;
-        let sx = 2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0;
-        let sy = 1.0 - 2.0 * (y as f32 + 0.5) / self.height as f32;
-        let d = (w + sx * u + sy * v).normalize();
+        let d = self.eye_dir(x, y);
         let o = Vec3::ZERO;
         let Some(hit) = caster.nearest(ctx, o, d, BIG) else { return self.background };
         let sf = self.surface(hit, o, d);
         let mut c = Vec3::ZERO;
         for light in &self.lights {
-            let l = (light.position - sf.p).normalize();
-            let nl = sf.n.dot(l);
-            // SPD's rule, as irt: no shadow ray where the surface faces away from the light.
-            if nl <= 0.0 {
-                continue;
-            }
-            let so = offset_origin(&sf, l);
+            let Some((so, l, t_max, nl)) = shadow_ray(&sf, light) else { continue };
             *shadow_rays += 1;
-            let ends = so.abs().max(light.position.abs());
-            let gap = RAY_OFFSET_REL * ends.max_element();
-            let dist = (light.position - so).length();
-            if !caster.occluded(ctx, so, l, dist - gap) {
+            if !caster.occluded(ctx, so, l, t_max) {
                 c += sf.color * light.color * nl;
             }
         }
         c
+    }
+
+    /// The eye ray through the centre of pixel (x, y), from the eye (the origin).
+    fn eye_dir(&self, x: u32, y: u32) -> Vec3 {
+        let [u, v, w] = self.cam;
+        let sx = 2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * (y as f32 + 0.5) / self.height as f32;
+        (w + sx * u + sy * v).normalize()
+    }
+
+    /// As [`Shade::render`], eight pixels of a row at a time through a packet caster: the same
+    /// rays and per-ray arithmetic, so the image and counts are those of the single-ray path
+    /// wherever the packet kernel finds the same hits.
+    #[cfg(feature = "embree")]
+    pub(super) fn render8<C: Caster8>(&self, caster: &C, threads: usize) -> PeerFrame {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut pixels = vec![[0.0f32; 3]; w * h];
+        let rows = Mutex::new(pixels.chunks_mut(w).enumerate());
+        let shadow = std::thread::scope(|s| {
+            let workers: Vec<_> = (0..threads.max(1))
+                .map(|_| {
+                    s.spawn(|| {
+                        let mut shadow = 0u64;
+                        let mut ctx = caster.context();
+                        loop {
+                            let next = rows.lock().expect("no worker panics holding the lock").next();
+                            let Some((y, row)) = next else { break };
+                            for (i, px) in row.chunks_mut(8).enumerate() {
+                                self.pixels8(caster, &mut ctx, 8 * i as u32, y as u32, px, &mut shadow);
+                            }
+                        }
+                        shadow
+                    })
+                })
+                .collect();
+            workers.into_iter().map(|t| t.join().expect("peer worker")).sum()
+        });
+        let image = Image { width: self.width, height: self.height, pixels };
+        PeerFrame { image, rays: PeerRays { eye: (w * h) as u64, shadow } }
+    }
+
+    /// Pixels x0.. x0 + px.len() (at most 8) of row y.
+    #[cfg(feature = "embree")]
+    fn pixels8<C: Caster8>(
+        &self,
+        caster: &C,
+        ctx: &mut C::Ctx,
+        x0: u32,
+        y: u32,
+        px: &mut [[f32; 3]],
+        shadow_rays: &mut u64,
+    ) {
+        let n = px.len();
+        let mut d = [Vec3::Z; 8];
+        let mut active = [false; 8];
+        for i in 0..n {
+            d[i] = self.eye_dir(x0 + i as u32, y);
+            active[i] = true;
+        }
+        let hits = caster.nearest8(ctx, &[Vec3::ZERO; 8], &d, &[BIG; 8], &active);
+        let sf: [Option<Surface>; 8] =
+            std::array::from_fn(|i| hits[i].map(|h| self.surface(h, Vec3::ZERO, d[i])));
+        let mut c = [Vec3::ZERO; 8];
+        for light in &self.lights {
+            let (mut so, mut l, mut t_max, mut nl) =
+                ([Vec3::ZERO; 8], [Vec3::Z; 8], [0.0f32; 8], [0.0f32; 8]);
+            let mut active = [false; 8];
+            for i in 0..n {
+                if let Some((o, dir, t, k)) = sf[i].as_ref().and_then(|sf| shadow_ray(sf, light)) {
+                    (so[i], l[i], t_max[i], nl[i], active[i]) = (o, dir, t, k, true);
+                    *shadow_rays += 1;
+                }
+            }
+            if !active.contains(&true) {
+                continue;
+            }
+            let blocked = caster.occluded8(ctx, &so, &l, &t_max, &active);
+            for i in 0..n {
+                if active[i] && !blocked[i] {
+                    let sf = sf[i].as_ref().expect("an active shadow ray has a surface");
+                    c[i] += sf.color * light.color * nl[i];
+                }
+            }
+        }
+        for i in 0..n {
+            px[i] = if hits[i].is_some() { c[i] } else { self.background }.to_array();
+        }
     }
 
     /// The hit point, its normals (facing the ray) and colour. The point is recomputed from the
@@ -434,7 +547,7 @@ pub(super) struct Hit {
     pub(super) b: (f32, f32),
 }
 
-struct Surface {
+pub(super) struct Surface {
     p: Vec3,
     ng: Vec3,
     n: Vec3,
