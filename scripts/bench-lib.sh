@@ -1,7 +1,8 @@
 # Shared by the table scripts (sourced, not run): build irt, and print the header line every
 # table starts with (machine, date, the command that regenerates it) and the table's head.
 cd "$(dirname "$0")/.."
-cargo build --release --quiet
+# IRT_FEATURES: cargo features for the build (scripts/peer-table.sh sets embree when it can).
+cargo build --release --quiet ${IRT_FEATURES:+--features "$IRT_FEATURES"}
 irt=target/release/irt
 
 # machine_header SCRIPT: the machine, the date and the command, on one line

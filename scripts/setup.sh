@@ -4,9 +4,18 @@
 # docs/performance.md), so on Debian 12 the driver comes from the machine's own mirror's
 # bookworm-backports suite. Safe to run again: it changes nothing when a new enough driver is there.
 # Also installs what the window tests use (Xvfb, xdotool) when missing.
+# Optional: `--with-embree` (or IRT_WITH_EMBREE=1) also installs libembree-dev, for the Embree
+# benchmark peer (`cargo build --release --features embree`); not installed by default.
 set -euo pipefail
 
 MIN_MESA_MAJOR=24
+WITH_EMBREE="${IRT_WITH_EMBREE:-0}"
+for arg in "$@"; do
+    case "$arg" in
+        --with-embree) WITH_EMBREE=1 ;;
+        *) echo "setup: unknown option $arg (known: --with-embree)" >&2; exit 2 ;;
+    esac
+done
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then
@@ -102,4 +111,14 @@ fi
 if ! command -v Xvfb >/dev/null || ! command -v xdotool >/dev/null; then
     echo "setup: installing Xvfb and xdotool for the window tests"
     install_pkgs xvfb xdotool xauth
+fi
+
+# The Embree 3 peer of `irt bench --peer embree` (cargo feature `embree`), only when asked for.
+if [ "$WITH_EMBREE" = 1 ]; then
+    if ldconfig -p 2>/dev/null | grep 'libembree3\.so ' >/dev/null; then
+        echo "setup: Embree 3 already installed (build the peer with cargo build --release --features embree)"
+    else
+        echo "setup: installing libembree-dev for the Embree peer"
+        install_pkgs libembree-dev
+    fi
 fi

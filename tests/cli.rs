@@ -389,3 +389,27 @@ fn animation_arguments_are_checked() {
         &["cannot be used with"],
     );
 }
+
+/// `--peer native,embree`: with the `embree` feature, all three trace the same rays; without it,
+/// a refusal that says how to build it.
+#[test]
+fn bench_embree_peer_or_how_to_build_it() {
+    let args = ["bench", "--workload", "primary-shadow", "--peer", "native,embree"];
+    let size = ["--width", "64", "--height", "64", "--frames", "1"];
+    let out = irt(&[&args[..], &size[..]].concat());
+    if cfg!(feature = "embree") {
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let line = stdout.lines().find(|l| l.starts_with("rays/frame")).expect("a rays line");
+        let counts: Vec<&str> = line
+            .split_whitespace()
+            .map(|w| w.trim_end_matches(','))
+            .filter(|w| w.chars().all(|c| c.is_ascii_digit()))
+            .collect();
+        assert_eq!(counts.len(), 3, "{line}");
+        assert!(counts.iter().all(|c| *c == counts[0]), "irt and the peers traced different rays: {line}");
+        assert!(stdout.contains("irt / embree"), "{stdout}");
+    } else {
+        fails_with(&out, &["built without Embree", "--features embree", "libembree-dev"]);
+    }
+}

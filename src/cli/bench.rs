@@ -34,11 +34,12 @@ pub struct BenchArgs {
     /// reflection or refraction: `irt::peer::primary_shadow`).
     #[arg(long, value_enum, default_value_t = Workload::Full)]
     pub workload: Workload,
-    /// Also time a peer on the same scene and rays, in the same process, rounds interleaved,
-    /// and report the ratio irt / peer (needs `--workload primary-shadow`).
-    #[arg(long, value_enum)]
-    pub peer: Option<Peer>,
-    /// Threads for the native peer (default: all cores).
+    /// Also time peers on the same scene and rays, in the same process, rounds interleaved,
+    /// and report the ratio irt / peer for each (needs `--workload primary-shadow`). Several
+    /// peers: `--peer native,embree`.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub peer: Vec<Peer>,
+    /// Threads for each peer (default: all cores).
     #[arg(long)]
     pub peer_threads: Option<usize>,
     #[command(flatten)]
@@ -55,6 +56,40 @@ pub enum Workload {
 pub enum Peer {
     /// irt's own algorithm (grid, 3D DDA, f32) as multithreaded Rust on the CPU.
     Native,
+    /// Embree 3's BVH and single-ray kernels, multithreaded, robust (watertight) scene (a build
+    /// with `--features embree`).
+    Embree,
+    /// As `embree` with Embree's default scene flags: its fastest traversal, not watertight.
+    EmbreeFast,
+    /// As `embree` with 8-wide ray packets (`rtcIntersect8` / `rtcOccluded8`), eight pixels of a
+    /// row at a time.
+    EmbreePacket,
+}
+
+const NO_EMBREE: &str =
+    "this irt was built without Embree: cargo build --release --features embree (needs libembree-dev)";
+
+fn make_peer(
+    peer: Peer,
+    scene: &irt::scene::Scene,
+    grid: &irt::accel::Grid,
+) -> Result<Box<dyn irt::peer::Peer>> {
+    Ok(match peer {
+        Peer::Native => {
+            Box::new(irt::peer::native::NativePeer::new(scene, grid).map_err(anyhow::Error::msg)?)
+        }
+        #[cfg(feature = "embree")]
+        Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => Box::new(
+            irt::peer::embree::EmbreePeer::with_options(
+                scene,
+                peer != Peer::EmbreeFast,
+                peer == Peer::EmbreePacket,
+            )
+            .map_err(anyhow::Error::msg)?,
+        ),
+        #[cfg(not(feature = "embree"))]
+        Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => bail!(NO_EMBREE),
+    })
 }
 
 fn median(mut v: Vec<Duration>) -> Duration {
@@ -89,8 +124,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
         Some(dir) if args.cold && !args.device.no_cache => CacheSetting::Dir(dir.0.join("irt")),
         _ => CacheSetting::from_flag_or_env(args.device.no_cache),
     };
-    if args.peer.is_some() && args.workload != Workload::PrimaryShadow {
+    if !args.peer.is_empty() && args.workload != Workload::PrimaryShadow {
         bail!("--peer traces only the peer-comparable work: add --workload primary-shadow");
+    }
+    if args.peer.iter().any(|&p| p != Peer::Native) && !cfg!(feature = "embree") {
+        bail!(NO_EMBREE);
     }
     let mut scene_args = args.scene;
     scene_args.width = scene_args.width.or(Some(512));
@@ -123,14 +161,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let counting = Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, f64, ..Default::default() })
         .map_err(anyhow::Error::msg)?;
     let rays = counting.render(&ctx, &mut |_, _| {}).rays;
-    if let Some(Peer::Native) = args.peer {
+    if !args.peer.is_empty() {
+        let peers =
+            args.peer.iter().map(|&p| make_peer(p, &scene, &renderer.grid)).collect::<Result<Vec<_>>>()?;
         let name = scene_args.name_or("default");
-        return peer_native(
+        return peer_rounds(
             &name,
             &scene,
             &renderer,
             &ctx,
             rays.total(),
+            &peers,
             args.frames,
             args.peer_threads,
             args.markdown,
@@ -182,59 +223,79 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// irt and the native peer on the same scene and rays, `frames` rounds interleaved (one irt
-/// frame, one peer frame) so that load from other processes falls on both alike; medians.
+/// irt and each peer on the same scene and rays, `frames` rounds interleaved (one irt frame, then
+/// one frame of each peer) so that load from other processes falls on all alike; medians.
+/// Markdown row: irt ms, each peer's ms, irt Mrays/s, each peer's Mrays/s, each ratio irt / peer.
 #[allow(clippy::too_many_arguments)]
-fn peer_native(
+fn peer_rounds(
     name: &str,
     scene: &irt::scene::Scene,
     renderer: &Renderer,
     ctx: &irt::gpu::GpuContext,
     irt_rays: u64,
+    peers: &[Box<dyn irt::peer::Peer>],
     frames: u32,
     threads: Option<usize>,
     markdown: bool,
 ) -> Result<()> {
-    use irt::peer::native::NativePeer;
     let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let peer = NativePeer::new(scene, &renderer.grid).map_err(anyhow::Error::msg)?;
-    let peer_rays = peer.render(threads).rays.total(); // also warms its caches, as irt's first frame did
-    let (mut irt_t, mut peer_t) = (Vec::new(), Vec::new());
+    // The first frame also warms the peers' caches, as irt's first frame did.
+    let peer_rays: Vec<u64> = peers.iter().map(|p| p.render(threads).rays.total()).collect();
+    let mut irt_t = Vec::new();
+    let mut peer_t = vec![Vec::new(); peers.len()];
     for _ in 0..frames.max(1) {
         let t = Instant::now();
         renderer.render(ctx, &mut |_, _| {});
         irt_t.push(t.elapsed());
-        let t = Instant::now();
-        std::hint::black_box(peer.render(threads));
-        peer_t.push(t.elapsed());
+        for (p, times) in peers.iter().zip(&mut peer_t) {
+            let t = Instant::now();
+            std::hint::black_box(p.render(threads));
+            times.push(t.elapsed());
+        }
     }
-    let (irt_t, peer_t) = (median(irt_t), median(peer_t));
-    let irt_m = irt_rays as f64 / irt_t.as_secs_f64() / 1e6;
-    let peer_m = peer_rays as f64 / peer_t.as_secs_f64() / 1e6;
+    let irt_t = median(irt_t);
+    let peer_t: Vec<Duration> = peer_t.into_iter().map(median).collect();
+    let mrays = |rays: u64, t: Duration| rays as f64 / t.as_secs_f64() / 1e6;
+    let irt_m = mrays(irt_rays, irt_t);
+    let peer_m: Vec<f64> = peer_rays.iter().zip(&peer_t).map(|(&r, &t)| mrays(r, t)).collect();
     let (w, h) = (scene.camera.width, scene.camera.height);
+    let ms = |t: &Duration| format!("{:.1}", t.as_secs_f64() * 1e3);
     if markdown {
+        let cells: Vec<String> = std::iter::once(ms(&irt_t))
+            .chain(peer_t.iter().map(ms))
+            .chain(std::iter::once(format!("{irt_m:.2}")))
+            .chain(peer_m.iter().map(|m| format!("{m:.2}")))
+            .chain(peer_m.iter().map(|m| format!("{:.2}", irt_m / m)))
+            .collect();
         println!(
-            "| {name} | {w}x{h} | {} | {:.1} | {:.1} | {irt_m:.2} | {peer_m:.2} | {:.2} | {} |",
+            "| {name} | {w}x{h} | {} | {} | {} |",
             scene.primitive_count(),
-            irt_t.as_secs_f64() * 1e3,
-            peer_t.as_secs_f64() * 1e3,
-            irt_m / peer_m,
+            cells.join(" | "),
             ctx.info.name
         );
     } else {
         println!("scene            {name} ({w}x{h}, {} primitives), primary-shadow", scene.primitive_count());
         println!("device           {} ({})", ctx.info.name, ctx.info.driver_info);
-        println!("rays/frame       irt {irt_rays}, native {peer_rays}");
-        println!("irt              {:.1} ms  {irt_m:.2} Mrays/s", irt_t.as_secs_f64() * 1e3);
-        println!(
-            "native peer      {:.1} ms  {peer_m:.2} Mrays/s ({threads} threads)",
-            peer_t.as_secs_f64() * 1e3
-        );
-        println!(
-            "irt / native     {:.2} (throughput; median of {} interleaved rounds)",
-            irt_m / peer_m,
-            frames.max(1)
-        );
+        let counts: Vec<String> =
+            peers.iter().zip(&peer_rays).map(|(p, r)| format!("{} {r}", p.name())).collect();
+        println!("rays/frame        irt {irt_rays}, {}", counts.join(", "));
+        println!("irt               {} ms  {irt_m:.2} Mrays/s", ms(&irt_t));
+        for (i, p) in peers.iter().enumerate() {
+            println!(
+                "{:<17} {} ms  {:.2} Mrays/s ({threads} threads)",
+                format!("{} peer", p.name()),
+                ms(&peer_t[i]),
+                peer_m[i],
+            );
+        }
+        for (i, p) in peers.iter().enumerate() {
+            println!(
+                "{:<17} {:.2} (throughput; median of {} interleaved rounds)",
+                format!("irt / {}", p.name()),
+                irt_m / peer_m[i],
+                frames.max(1)
+            );
+        }
     }
     Ok(())
 }

@@ -39,5 +39,15 @@ pub fn run(args: InfoArgs) -> Result<()> {
         l.max_compute_workgroups_per_dimension
     );
     println!("  pipeline cache: {}", ctx.cache_status);
+    // scripts/peer-table.sh reads this line to find out whether the Embree peer is built in.
+    #[cfg(feature = "embree")]
+    match irt::peer::embree::version() {
+        Ok(v) => println!("  bench peers: native, embree (Embree {v})"),
+        Err(e) => println!("  bench peers: native (embree built in but no device: {e})"),
+    }
+    #[cfg(not(feature = "embree"))]
+    println!(
+        "  bench peers: native (no embree: cargo build --release --features embree, needs libembree-dev)"
+    );
     Ok(())
 }

@@ -5,10 +5,32 @@
 //! scene so that irt's own pipeline traces one eye ray per pixel centre and one hard-shadow ray per
 //! light facing each hit, shaded by Lambert alone. A peer then only has to trace those same rays.
 
+#[cfg(feature = "embree")]
+pub mod embree;
 pub mod native;
+
+pub use native::{PeerFrame, PeerRays};
 
 use crate::scene::{Ambient, MaterialKind, Scene, ShadowMode};
 use glam::DVec3;
+
+/// A peer as `irt bench` times it: one frame of the workload on `threads` threads, with its
+/// image and ray counts. Every peer shades through the same code (`native::Shade`) and differs
+/// only in how it finds hits, so images and counts compare directly.
+pub trait Peer {
+    /// Short name for tables and messages ("native", "embree").
+    fn name(&self) -> &'static str;
+    fn render(&self, threads: usize) -> PeerFrame;
+}
+
+impl Peer for native::NativePeer {
+    fn name(&self) -> &'static str {
+        "native"
+    }
+    fn render(&self, threads: usize) -> PeerFrame {
+        native::NativePeer::render(self, threads)
+    }
+}
 
 /// `scene` as the peer-comparable workload:
 /// - `max_depth = 1` (eye ray = depth 1, SPD's rule): no reflection or refraction rays;

@@ -37,26 +37,26 @@ pub struct PeerFrame {
     pub rays: PeerRays,
 }
 
-struct SphereF {
-    center: Vec3,
-    radius: f32,
+pub(super) struct SphereF {
+    pub(super) center: Vec3,
+    pub(super) radius: f32,
     /// The point of the sphere nearest the eye: the intersection is measured from it.
     anchor: Vec3,
     color: Vec3,
 }
 
-struct TriangleF {
-    p: [Vec3; 3],
+pub(super) struct TriangleF {
+    pub(super) p: [Vec3; 3],
     n: Option<[Vec3; 3]>,
     color: Vec3,
 }
 
-struct ConeF {
-    base: Vec3,
-    r0: f32,
+pub(super) struct ConeF {
+    pub(super) base: Vec3,
+    pub(super) r0: f32,
     /// `apex - base`.
-    axis: Vec3,
-    r1: f32,
+    pub(super) axis: Vec3,
+    pub(super) r1: f32,
     color: Vec3,
 }
 
@@ -79,16 +79,70 @@ struct GridF {
     macro_bits: Vec<u32>,
 }
 
-/// The scene and grid prepared once; [`NativePeer::render`] traces a frame.
-pub struct NativePeer {
+/// What every peer shares: the camera, lights and primitives in f32 relative to the eye, and
+/// the shading of the workload. A peer brings only the ray casting ([`Caster`]), so two peers
+/// that find the same hits produce the same image and count the same rays.
+pub(super) struct Shade {
     width: u32,
     height: u32,
     cam: [Vec3; 3],
     background: Vec3,
     lights: Vec<LightF>,
-    spheres: Vec<SphereF>,
-    triangles: Vec<TriangleF>,
-    cones: Vec<ConeF>,
+    pub(super) spheres: Vec<SphereF>,
+    pub(super) triangles: Vec<TriangleF>,
+    pub(super) cones: Vec<ConeF>,
+}
+
+/// The ray casting a peer brings to [`Shade::render`]: nearest hit and any hit in (0, t_max).
+/// `Ctx` is per-thread state (Embree's intersection context; nothing for the native walk).
+pub(super) trait Caster: Sync {
+    type Ctx;
+    fn context(&self) -> Self::Ctx;
+    fn nearest(&self, ctx: &mut Self::Ctx, o: Vec3, d: Vec3, t_max: f32) -> Option<Hit>;
+    fn occluded(&self, ctx: &mut Self::Ctx, o: Vec3, d: Vec3, t_max: f32) -> bool;
+}
+
+/// [`Caster`] for packets of eight rays; `active[i]` false: lane `i` is no ray.
+#[cfg(feature = "embree")]
+pub(super) trait Caster8: Sync {
+    type Ctx;
+    fn context(&self) -> Self::Ctx;
+    fn nearest8(
+        &self,
+        ctx: &mut Self::Ctx,
+        o: &[Vec3; 8],
+        d: &[Vec3; 8],
+        t_max: &[f32; 8],
+        active: &[bool; 8],
+    ) -> [Option<Hit>; 8];
+    fn occluded8(
+        &self,
+        ctx: &mut Self::Ctx,
+        o: &[Vec3; 8],
+        d: &[Vec3; 8],
+        t_max: &[f32; 8],
+        active: &[bool; 8],
+    ) -> [bool; 8];
+}
+
+/// The shadow ray from `sf` to `light` (origin, unit direction, t_max, n·l), or None where the
+/// surface faces away from the light (SPD's rule, as irt: no ray then).
+fn shadow_ray(sf: &Surface, light: &LightF) -> Option<(Vec3, Vec3, f32, f32)> {
+    let l = (light.position - sf.p).normalize();
+    let nl = sf.n.dot(l);
+    if nl <= 0.0 {
+        return None;
+    }
+    let so = offset_origin(sf, l);
+    let ends = so.abs().max(light.position.abs());
+    let gap = RAY_OFFSET_REL * ends.max_element();
+    let dist = (light.position - so).length();
+    Some((so, l, dist - gap, nl))
+}
+
+/// The scene and grid prepared once; [`NativePeer::render`] traces a frame.
+pub struct NativePeer {
+    shade: Shade,
     grid: GridF,
 }
 
@@ -96,22 +150,22 @@ fn f(v: DVec3) -> Vec3 {
     v.as_vec3()
 }
 
-impl NativePeer {
-    /// `scene` must be the primary-shadow workload (see [`super::primary_shadow`]) and `grid` its
-    /// grid; anything the peer does not trace is an error, not a silent difference.
-    pub fn new(scene: &Scene, grid: &Grid) -> Result<Self, String> {
+impl Shade {
+    /// `scene` must be the primary-shadow workload (see [`super::primary_shadow`]); anything the
+    /// peers do not trace is an error, not a silent difference. `who` names the peer in errors.
+    pub(super) fn new(scene: &Scene, who: &str) -> Result<Self, String> {
         if scene.trace.max_depth != 1 || scene.trace.shadows != ShadowMode::Hard {
-            return Err(
-                "the native peer traces the primary-shadow workload only (depth 1, hard shadows)".into()
-            );
+            return Err(format!(
+                "the {who} peer traces the primary-shadow workload only (depth 1, hard shadows)"
+            ));
         }
         let eye = scene.camera.eye;
-        let color =
-            |m: u32| match scene.materials[m as usize].kind {
-                MaterialKind::Diffuse { color } => Ok(f(color)),
-                _ => Err("the native peer shades diffuse materials only (use the primary-shadow workload)"
-                    .to_string()),
-            };
+        let color = |m: u32| match scene.materials[m as usize].kind {
+            MaterialKind::Diffuse { color } => Ok(f(color)),
+            _ => {
+                Err(format!("the {who} peer shades diffuse materials only (use the primary-shadow workload)"))
+            }
+        };
         let spheres = scene
             .spheres
             .iter()
@@ -148,8 +202,7 @@ impl NativePeer {
             })
             .collect::<Result<_, String>>()?;
         let b = scene.camera.basis();
-        let res = grid.res;
-        Ok(NativePeer {
+        Ok(Shade {
             width: scene.camera.width,
             height: scene.camera.height,
             cam: [f(b.u), f(b.v), f(b.w)],
@@ -162,6 +215,209 @@ impl NativePeer {
             spheres,
             triangles,
             cones,
+        })
+    }
+
+    /// One frame on `threads` threads (rows handed out one at a time, so a slow region does not
+    /// leave the other threads idle).
+    pub(super) fn render<C: Caster>(&self, caster: &C, threads: usize) -> PeerFrame {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut pixels = vec![[0.0f32; 3]; w * h];
+        let rows = Mutex::new(pixels.chunks_mut(w).enumerate());
+        let shadow = std::thread::scope(|s| {
+            let workers: Vec<_> = (0..threads.max(1))
+                .map(|_| {
+                    s.spawn(|| {
+                        let mut shadow = 0u64;
+                        let mut ctx = caster.context();
+                        loop {
+                            let next = rows.lock().expect("no worker panics holding the lock").next();
+                            let Some((y, row)) = next else { break };
+                            for (x, px) in row.iter_mut().enumerate() {
+                                *px =
+                                    self.pixel(caster, &mut ctx, x as u32, y as u32, &mut shadow).to_array();
+                            }
+                        }
+                        shadow
+                    })
+                })
+                .collect();
+            workers.into_iter().map(|t| t.join().expect("peer worker")).sum()
+        });
+        let image = Image { width: self.width, height: self.height, pixels };
+        PeerFrame { image, rays: PeerRays { eye: (w * h) as u64, shadow } }
+    }
+
+    fn pixel<C: Caster>(&self, caster: &C, ctx: &mut C::Ctx, x: u32, y: u32, shadow_rays: &mut u64) -> Vec3 {
+        let d = self.eye_dir(x, y);
+        let o = Vec3::ZERO;
+        let Some(hit) = caster.nearest(ctx, o, d, BIG) else { return self.background };
+        let sf = self.surface(hit, o, d);
+        let mut c = Vec3::ZERO;
+        for light in &self.lights {
+            let Some((so, l, t_max, nl)) = shadow_ray(&sf, light) else { continue };
+            *shadow_rays += 1;
+            if !caster.occluded(ctx, so, l, t_max) {
+                c += sf.color * light.color * nl;
+            }
+        }
+        c
+    }
+
+    /// The eye ray through the centre of pixel (x, y), from the eye (the origin).
+    fn eye_dir(&self, x: u32, y: u32) -> Vec3 {
+        let [u, v, w] = self.cam;
+        let sx = 2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * (y as f32 + 0.5) / self.height as f32;
+        (w + sx * u + sy * v).normalize()
+    }
+
+    /// As [`Shade::render`], eight pixels of a row at a time through a packet caster: the same
+    /// rays and per-ray arithmetic, so the image and counts are those of the single-ray path
+    /// wherever the packet kernel finds the same hits.
+    #[cfg(feature = "embree")]
+    pub(super) fn render8<C: Caster8>(&self, caster: &C, threads: usize) -> PeerFrame {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut pixels = vec![[0.0f32; 3]; w * h];
+        let rows = Mutex::new(pixels.chunks_mut(w).enumerate());
+        let shadow = std::thread::scope(|s| {
+            let workers: Vec<_> = (0..threads.max(1))
+                .map(|_| {
+                    s.spawn(|| {
+                        let mut shadow = 0u64;
+                        let mut ctx = caster.context();
+                        loop {
+                            let next = rows.lock().expect("no worker panics holding the lock").next();
+                            let Some((y, row)) = next else { break };
+                            for (i, px) in row.chunks_mut(8).enumerate() {
+                                self.pixels8(caster, &mut ctx, 8 * i as u32, y as u32, px, &mut shadow);
+                            }
+                        }
+                        shadow
+                    })
+                })
+                .collect();
+            workers.into_iter().map(|t| t.join().expect("peer worker")).sum()
+        });
+        let image = Image { width: self.width, height: self.height, pixels };
+        PeerFrame { image, rays: PeerRays { eye: (w * h) as u64, shadow } }
+    }
+
+    /// Pixels x0.. x0 + px.len() (at most 8) of row y.
+    #[cfg(feature = "embree")]
+    fn pixels8<C: Caster8>(
+        &self,
+        caster: &C,
+        ctx: &mut C::Ctx,
+        x0: u32,
+        y: u32,
+        px: &mut [[f32; 3]],
+        shadow_rays: &mut u64,
+    ) {
+        let n = px.len();
+        let mut d = [Vec3::Z; 8];
+        let mut active = [false; 8];
+        for i in 0..n {
+            d[i] = self.eye_dir(x0 + i as u32, y);
+            active[i] = true;
+        }
+        let hits = caster.nearest8(ctx, &[Vec3::ZERO; 8], &d, &[BIG; 8], &active);
+        let sf: [Option<Surface>; 8] =
+            std::array::from_fn(|i| hits[i].map(|h| self.surface(h, Vec3::ZERO, d[i])));
+        let mut c = [Vec3::ZERO; 8];
+        for light in &self.lights {
+            let (mut so, mut l, mut t_max, mut nl) =
+                ([Vec3::ZERO; 8], [Vec3::Z; 8], [0.0f32; 8], [0.0f32; 8]);
+            let mut active = [false; 8];
+            for i in 0..n {
+                if let Some((o, dir, t, k)) = sf[i].as_ref().and_then(|sf| shadow_ray(sf, light)) {
+                    (so[i], l[i], t_max[i], nl[i], active[i]) = (o, dir, t, k, true);
+                    *shadow_rays += 1;
+                }
+            }
+            if !active.contains(&true) {
+                continue;
+            }
+            let blocked = caster.occluded8(ctx, &so, &l, &t_max, &active);
+            for i in 0..n {
+                if active[i] && !blocked[i] {
+                    let sf = sf[i].as_ref().expect("an active shadow ray has a surface");
+                    c[i] += sf.color * light.color * nl[i];
+                }
+            }
+        }
+        for i in 0..n {
+            px[i] = if hits[i].is_some() { c[i] } else { self.background }.to_array();
+        }
+    }
+
+    /// The hit point, its normals (facing the ray) and colour. The point is recomputed from the
+    /// primitive where that uses smaller numbers than the ray, so `offset_origin`'s error model holds.
+    fn surface(&self, h: Hit, o: Vec3, d: Vec3) -> Surface {
+        let ray_p = o + d * h.t;
+        let (p, scale, mut ng, mut n, color);
+        match h.prim.kind() {
+            PrimKind::Triangle => {
+                let t = &self.triangles[h.prim.index() as usize];
+                let [p0, p1, p2] = t.p;
+                let (b1, b2) = h.b;
+                p = p0 + b1 * (p1 - p0) + b2 * (p2 - p0);
+                scale = p0.abs().max(p1.abs()).max(p2.abs()).max_element();
+                ng = unit_or((p1 - p0).cross(p2 - p0), -d);
+                n = ng;
+                if let Some([n0, n1, n2]) = t.n {
+                    let nv = (1.0 - b1 - b2) * n0 + b1 * n1 + b2 * n2;
+                    if nv.dot(nv) > 0.0 {
+                        n = nv.normalize();
+                        if ng.dot(n) < 0.0 {
+                            ng = -ng;
+                        }
+                    }
+                }
+                color = t.color;
+            }
+            PrimKind::Cone => {
+                let c = &self.cones[h.prim.index() as usize];
+                ng = unit_or(cone_normal(ray_p, c), -d);
+                n = ng;
+                // The point stays the ray's: its error is relative to the ray's numbers.
+                (p, scale) = (ray_p, o.abs().max_element() + h.t);
+                color = c.color;
+            }
+            PrimKind::Sphere => {
+                let s = &self.spheres[h.prim.index() as usize];
+                ng = unit_or(ray_p - s.center, -d);
+                n = ng;
+                let sphere_scale = s.center.abs().max_element() + s.radius;
+                let ray_scale = o.abs().max_element() + h.t;
+                (p, scale) = if sphere_scale <= ray_scale {
+                    (s.center + s.radius * ng, sphere_scale)
+                } else {
+                    (ray_p, ray_scale)
+                };
+                color = s.color;
+            }
+        }
+        if ng.dot(d) > 0.0 {
+            ng = -ng;
+            n = -n;
+        }
+        if n.dot(ng) < 0.0 {
+            n = ng;
+        }
+        Surface { p, ng, n, scale, color }
+    }
+}
+
+impl NativePeer {
+    /// `scene` must be the primary-shadow workload (see [`super::primary_shadow`]) and `grid` its
+    /// grid; anything the peer does not trace is an error, not a silent difference.
+    pub fn new(scene: &Scene, grid: &Grid) -> Result<Self, String> {
+        let shade = Shade::new(scene, "native")?;
+        let eye = scene.camera.eye;
+        let res = grid.res;
+        Ok(NativePeer {
+            shade,
             grid: GridF {
                 min: f(grid.min - eye),
                 max: f(grid.max - eye),
@@ -180,57 +436,7 @@ impl NativePeer {
     /// One frame on `threads` threads (rows handed out one at a time, so a slow region does not
     /// leave the other threads idle).
     pub fn render(&self, threads: usize) -> PeerFrame {
-        let (w, h) = (self.width as usize, self.height as usize);
-        let mut pixels = vec![[0.0f32; 3]; w * h];
-        let rows = Mutex::new(pixels.chunks_mut(w).enumerate());
-        let shadow = std::thread::scope(|s| {
-            let workers: Vec<_> = (0..threads.max(1))
-                .map(|_| {
-                    s.spawn(|| {
-                        let mut shadow = 0u64;
-                        loop {
-                            let next = rows.lock().expect("no worker panics holding the lock").next();
-                            let Some((y, row)) = next else { break };
-                            for (x, px) in row.iter_mut().enumerate() {
-                                *px = self.pixel(x as u32, y as u32, &mut shadow).to_array();
-                            }
-                        }
-                        shadow
-                    })
-                })
-                .collect();
-            workers.into_iter().map(|t| t.join().expect("peer worker")).sum()
-        });
-        let image = Image { width: self.width, height: self.height, pixels };
-        PeerFrame { image, rays: PeerRays { eye: (w * h) as u64, shadow } }
-    }
-
-    fn pixel(&self, x: u32, y: u32, shadow_rays: &mut u64) -> Vec3 {
-        let [u, v, w] = self.cam;
-        let sx = 2.0 * (x as f32 + 0.5) / self.width as f32 - 1.0;
-        let sy = 1.0 - 2.0 * (y as f32 + 0.5) / self.height as f32;
-        let d = (w + sx * u + sy * v).normalize();
-        let o = Vec3::ZERO;
-        let Some(hit) = self.walk(o, d, 0.0, BIG, false) else { return self.background };
-        let sf = self.surface(hit, o, d);
-        let mut c = Vec3::ZERO;
-        for light in &self.lights {
-            let l = (light.position - sf.p).normalize();
-            let nl = sf.n.dot(l);
-            // SPD's rule, as irt: no shadow ray where the surface faces away from the light.
-            if nl <= 0.0 {
-                continue;
-            }
-            let so = offset_origin(&sf, l);
-            *shadow_rays += 1;
-            let ends = so.abs().max(light.position.abs());
-            let gap = RAY_OFFSET_REL * ends.max_element();
-            let dist = (light.position - so).length();
-            if self.walk(so, l, 0.0, dist - gap, true).is_none() {
-                c += sf.color * light.color * nl;
-            }
-        }
-        c
+        self.shade.render(self, threads)
     }
 
     /// Amanatides & Woo over the grid, skipping empty macro-cells; the nearest hit in
@@ -302,72 +508,26 @@ impl NativePeer {
         let i = r.index() as usize;
         match r.kind() {
             PrimKind::Sphere => {
-                let s = &self.spheres[i];
+                let s = &self.shade.spheres[i];
                 sphere_t(o, d, s, t_min, t_max).map(|t| Hit { t, prim: r, b: (0.0, 0.0) })
             }
-            PrimKind::Triangle => triangle_t(o, d, &self.triangles[i].p, t_min, t_max)
+            PrimKind::Triangle => triangle_t(o, d, &self.shade.triangles[i].p, t_min, t_max)
                 .map(|(t, b1, b2)| Hit { t, prim: r, b: (b1, b2) }),
             PrimKind::Cone => {
-                cone_t(o, d, &self.cones[i], t_min, t_max).map(|t| Hit { t, prim: r, b: (0.0, 0.0) })
+                cone_t(o, d, &self.shade.cones[i], t_min, t_max).map(|t| Hit { t, prim: r, b: (0.0, 0.0) })
             }
         }
     }
+}
 
-    /// The hit point, its normals (facing the ray) and colour. The point is recomputed from the
-    /// primitive where that uses smaller numbers than the ray, so `offset_origin`'s error model holds.
-    fn surface(&self, h: Hit, o: Vec3, d: Vec3) -> Surface {
-        let ray_p = o + d * h.t;
-        let (p, scale, mut ng, mut n, color);
-        match h.prim.kind() {
-            PrimKind::Triangle => {
-                let t = &self.triangles[h.prim.index() as usize];
-                let [p0, p1, p2] = t.p;
-                let (b1, b2) = h.b;
-                p = p0 + b1 * (p1 - p0) + b2 * (p2 - p0);
-                scale = p0.abs().max(p1.abs()).max(p2.abs()).max_element();
-                ng = unit_or((p1 - p0).cross(p2 - p0), -d);
-                n = ng;
-                if let Some([n0, n1, n2]) = t.n {
-                    let nv = (1.0 - b1 - b2) * n0 + b1 * n1 + b2 * n2;
-                    if nv.dot(nv) > 0.0 {
-                        n = nv.normalize();
-                        if ng.dot(n) < 0.0 {
-                            ng = -ng;
-                        }
-                    }
-                }
-                color = t.color;
-            }
-            PrimKind::Cone => {
-                let c = &self.cones[h.prim.index() as usize];
-                ng = unit_or(cone_normal(ray_p, c), -d);
-                n = ng;
-                // The point stays the ray's: its error is relative to the ray's numbers.
-                (p, scale) = (ray_p, o.abs().max_element() + h.t);
-                color = c.color;
-            }
-            PrimKind::Sphere => {
-                let s = &self.spheres[h.prim.index() as usize];
-                ng = unit_or(ray_p - s.center, -d);
-                n = ng;
-                let sphere_scale = s.center.abs().max_element() + s.radius;
-                let ray_scale = o.abs().max_element() + h.t;
-                (p, scale) = if sphere_scale <= ray_scale {
-                    (s.center + s.radius * ng, sphere_scale)
-                } else {
-                    (ray_p, ray_scale)
-                };
-                color = s.color;
-            }
-        }
-        if ng.dot(d) > 0.0 {
-            ng = -ng;
-            n = -n;
-        }
-        if n.dot(ng) < 0.0 {
-            n = ng;
-        }
-        Surface { p, ng, n, scale, color }
+impl Caster for NativePeer {
+    type Ctx = ();
+    fn context(&self) {}
+    fn nearest(&self, _: &mut (), o: Vec3, d: Vec3, t_max: f32) -> Option<Hit> {
+        self.walk(o, d, 0.0, t_max, false)
+    }
+    fn occluded(&self, _: &mut (), o: Vec3, d: Vec3, t_max: f32) -> bool {
+        self.walk(o, d, 0.0, t_max, true).is_some()
     }
 }
 
@@ -380,14 +540,14 @@ impl GridF {
 }
 
 #[derive(Clone, Copy)]
-struct Hit {
-    t: f32,
-    prim: PrimRef,
+pub(super) struct Hit {
+    pub(super) t: f32,
+    pub(super) prim: PrimRef,
     /// Barycentrics of p1 and p2 (triangles).
-    b: (f32, f32),
+    pub(super) b: (f32, f32),
 }
 
-struct Surface {
+pub(super) struct Surface {
     p: Vec3,
     ng: Vec3,
     n: Vec3,
@@ -482,7 +642,7 @@ fn triangle_t(o: Vec3, d: Vec3, p: &[Vec3; 3], t_min: f32, t_max: f32) -> Option
 /// intersect.wgsl: the origin moved to the ray's closest approach to the axis midpoint (small
 /// coefficients for distant origins), the discriminant by Lagrange's identity (no difference of
 /// large products), both roots without cancellation, each kept only where it lies on the cone.
-fn cone_t(o: Vec3, d: Vec3, c: &ConeF, t_min: f32, t_max: f32) -> Option<f32> {
+pub(super) fn cone_t(o: Vec3, d: Vec3, c: &ConeF, t_min: f32, t_max: f32) -> Option<f32> {
     let h = c.axis.length();
     let a = c.axis / h;
     let k = (c.r1 - c.r0) / h;
@@ -523,7 +683,7 @@ fn cone_t(o: Vec3, d: Vec3, c: &ConeF, t_min: f32, t_max: f32) -> Option<f32> {
 }
 
 /// Outward normal of the cone at surface point `p`: away from the axis, tilted by the slope.
-fn cone_normal(p: Vec3, c: &ConeF) -> Vec3 {
+pub(super) fn cone_normal(p: Vec3, c: &ConeF) -> Vec3 {
     let h = c.axis.length();
     let a = c.axis / h;
     let v = p - c.base;
