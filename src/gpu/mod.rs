@@ -8,6 +8,7 @@ pub mod shaders;
 pub use cache::CacheSetting;
 pub use context::{AdapterChoice, GpuContext};
 pub use instance::vulkan_instance;
+pub mod backend;
 pub mod dispatch;
 pub mod readback;
 pub mod renderer;
