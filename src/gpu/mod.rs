@@ -12,6 +12,7 @@ pub mod backend;
 pub mod dispatch;
 pub mod readback;
 pub mod renderer;
+pub mod vk;
 
 pub use dispatch::{Dispatcher, GpuScene, ModeBuffers, RayCounts};
 pub use renderer::{Frame, RenderOptions, Renderer, SetupProgress, SetupStage};

@@ -247,6 +247,11 @@ impl Renderer {
         })
     }
 
+    /// The bound kernel, as a backend (for measuring single dispatches).
+    pub fn kernel<'a>(&'a self, ctx: &'a GpuContext) -> WgpuKernel<'a> {
+        WgpuKernel { ctx, dispatcher: &self.dispatcher }
+    }
+
     /// The bands this renderer traces.
     pub fn bands(&self) -> &Bands {
         &self.bands
