@@ -11,6 +11,7 @@ use super::dispatch::{Dispatcher, RayCounts};
 use super::layout::Tile;
 use super::GpuContext;
 use std::convert::Infallible;
+use std::time::{Duration, Instant};
 
 /// One compute dispatch: `groups` workgroups of `entry`, with `tile` as its uniform.
 #[derive(Clone, Debug, PartialEq)]
@@ -112,4 +113,24 @@ pub fn infallible<T>(r: Result<T, Infallible>) -> T {
 /// The readback kernels of the tests: `entry` over `items` invocations (one row), then the output.
 pub fn readback_recording(entry: &str, items: u32) -> Recording {
     Recording { commands: vec![Command::Dispatch(Dispatch::over_rect(entry, Tile::whole([0, 0, items, 1])))] }
+}
+
+/// The median wall time of `samples` (at least 1) dispatches of one workgroup of `entry` over a
+/// single item, after one untimed (which compiles the pipeline): what a dispatch costs the
+/// path, submit and wait included, with next to no work in it.
+pub fn dispatch_overhead<B: ComputeBackend>(
+    backend: &B,
+    entry: &str,
+    samples: u32,
+) -> Result<Duration, B::Error> {
+    let d = Dispatch { entry: entry.to_string(), tile: Tile::whole([0, 0, 1, 1]), groups: [1, 1, 1] };
+    backend.dispatch(&d)?;
+    let mut times = Vec::with_capacity(samples.max(1) as usize);
+    for _ in 0..samples.max(1) {
+        let t = Instant::now();
+        backend.dispatch(&d)?;
+        times.push(t.elapsed());
+    }
+    times.sort();
+    Ok(times[times.len() / 2])
 }
