@@ -113,7 +113,8 @@ fn corrupted_spirv_is_rejected_with_a_message() {
     // An instruction's opcode half of its first word, past the header (word 5 is the first
     // instruction, an OpCapability).
     let at = 5 + (good[5] >> 16) as usize;
-    let corruptions: [(&str, Box<dyn Fn(&mut Vec<u32>)>); 4] = [
+    type Corrupt = Box<dyn Fn(&mut Vec<u32>)>;
+    let corruptions: [(&str, Corrupt); 4] = [
         ("magic", Box::new(|w: &mut Vec<u32>| w[0] ^= 1)),
         ("opcode", Box::new(move |w: &mut Vec<u32>| w[at] = (w[at] & 0xffff_0000) | 0xfff0)),
         ("word count", Box::new(move |w: &mut Vec<u32>| w[at] |= 0xffff_0000)),

@@ -178,12 +178,19 @@ impl Shared {
                     return Err(e);
                 }
             };
-            let mut buffer = Buffer { shared: self.clone(), raw, memory, size, mapped: std::ptr::null_mut() };
+            let buffer = Buffer {
+                shared: self.clone(),
+                raw,
+                memory,
+                size,
+                mapped: Mutex::new(Mapping(std::ptr::null_mut())),
+            };
             d.bind_buffer_memory(raw, memory, 0).map_err(fail("vkBindBufferMemory"))?;
             if host {
-                buffer.mapped = d
+                let ptr = d
                     .map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
                     .map_err(fail("vkMapMemory"))? as *mut u8;
+                *buffer.mapped.lock().unwrap_or_else(|e| e.into_inner()) = Mapping(ptr);
             }
             Ok(buffer)
         }
@@ -223,34 +230,39 @@ impl Shared {
     }
 }
 
+/// Where a host-visible buffer is mapped (null if it is not).
+struct Mapping(*mut u8);
+
+// SAFETY: the pointer is into a mapping the buffer owns for its lifetime; every access goes
+// through the buffer's lock.
+unsafe impl Send for Mapping {}
+
 /// A buffer and its memory (mapped if host-visible).
 pub(crate) struct Buffer {
     shared: Arc<Shared>,
     pub raw: vk::Buffer,
     memory: vk::DeviceMemory,
     pub size: u64,
-    mapped: *mut u8,
+    mapped: Mutex<Mapping>,
 }
 
 impl Buffer {
     /// Writes `bytes` at `offset` of a host-visible buffer (no submission may be using it).
     pub fn write(&self, offset: u64, bytes: &[u8]) {
-        assert!(
-            !self.mapped.is_null() && offset + bytes.len() as u64 <= self.size,
-            "write to a mapped buffer"
-        );
-        // SAFETY: in bounds of the mapping (checked), which lives as long as `self`; the caller's
-        // submissions are waited for before they return, so the device does not read it now.
-        unsafe {
-            std::ptr::copy_nonoverlapping(bytes.as_ptr(), self.mapped.add(offset as usize), bytes.len())
-        }
+        let m = self.mapped.lock().unwrap_or_else(|e| e.into_inner());
+        assert!(!m.0.is_null() && offset + bytes.len() as u64 <= self.size, "write to a mapped buffer");
+        // SAFETY: in bounds of the mapping (checked), which lives as long as `self`, under its
+        // lock; the caller's submissions are waited for before they return, so the device does
+        // not read it now.
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), m.0.add(offset as usize), bytes.len()) }
     }
 
-    /// The first `len` bytes of a host-visible buffer.
-    pub fn read(&self, len: u64) -> &[u8] {
-        assert!(!self.mapped.is_null() && len <= self.size, "read of a mapped buffer");
+    /// A copy of the first `len` bytes of a host-visible buffer.
+    pub fn read(&self, len: u64) -> Vec<u8> {
+        let m = self.mapped.lock().unwrap_or_else(|e| e.into_inner());
+        assert!(!m.0.is_null() && len <= self.size, "read of a mapped buffer");
         // SAFETY: as in `write`; coherent memory, and the submission that wrote it was waited for.
-        unsafe { std::slice::from_raw_parts(self.mapped, len as usize) }
+        unsafe { std::slice::from_raw_parts(m.0, len as usize) }.to_vec()
     }
 }
 
