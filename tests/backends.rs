@@ -142,3 +142,36 @@ fn unknown_adapter_has_the_wgpu_message() {
     assert_eq!(a, b);
     assert!(a.starts_with("no Vulkan adapter matches 'no-such-adapter-42'; available: "), "{a}");
 }
+
+/// Binding 1 is a SAMPLED_IMAGE descriptor without a sampler because naga writes the scene
+/// texture as an `OpTypeImage` with Sampled = 1, read by `OpImageFetch`, and no sampler types.
+#[test]
+fn scene_texture_is_a_sampled_image_read_without_a_sampler() {
+    let vkc = vk_ctx();
+    for layered in [false, true] {
+        let variant = irt::gpu::shaders::Variant { layered, ..irt::gpu::shaders::Variant::FULL };
+        let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, variant);
+        let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
+        let words = vk::compile_entry(&module, &info, "render", &vk::spv_options(&vkc)).expect("SPIR-V");
+        let (mut images, mut fetches, mut samplers) = (Vec::new(), 0, 0);
+        let mut at = 5;
+        while at < words.len() {
+            let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
+            match op {
+                // OpTypeImage: result, sampled type, dim, depth, arrayed, MS, sampled, format.
+                25 => images.push((words[at + 5], words[at + 7])),
+                26 | 27 => samplers += 1,
+                95 => fetches += 1,
+                _ => {}
+            }
+            at += count;
+        }
+        assert_eq!(
+            images,
+            vec![(layered as u32, 1)],
+            "layered {layered}: (arrayed, sampled) of each image type"
+        );
+        assert_eq!(samplers, 0, "no sampler types");
+        assert!(fetches > 0, "textureLoad is an OpImageFetch");
+    }
+}
