@@ -42,8 +42,96 @@ pub struct BenchArgs {
     /// Threads for each peer (default: all cores).
     #[arg(long)]
     pub peer_threads: Option<usize>,
+    /// Device path: wgpu (default) or ash (raw Vulkan; no --peer). See docs/backends.md.
+    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
+    pub backend: super::Backend,
+    /// Also time this many tiny dispatches (one workgroup of a readback kernel, one item):
+    /// dispatch + submit + wait, median reported: the per-dispatch overhead of the device path.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub dispatch_overhead: u32,
     #[command(flatten)]
     pub device: DeviceArgs,
+}
+
+/// What one backend measured.
+struct Measured {
+    /// Opening the instance and device.
+    open: Duration,
+    first_frame: Duration,
+    frame: Duration,
+    rays: irt::gpu::RayCounts,
+    grid: String,
+    device: String,
+    driver_info: String,
+    cache_status: String,
+    overhead: Option<Duration>,
+}
+
+/// What the ash measurement needs of [`BenchArgs`] (whose scene arguments are moved out).
+struct BenchArgsOf<'a> {
+    device: &'a DeviceArgs,
+    frames: u32,
+    dispatch_overhead: u32,
+}
+
+/// The readback kernel and input of the per-dispatch overhead: one Fresnel evaluation.
+const TINY_ENTRY: &str = "k_fresnel";
+const TINY_INPUT: [[f32; 4]; 1] = [[0.5, 0.04, 1.5, 0.0]];
+
+/// Resident set now and at its peak, in MiB (lavapipe's device memory is host memory).
+fn memory_mib() -> (u64, u64) {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let field = |name: &str| {
+        status
+            .lines()
+            .find(|l| l.starts_with(name))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|v| v.parse::<u64>().ok())
+            .map_or(0, |kib| kib >> 10)
+    };
+    (field("VmRSS:"), field("VmHWM:"))
+}
+
+fn measure_ash(args: &BenchArgsOf, scene: &irt::scene::Scene, opts: RenderOptions) -> Result<Measured> {
+    use irt::gpu::vk::{VkDispatcher, VkKernel, VkRenderer};
+    let t = Instant::now();
+    let ctx = super::open_vk_device(args.device)?;
+    let open = t.elapsed();
+    let t = Instant::now();
+    let renderer = VkRenderer::new(&ctx, scene, opts)?;
+    let first = renderer.render(&mut |_, _| {})?;
+    let first_frame = t.elapsed();
+    if first.image.non_finite() > 0 {
+        bail!("the benchmark frame contains NaN/Inf values");
+    }
+    let counting = VkRenderer::new(&ctx, scene, RenderOptions { count_rays: true, ..opts })?;
+    let rays = counting.render(&mut |_, _| {})?.rays;
+    drop(counting);
+    let frame = renderer.median_frame_time(args.frames)?;
+    let overhead = if args.dispatch_overhead > 0 {
+        let d = VkDispatcher::new(
+            &ctx,
+            &renderer.scene,
+            irt::gpu::shaders::Kernel::Tests,
+            irt::gpu::shaders::Variant::FULL,
+            1,
+            &TINY_INPUT,
+        )?;
+        Some(irt::gpu::backend::dispatch_overhead(&VkKernel(&d), TINY_ENTRY, args.dispatch_overhead)?)
+    } else {
+        None
+    };
+    Ok(Measured {
+        open,
+        first_frame,
+        frame,
+        rays,
+        grid: renderer.grid.stats().to_string(),
+        device: ctx.info.name.clone(),
+        driver_info: ctx.info.driver_info.clone(),
+        cache_status: "none (the ash path has no pipeline cache yet)".into(),
+        overhead,
+    })
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -137,7 +225,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.workload == Workload::PrimaryShadow {
         scene = irt::peer::primary_shadow(&scene);
     }
-    let ctx = open_device_with(&args.device, &cache)?;
     let builds: Vec<Duration> = (0..5)
         .map(|_| {
             let t = Instant::now();
@@ -146,40 +233,91 @@ pub fn run(args: BenchArgs) -> Result<()> {
         })
         .collect();
     let grid_build = median(builds);
-
-    // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
-    let t = Instant::now();
     let f64 = scene_args.f64();
     let opts = RenderOptions { uber_shader: args.uber, f64, ..Default::default() };
-    let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
-    let first = renderer.render(&ctx, &mut |_, _| {});
-    let first_frame = t.elapsed();
-    if first.image.non_finite() > 0 {
-        bail!("the benchmark frame contains NaN/Inf values");
-    }
-    // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
-    let counting = Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, f64, ..Default::default() })
-        .map_err(anyhow::Error::msg)?;
-    let rays = counting.render(&ctx, &mut |_, _| {}).rays;
-    if !args.peer.is_empty() {
-        let peers =
-            args.peer.iter().map(|&p| make_peer(p, &scene, &renderer.grid)).collect::<Result<Vec<_>>>()?;
-        let name = scene_args.name_or("default");
-        return peer_rounds(
-            &name,
+    let measured = if args.backend == super::Backend::Ash {
+        if !args.peer.is_empty() {
+            bail!("--peer runs on the wgpu path: drop --backend ash");
+        }
+        measure_ash(
+            &BenchArgsOf {
+                device: &args.device,
+                frames: args.frames,
+                dispatch_overhead: args.dispatch_overhead,
+            },
             &scene,
-            &renderer,
-            &ctx,
-            rays.total(),
-            &peers,
-            args.frames,
-            args.peer_threads,
-            args.markdown,
-        );
-    }
-    let frame = renderer.median_frame_time(&ctx, args.frames);
+            opts,
+        )?
+    } else {
+        let t = Instant::now();
+        let ctx = open_device_with(&args.device, &cache)?;
+        let open = t.elapsed();
+
+        // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
+        let t = Instant::now();
+        let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
+        let first = renderer.render(&ctx, &mut |_, _| {});
+        let first_frame = t.elapsed();
+        if first.image.non_finite() > 0 {
+            bail!("the benchmark frame contains NaN/Inf values");
+        }
+        // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
+        let counting =
+            Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, f64, ..Default::default() })
+                .map_err(anyhow::Error::msg)?;
+        let rays = counting.render(&ctx, &mut |_, _| {}).rays;
+        if !args.peer.is_empty() {
+            let peers = args
+                .peer
+                .iter()
+                .map(|&p| make_peer(p, &scene, &renderer.grid))
+                .collect::<Result<Vec<_>>>()?;
+            let name = scene_args.name_or("default");
+            return peer_rounds(
+                &name,
+                &scene,
+                &renderer,
+                &ctx,
+                rays.total(),
+                &peers,
+                args.frames,
+                args.peer_threads,
+                args.markdown,
+            );
+        }
+        let frame = renderer.median_frame_time(&ctx, args.frames);
+        let overhead = (args.dispatch_overhead > 0).then(|| {
+            let d = irt::gpu::Dispatcher::new(
+                &ctx,
+                &renderer.gpu_scene,
+                irt::gpu::shaders::Kernel::Tests,
+                irt::gpu::shaders::Variant::FULL,
+                TINY_ENTRY,
+                1,
+                &TINY_INPUT,
+            );
+            let kernel = irt::gpu::backend::WgpuKernel { ctx: &ctx, dispatcher: &d };
+            irt::gpu::backend::infallible(irt::gpu::backend::dispatch_overhead(
+                &kernel,
+                TINY_ENTRY,
+                args.dispatch_overhead,
+            ))
+        });
+        Measured {
+            open,
+            first_frame,
+            frame,
+            rays,
+            grid: renderer.grid.stats().to_string(),
+            device: ctx.info.name.clone(),
+            driver_info: ctx.info.driver_info.clone(),
+            cache_status: ctx.cache_status.clone(),
+            overhead,
+        }
+    };
+    let Measured { open, first_frame, frame, rays, grid: stats, device, driver_info, cache_status, overhead } =
+        measured;
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
-    let stats = renderer.grid.stats();
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut name = scene_args.name_or("default");
     if args.uber {
@@ -196,20 +334,30 @@ pub fn run(args: BenchArgs) -> Result<()> {
             first_frame.as_secs_f64() * 1e3,
             frame.as_secs_f64() * 1e3,
             mrays,
-            ctx.info.name
+            device
         );
     } else {
         println!("scene            {name} ({w}x{h}, {} primitives)", scene.primitive_count());
-        println!("device           {} ({})", ctx.info.name, ctx.info.driver_info);
+        println!("device           {device} ({driver_info}), {:?} backend", args.backend);
         println!("grid             {stats}");
         println!("grid build       {:.2} ms (median of 5)", grid_build.as_secs_f64() * 1e3);
+        println!("device open      {:.1} ms (instance, adapter choice, device)", open.as_secs_f64() * 1e3);
         println!(
             "first frame      {:.0} ms (pipeline creation + first dispatch; Mesa shader cache {})",
             first_frame.as_secs_f64() * 1e3,
             if args.cold || args.cold_mesa_only { "empty at start" } else { "as found" }
         );
-        println!("pipeline cache   {}", ctx.cache_status);
+        println!("pipeline cache   {cache_status}");
         println!("frame            {:.1} ms (median of {})", frame.as_secs_f64() * 1e3, args.frames.max(1));
+        if let Some(o) = overhead {
+            println!(
+                "dispatch         {:.1} µs (1 workgroup of {TINY_ENTRY}: dispatch + submit + wait, median of {})",
+                o.as_secs_f64() * 1e6,
+                args.dispatch_overhead
+            );
+        }
+        let (rss, peak) = memory_mib();
+        println!("memory           {rss} MiB resident, {peak} MiB at peak (process)");
         println!(
             "rays/frame       {} (eye {}, reflection {}, refraction {}, shadow {})",
             rays.total(),

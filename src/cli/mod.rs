@@ -79,6 +79,22 @@ pub struct DeviceArgs {
     pub no_cache: bool,
 }
 
+/// The device path of the headless commands (issue #12): wgpu, or raw Vulkan through ash.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    /// wgpu (Vulkan only), the window's path too.
+    #[default]
+    Wgpu,
+    /// Raw Vulkan through ash: the same SPIR-V, adapter and bands (docs/backends.md).
+    Ash,
+}
+
+/// Opens the ash path's device on the adapter the arguments name (no pipeline cache: the ash
+/// path has none yet).
+pub fn open_vk_device(args: &DeviceArgs) -> Result<irt::gpu::vk::VkContext> {
+    Ok(irt::gpu::vk::VkContext::new(&AdapterChoice::from_arg_or_env(args.adapter.as_deref()))?)
+}
+
 #[derive(Args)]
 pub struct SceneArgs {
     /// Scene file (.toml, .gltf, .glb, .nff, .obj, .ply); the built-in default scene when omitted.

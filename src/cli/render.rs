@@ -46,6 +46,10 @@ pub struct RenderArgs {
     /// give the same picture bit for bit.
     #[command(flatten)]
     pub mode: ModeArgs,
+    /// Device path: wgpu (default), or ash (raw Vulkan, the same shaders; the band renderer only,
+    /// without --mode or --frames). See docs/backends.md.
+    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
+    pub backend: super::Backend,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -59,6 +63,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
         irt::io::nff::apply_spd_rules(&mut scene);
     }
     let mode = args.mode.mode().map_err(anyhow::Error::msg)?;
+    if args.backend == super::Backend::Ash && (mode.is_some() || args.frames.is_some()) {
+        anyhow::bail!(
+            "--backend ash renders with the band renderer only: drop --mode and --frames (the \
+             interactive modes run on wgpu for now)"
+        );
+    }
     if let Some(frames) = args.frames.clone() {
         if args.stats {
             anyhow::bail!("--stats counts rays of one frame: drop --frames to use it");
@@ -75,6 +85,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         scene = scene.at(t);
         scene.validate().map_err(|e| anyhow::anyhow!("at time {t} s: {}", e.0))?;
     }
+    if args.backend == super::Backend::Ash {
+        return run_ash(&args, format, &scene);
+    }
     let ctx = open_device(&args.device)?;
     if let Some(mode) = mode {
         if args.stats {
@@ -86,14 +99,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         session.complete_pass(&ctx);
         let elapsed = t.elapsed();
         let image = session.read_image(&ctx);
-        return write(&args, format, &image, &scene, elapsed, &ctx, &mode.to_string());
+        return write(&args, format, &image, &scene, elapsed, &ctx.info.name, &mode.to_string());
     }
-    let opts = RenderOptions {
-        count_rays: args.stats,
-        corner_rays: args.spd_rules,
-        f64: args.scene.f64(),
-        ..Default::default()
-    };
+    let opts = options(&args);
     let h = scene.camera.height;
     let setup = super::setup_bar(scene.primitive_count());
     let renderer = Renderer::with_progress(&ctx, &scene, opts, &|stage, done, total| {
@@ -113,7 +121,27 @@ pub fn run(args: RenderArgs) -> Result<()> {
             renderer.gpu_scene.bytes >> 20
         ),
     );
-    let bar = indicatif::ProgressBar::new(h as u64);
+    let bar = tracing_bar(h);
+    let t = Instant::now();
+    let frame = renderer.render(&ctx, &mut |done, _| bar.set_position(done as u64));
+    let elapsed = t.elapsed();
+    bar.finish_and_clear();
+    write(&args, format, &frame.image, &scene, elapsed, &ctx.info.name, "bands")?;
+    print_stats(&args, &frame);
+    Ok(())
+}
+
+fn options(args: &RenderArgs) -> RenderOptions {
+    RenderOptions {
+        count_rays: args.stats,
+        corner_rays: args.spd_rules,
+        f64: args.scene.f64(),
+        ..Default::default()
+    }
+}
+
+fn tracing_bar(rows: u32) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(rows as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "{spinner} tracing {pos}/{len} rows [{bar:30}] {elapsed_precise}",
@@ -121,11 +149,29 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .expect("valid template")
         .progress_chars("=> "),
     );
+    bar
+}
+
+/// The band renderer on the ash path.
+fn run_ash(args: &RenderArgs, format: OutputFormat, scene: &irt::scene::Scene) -> Result<()> {
+    let ctx = super::open_vk_device(&args.device)?;
+    let setup = super::setup_bar(scene.primitive_count());
+    let renderer =
+        irt::gpu::vk::VkRenderer::with_progress(&ctx, scene, options(args), &|stage, done, total| {
+            super::show_setup(&setup, stage, done, total)
+        })?;
+    setup.finish_and_clear();
+    let bar = tracing_bar(scene.camera.height);
     let t = Instant::now();
-    let frame = renderer.render(&ctx, &mut |done, _| bar.set_position(done as u64));
+    let frame = renderer.render(&mut |done, _| bar.set_position(done as u64))?;
     let elapsed = t.elapsed();
     bar.finish_and_clear();
-    write(&args, format, &frame.image, &scene, elapsed, &ctx, "bands")?;
+    write(args, format, &frame.image, scene, elapsed, &ctx.info.name, "bands, ash")?;
+    print_stats(args, &frame);
+    Ok(())
+}
+
+fn print_stats(args: &RenderArgs, frame: &irt::gpu::Frame) {
     if args.stats {
         let r = frame.rays;
         println!(
@@ -143,7 +189,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
             irt::gpu::layout::LAVAPIPE_LOOP_LIMIT
         );
     }
-    Ok(())
 }
 
 /// `A..B` (B excluded), the frames of `--frames`.
@@ -164,7 +209,7 @@ pub(super) fn write(
     image: &Image,
     scene: &irt::scene::Scene,
     elapsed: std::time::Duration,
-    ctx: &irt::gpu::GpuContext,
+    device: &str,
     how: &str,
 ) -> Result<()> {
     let (w, h) = (image.width, image.height);
@@ -183,7 +228,7 @@ pub(super) fn write(
         args.out.display(),
         scene.primitive_count(),
         elapsed.as_secs_f64(),
-        ctx.info.name
+        device
     );
     Ok(())
 }

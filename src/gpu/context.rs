@@ -62,6 +62,43 @@ pub enum ContextError {
     },
 }
 
+/// What adapter choice looks at, whichever backend lists the adapters (wgpu, or raw Vulkan in
+/// [`super::vk`]): both pick by the same rules, with the same messages.
+#[derive(Clone, Debug)]
+pub struct AdapterFacts {
+    pub name: String,
+    pub driver: String,
+    pub device_type: wgpu::DeviceType,
+}
+
+/// The index in `adapters` that `choice` picks: lavapipe by default, a name's first match, or the
+/// best hardware GPU (else lavapipe).
+pub fn choose_adapter(choice: &AdapterChoice, adapters: &[AdapterFacts]) -> Result<usize, ContextError> {
+    if adapters.is_empty() {
+        return Err(ContextError::NoVulkan);
+    }
+    let names = || adapters.iter().map(|a| a.name.as_str()).collect::<Vec<_>>().join(", ");
+    let is_lavapipe = |a: &AdapterFacts| a.name.contains("llvmpipe") || a.driver.contains("llvmpipe");
+    let find = |f: &dyn Fn(&AdapterFacts) -> bool| adapters.iter().position(f);
+    let chosen = match choice {
+        AdapterChoice::Lavapipe => find(&is_lavapipe),
+        AdapterChoice::Named(name) => {
+            let want = name.to_lowercase();
+            find(&|a| a.name.to_lowercase().contains(&want))
+        }
+        AdapterChoice::BestGpu => find(&|a| a.device_type == wgpu::DeviceType::DiscreteGpu)
+            .or_else(|| find(&|a| a.device_type == wgpu::DeviceType::IntegratedGpu))
+            .or_else(|| find(&is_lavapipe)),
+    };
+    match (chosen, choice) {
+        (Some(i), _) => Ok(i),
+        (None, AdapterChoice::Named(n)) => {
+            Err(ContextError::NoMatch { wanted: n.clone(), available: names() })
+        }
+        (None, _) => Err(ContextError::NoLavapipe { available: names() }),
+    }
+}
+
 /// An open device and queue, and what they are.
 pub struct GpuContext {
     pub adapter: wgpu::Adapter,
@@ -119,32 +156,14 @@ impl GpuContext {
         if adapters.is_empty() {
             return Err(ContextError::NoVulkan);
         }
-        let names = || adapters.iter().map(|a| a.get_info().name).collect::<Vec<_>>().join(", ");
-        let is_lavapipe = |a: &wgpu::Adapter| {
-            let i = a.get_info();
-            i.name.contains("llvmpipe") || i.driver.contains("llvmpipe")
-        };
-        let chosen = match choice {
-            AdapterChoice::Lavapipe => adapters.iter().find(|a| is_lavapipe(a)),
-            AdapterChoice::Named(name) => {
-                let want = name.to_lowercase();
-                adapters.iter().find(|a| a.get_info().name.to_lowercase().contains(&want))
-            }
-            AdapterChoice::BestGpu => adapters
-                .iter()
-                .find(|a| a.get_info().device_type == wgpu::DeviceType::DiscreteGpu)
-                .or_else(|| {
-                    adapters.iter().find(|a| a.get_info().device_type == wgpu::DeviceType::IntegratedGpu)
-                })
-                .or_else(|| adapters.iter().find(|a| is_lavapipe(a))),
-        };
-        let adapter = match (chosen, choice) {
-            (Some(a), _) => a.clone(),
-            (None, AdapterChoice::Named(n)) => {
-                return Err(ContextError::NoMatch { wanted: n.clone(), available: names() })
-            }
-            (None, _) => return Err(ContextError::NoLavapipe { available: names() }),
-        };
+        let facts: Vec<AdapterFacts> = adapters
+            .iter()
+            .map(|a| {
+                let i = a.get_info();
+                AdapterFacts { name: i.name, driver: i.driver, device_type: i.device_type }
+            })
+            .collect();
+        let adapter = adapters[choose_adapter(choice, &facts)?].clone();
         let info = adapter.get_info();
         // Ask for what this adapter offers: scenes are sized by its texture and buffer limits.
         let limits = adapter.limits();

@@ -76,21 +76,13 @@ impl GpuScene {
         reserve_rows: u32,
     ) -> Result<Self, String> {
         let limits = ctx.device.limits();
-        let max_side =
-            max_rows.map_or(limits.max_texture_dimension_2d, |m| m.min(limits.max_texture_dimension_2d));
-        let (height, layers, layered) = layout::scene_extent(packed.rows().max(reserve_rows), max_side);
-        if layers > limits.max_texture_array_layers {
-            let most = limits.max_texture_array_layers as u64 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH) as u64;
-            return Err(format!(
-                "the scene needs {} MiB of scene texture ({} texels of 16 bytes); this device holds at \
-                 most {} MiB ({} layers of {}x{SCENE_LAYER_ROWS})",
-                packed.texels.len() >> 16,
-                packed.texels.len(),
-                most >> 16,
-                limits.max_texture_array_layers,
-                SCENE_TEX_WIDTH,
-            ));
-        }
+        let (height, layers, layered) = scene_texture_extent(
+            &packed,
+            reserve_rows,
+            max_rows,
+            limits.max_texture_dimension_2d,
+            limits.max_texture_array_layers,
+        )?;
         let size = wgpu::Extent3d { width: SCENE_TEX_WIDTH, height, depth_or_array_layers: layers };
         let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: Some("scene"),
@@ -148,30 +140,22 @@ impl GpuScene {
 /// while the device's copy fills. Returns the bytes written.
 fn write_rows(ctx: &GpuContext, texture: &wgpu::Texture, texels: Vec<[u32; 4]>, layered: bool) -> u64 {
     let mut data = texels;
-    let rows = (data.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32;
-    // Whole rows only: the last row is padded.
-    data.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
+    let rows = pad_rows(&mut data);
     let bytes = data.len() as u64 * 16;
-    for band in (0..rows.div_ceil(SCENE_LAYER_ROWS)).rev() {
-        let first = band * SCENE_LAYER_ROWS;
-        let band_rows = SCENE_LAYER_ROWS.min(rows - first);
-        let origin = if layered {
-            wgpu::Origin3d { x: 0, y: 0, z: band }
-        } else {
-            wgpu::Origin3d { x: 0, y: first, z: 0 }
-        };
-        let start = (first * SCENE_TEX_WIDTH) as usize;
+    for band in scene_bands(rows, layered) {
+        let origin = wgpu::Origin3d { x: 0, y: band.y, z: band.layer };
+        let start = (band.first * SCENE_TEX_WIDTH) as usize;
         ctx.queue.write_texture(
             wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin, aspect: wgpu::TextureAspect::All },
             bytemuck::cast_slice(&data[start..]),
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(SCENE_TEX_WIDTH * 16),
-                rows_per_image: Some(band_rows),
+                rows_per_image: Some(band.rows),
             },
-            wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: band_rows, depth_or_array_layers: 1 },
+            wgpu::Extent3d { width: SCENE_TEX_WIDTH, height: band.rows, depth_or_array_layers: 1 },
         );
-        if band > 0 {
+        if band.first > 0 {
             ctx.queue.submit([]);
             ctx.wait();
             data.truncate(start);
@@ -179,6 +163,64 @@ fn write_rows(ctx: &GpuContext, texture: &wgpu::Texture, texels: Vec<[u32; 4]>, 
         }
     }
     bytes
+}
+
+/// The scene texture's rows per layer, layers and whether it is layered, for `packed` (at
+/// least `reserve_rows` rows) on a device whose largest 2D side is `max_dim` and which holds
+/// `max_layers` array layers, layered past `max_rows` if given: what every backend allocates.
+pub fn scene_texture_extent(
+    packed: &PackedScene,
+    reserve_rows: u32,
+    max_rows: Option<u32>,
+    max_dim: u32,
+    max_layers: u32,
+) -> Result<(u32, u32, bool), String> {
+    let max_side = max_rows.map_or(max_dim, |m| m.min(max_dim));
+    let (height, layers, layered) = layout::scene_extent(packed.rows().max(reserve_rows), max_side);
+    if layers > max_layers {
+        let most = max_layers as u64 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH) as u64;
+        return Err(format!(
+            "the scene needs {} MiB of scene texture ({} texels of 16 bytes); this device holds at \
+             most {} MiB ({} layers of {}x{SCENE_LAYER_ROWS})",
+            packed.texels.len() >> 16,
+            packed.texels.len(),
+            most >> 16,
+            max_layers,
+            SCENE_TEX_WIDTH,
+        ));
+    }
+    Ok((height, layers, layered))
+}
+
+/// Pads `texels` to whole rows of the scene texture; returns the rows.
+pub fn pad_rows(texels: &mut Vec<[u32; 4]>) -> u32 {
+    let rows = (texels.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32;
+    texels.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
+    rows
+}
+
+/// One upload band of the scene texture: `rows` rows from row `first` of the packed scene, at
+/// row `y` of layer `layer`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneBand {
+    pub first: u32,
+    pub rows: u32,
+    pub y: u32,
+    pub layer: u32,
+}
+
+/// The upload bands of `rows` rows, from the last to the first (so each band's host texels can
+/// be freed once it is on the device): [`SCENE_LAYER_ROWS`] rows each, one per layer if layered.
+pub fn scene_bands(rows: u32, layered: bool) -> impl Iterator<Item = SceneBand> {
+    (0..rows.div_ceil(SCENE_LAYER_ROWS)).rev().map(move |band| {
+        let first = band * SCENE_LAYER_ROWS;
+        let rows = SCENE_LAYER_ROWS.min(rows - first);
+        if layered {
+            SceneBand { first, rows, y: 0, layer: band }
+        } else {
+            SceneBand { first, rows, y: first, layer: 0 }
+        }
+    })
 }
 
 fn uniform(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {

@@ -1,6 +1,7 @@
 //! Runs one readback kernel of `shaders/tests.wgsl` on a batch of inputs (for the unit tests of
 //! single shader functions).
 
+use super::backend::{infallible, readback_recording, ComputeBackend, WgpuKernel};
 use super::dispatch::{Dispatcher, GpuScene};
 use super::shaders::{Kernel, Variant};
 use super::GpuContext;
@@ -17,6 +18,15 @@ pub fn run_kernel(
 ) -> Vec<[f32; 4]> {
     let out_len = items as u64 * out_per_item as u64;
     let d = Dispatcher::new(ctx, scene, Kernel::Tests, Variant::FULL, entry, out_len, inputs);
-    d.dispatch(ctx, [0, 0, items, 1]);
-    d.read(ctx).0
+    infallible(run_readback(&WgpuKernel { ctx, dispatcher: &d }, entry, items))
+}
+
+/// The readback of `entry` over `items` items on any backend whose kernel is bound to its inputs.
+pub fn run_readback<B: ComputeBackend>(
+    backend: &B,
+    entry: &str,
+    items: u32,
+) -> Result<Vec<[f32; 4]>, B::Error> {
+    backend.run(&readback_recording(entry, items), &mut |_, _| {})?;
+    Ok(backend.read_output()?.0)
 }

@@ -1,7 +1,8 @@
 //! Headless rendering: a scene in, a linear radiance image (and ray counts) out.
 
+use super::backend::{infallible, Command, ComputeBackend, Dispatch, Recording, WgpuKernel};
 use super::dispatch::{Dispatcher, GpuScene, RayCounts};
-use super::layout::{self, Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
+use super::layout::{self, PackedScene, Params, Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
 use super::shaders::{Kernel, Variant};
 use super::GpuContext;
 use crate::accel::Grid;
@@ -60,14 +61,9 @@ pub struct Renderer {
     pub grid: Grid,
     pub gpu_scene: GpuScene,
     dispatcher: Dispatcher,
-    width: u32,
-    height: u32,
-    /// Eye rays per row and column (one more than the pixels with `corner_rays`).
-    grid_size: [u32; 2],
+    bands: Bands,
     pub variant: Variant,
     pub timings: SetupTimings,
-    /// The `Tile::pass` of each pass over the image (one unless a bundle is split).
-    passes: Vec<[u32; 4]>,
     /// Whether the pipeline cache was saved after this renderer's first frame.
     cache_saved: AtomicBool,
 }
@@ -94,101 +90,56 @@ pub enum SetupStage {
     Upload,
 }
 
-impl Renderer {
-    pub fn new(ctx: &GpuContext, scene: &Scene, opts: RenderOptions) -> Result<Self, String> {
-        Self::with_progress(ctx, scene, opts, &|_, _, _| {})
+/// What the band renderer traces, whichever backend runs it: the image size, the eye-ray grid
+/// and the passes over each pixel.
+#[derive(Clone, Debug)]
+pub struct Bands {
+    pub width: u32,
+    pub height: u32,
+    /// Eye rays per row and column (one more than the pixels with `corner_rays`).
+    pub grid_size: [u32; 2],
+    /// The `Tile::pass` of each pass over the image (one unless a bundle is split).
+    pub passes: Vec<[u32; 4]>,
+}
+
+impl Bands {
+    /// Output vec4s: one per eye ray.
+    pub fn out_len(&self) -> u64 {
+        self.grid_size[0] as u64 * self.grid_size[1] as u64
     }
 
-    /// [`Renderer::new`], reporting the grid build and the upload as they go.
-    pub fn with_progress(
-        ctx: &GpuContext,
-        scene: &Scene,
-        opts: RenderOptions,
-        progress: SetupProgress,
-    ) -> Result<Self, String> {
-        // An animated scene renders at time 0 here; `irt render --time` passes `scene.at(t)`.
-        let scene = &*scene.posed(0.0);
-        let t0 = Instant::now();
-        let grid = Grid::build_with_progress(scene, &|done, total| {
-            progress(SetupStage::Grid, done as u64, total as u64)
-        });
-        let t1 = Instant::now();
-        progress(SetupStage::Upload, 0, 1);
-        let (width, height) = (scene.camera.width, scene.camera.height);
-        // Positions relative to the eye: f32 precision follows distance from the viewer.
-        let packed = layout::pack_scene(scene, &grid, scene.camera.eye);
-        let mut params = layout::params(scene, &grid, &packed, scene.camera.eye);
-        params.eye_grid = layout::eye_grid(width, height, opts.corner_rays);
-        let rays = [params.eye_grid[0], params.eye_grid[1]];
-        let gpu_scene = GpuScene::upload_packed_with(ctx, packed, params, opts.max_scene_rows)?;
-        ctx.wait();
-        let t2 = Instant::now();
-        if opts.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(format!(
-                "{} has no f64 shader support (SHADER_F64): use --precision f32",
-                ctx.info.name
-            ));
-        }
-        let variant = if opts.uber_shader {
-            Variant { count_rays: opts.count_rays, f64: opts.f64, ..Variant::FULL }
-        } else {
-            Variant { f64: opts.f64, ..Variant::for_scene(scene, opts.count_rays) }
-        };
-        let out_len = rays[0] as u64 * rays[1] as u64;
-        let dispatcher = Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", out_len, &[]);
-        let variant = dispatcher.variant();
-        let timings = SetupTimings { grid_build: t1 - t0, upload: t2 - t1, pipeline: t2.elapsed() };
-        let passes = passes(scene);
-        Ok(Renderer {
-            grid,
-            gpu_scene,
-            dispatcher,
-            width,
-            height,
-            grid_size: rays,
-            variant,
-            timings,
-            passes,
-            cache_saved: AtomicBool::new(false),
-        })
-    }
-
-    /// Traces every eye ray, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after
-    /// each.
-    /// Median wall time of `frames` (at least 1) further renders: what the measurement commands
-    /// report. Call after a first frame, which carries lavapipe's shader compile.
-    pub fn median_frame_time(&self, ctx: &GpuContext, frames: u32) -> Duration {
-        let mut times: Vec<Duration> = (0..frames.max(1))
-            .map(|_| {
-                let t = Instant::now();
-                self.render(ctx, &mut |_, _| {});
-                t.elapsed()
-            })
-            .collect();
-        times.sort();
-        times[times.len() / 2]
-    }
-
-    pub fn render(&self, ctx: &GpuContext, progress: &mut dyn FnMut(u32, u32)) -> Frame {
-        self.dispatcher.reset_counts(ctx);
+    /// A frame: the counters zeroed, then bands of [`BAND_ROWS`] rows, every pass of a band
+    /// before the next, with a progress mark (rows done) after each band.
+    pub fn recording(&self) -> Recording {
         let [cols, rows] = self.grid_size;
+        let mut commands = vec![Command::ResetCounts];
         let mut y = 0;
         while y < rows {
             let band = BAND_ROWS.min(rows - y);
             for &pass in &self.passes {
-                self.dispatcher.dispatch_tile(
-                    ctx,
-                    Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() },
-                );
+                let tile = Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() };
+                commands.push(Command::Dispatch(Dispatch::over_rect("render", tile)));
             }
             y += band;
-            progress(y, rows);
+            commands.push(Command::Progress { done: y, total: rows });
         }
-        let (out, rays) = self.dispatcher.read(ctx);
-        // Drivers that compile at the first dispatch (lavapipe) fill the cache only now.
-        if !self.cache_saved.swap(true, Ordering::Relaxed) {
-            ctx.save_pipeline_cache();
-        }
+        Recording { commands }
+    }
+
+    /// Runs a frame on `backend` and reads it back.
+    pub fn render<B: ComputeBackend>(
+        &self,
+        backend: &B,
+        progress: &mut dyn FnMut(u32, u32),
+    ) -> Result<Frame, B::Error> {
+        backend.run(&self.recording(), progress)?;
+        let (out, rays) = backend.read_output()?;
+        Ok(self.frame(&out, rays))
+    }
+
+    /// The frame of the output buffer `out`.
+    pub fn frame(&self, out: &[[f32; 4]], rays: RayCounts) -> Frame {
+        let cols = self.grid_size[0];
         // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
         let meter = |p: &[f32; 4]| p[3] as u32;
         let eye_hits = out.iter().filter(|p| meter(p) & 1 == 1).count() as u64;
@@ -218,5 +169,117 @@ impl Renderer {
             max_loop_iterations,
             eye_hits,
         }
+    }
+}
+
+/// A scene made ready for the band renderer on any backend: its grid, packed texture and frame
+/// constants, the variant to compile and the bands to trace.
+pub struct Prepared {
+    pub grid: Grid,
+    pub packed: PackedScene,
+    pub params: Params,
+    pub variant: Variant,
+    pub bands: Bands,
+    pub grid_build: Duration,
+}
+
+/// Builds the grid (reporting it), packs the scene relative to the eye and picks the variant:
+/// everything of a band renderer's setup that no device is needed for.
+pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> Prepared {
+    // An animated scene renders at time 0 here; `irt render --time` passes `scene.at(t)`.
+    let scene = &*scene.posed(0.0);
+    let t0 = Instant::now();
+    let grid = Grid::build_with_progress(scene, &|done, total| {
+        progress(SetupStage::Grid, done as u64, total as u64)
+    });
+    let grid_build = t0.elapsed();
+    progress(SetupStage::Upload, 0, 1);
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    // Positions relative to the eye: f32 precision follows distance from the viewer.
+    let packed = layout::pack_scene(scene, &grid, scene.camera.eye);
+    let mut params = layout::params(scene, &grid, &packed, scene.camera.eye);
+    params.eye_grid = layout::eye_grid(width, height, opts.corner_rays);
+    let grid_size = [params.eye_grid[0], params.eye_grid[1]];
+    let variant = if opts.uber_shader {
+        Variant { count_rays: opts.count_rays, f64: opts.f64, ..Variant::FULL }
+    } else {
+        Variant { f64: opts.f64, ..Variant::for_scene(scene, opts.count_rays) }
+    };
+    let bands = Bands { width, height, grid_size, passes: passes(scene) };
+    Prepared { grid, packed, params, variant, bands, grid_build }
+}
+
+impl Renderer {
+    pub fn new(ctx: &GpuContext, scene: &Scene, opts: RenderOptions) -> Result<Self, String> {
+        Self::with_progress(ctx, scene, opts, &|_, _, _| {})
+    }
+
+    /// [`Renderer::new`], reporting the grid build and the upload as they go.
+    pub fn with_progress(
+        ctx: &GpuContext,
+        scene: &Scene,
+        opts: RenderOptions,
+        progress: SetupProgress,
+    ) -> Result<Self, String> {
+        let t1 = Instant::now();
+        let Prepared { grid, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
+        let gpu_scene = GpuScene::upload_packed_with(ctx, packed, params, opts.max_scene_rows)?;
+        ctx.wait();
+        let t2 = Instant::now();
+        if opts.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
+            return Err(format!(
+                "{} has no f64 shader support (SHADER_F64): use --precision f32",
+                ctx.info.name
+            ));
+        }
+        let dispatcher =
+            Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", bands.out_len(), &[]);
+        let variant = dispatcher.variant();
+        let timings = SetupTimings { grid_build, upload: t2 - t1 - grid_build, pipeline: t2.elapsed() };
+        Ok(Renderer {
+            grid,
+            gpu_scene,
+            dispatcher,
+            bands,
+            variant,
+            timings,
+            cache_saved: AtomicBool::new(false),
+        })
+    }
+
+    /// The bound kernel, as a backend (for measuring single dispatches).
+    pub fn kernel<'a>(&'a self, ctx: &'a GpuContext) -> WgpuKernel<'a> {
+        WgpuKernel { ctx, dispatcher: &self.dispatcher }
+    }
+
+    /// The bands this renderer traces.
+    pub fn bands(&self) -> &Bands {
+        &self.bands
+    }
+
+    /// Median wall time of `frames` (at least 1) further renders: what the measurement commands
+    /// report. Call after a first frame, which carries lavapipe's shader compile.
+    pub fn median_frame_time(&self, ctx: &GpuContext, frames: u32) -> Duration {
+        let mut times: Vec<Duration> = (0..frames.max(1))
+            .map(|_| {
+                let t = Instant::now();
+                self.render(ctx, &mut |_, _| {});
+                t.elapsed()
+            })
+            .collect();
+        times.sort();
+        times[times.len() / 2]
+    }
+
+    /// Traces every eye ray, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after
+    /// each.
+    pub fn render(&self, ctx: &GpuContext, progress: &mut dyn FnMut(u32, u32)) -> Frame {
+        let kernel = WgpuKernel { ctx, dispatcher: &self.dispatcher };
+        let frame = infallible(self.bands.render(&kernel, progress));
+        // Drivers that compile at the first dispatch (lavapipe) fill the cache only now.
+        if !self.cache_saved.swap(true, Ordering::Relaxed) {
+            ctx.save_pipeline_cache();
+        }
+        frame
     }
 }

@@ -1,0 +1,90 @@
+//! wgpu against ash on the same device, in one process, rounds interleaved (so load from other
+//! processes falls on both alike): per-dispatch overhead and frame time, medians. The numbers of
+//! docs/backends.md.
+//!
+//!     cargo run --release --example backends -- [SCENE] [ROUNDS] [DISPATCHES_PER_ROUND]
+
+use irt::gpu::backend::{dispatch_overhead, infallible, WgpuKernel};
+use irt::gpu::shaders::{Kernel, Variant};
+use irt::gpu::vk::{VkContext, VkDispatcher, VkKernel, VkRenderer};
+use irt::gpu::{AdapterChoice, Dispatcher, GpuContext, RenderOptions, Renderer};
+use std::time::{Duration, Instant};
+
+fn median(mut v: Vec<Duration>) -> f64 {
+    v.sort();
+    v[v.len() / 2].as_secs_f64() * 1e3
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let path = args.first().filter(|a| *a != "default").map(std::path::PathBuf::from);
+    let rounds: usize = args.get(1).map_or(Ok(7), |a| a.parse())?;
+    let per_round: u32 = args.get(2).map_or(Ok(200), |a| a.parse())?;
+    let mut scene = irt::io::load_or_default(path.as_deref())?;
+    (scene.camera.width, scene.camera.height) = (512, 512);
+    let choice = AdapterChoice::from_arg_or_env(None);
+    let opts = RenderOptions::default();
+
+    let t = Instant::now();
+    let ctx = GpuContext::new(&choice)?;
+    let open_w = t.elapsed();
+    let t = Instant::now();
+    let vk = VkContext::new(&choice)?;
+    let open_a = t.elapsed();
+    // The first instance of a process loads the Vulkan loader and driver; open wgpu again, now
+    // warm like ash was, to compare like with like.
+    let t = Instant::now();
+    drop(GpuContext::new(&choice)?);
+    let open_w_warm = t.elapsed();
+
+    let t = Instant::now();
+    let w = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
+    let fw = w.render(&ctx, &mut |_, _| {});
+    let first_w = t.elapsed();
+    let t = Instant::now();
+    let a = VkRenderer::new(&vk, &scene, opts)?;
+    let fa = a.render(&mut |_, _| {})?;
+    let first_a = t.elapsed();
+    let same = fw.image.pixels.iter().flatten().map(|x| x.to_bits()).eq(fa
+        .image
+        .pixels
+        .iter()
+        .flatten()
+        .map(|x| x.to_bits()));
+
+    let input = [[0.5f32, 0.04, 1.5, 0.0]];
+    let dw = Dispatcher::new(&ctx, &w.gpu_scene, Kernel::Tests, Variant::FULL, "k_fresnel", 1, &input);
+    let da = VkDispatcher::new(&vk, &a.scene, Kernel::Tests, Variant::FULL, 1, &input)?;
+    let kw = WgpuKernel { ctx: &ctx, dispatcher: &dw };
+    let ka = VkKernel(&da);
+    let (mut frame_w, mut frame_a, mut disp_w, mut disp_a) = (vec![], vec![], vec![], vec![]);
+    for _ in 0..rounds {
+        let t = Instant::now();
+        w.render(&ctx, &mut |_, _| {});
+        frame_w.push(t.elapsed());
+        let t = Instant::now();
+        a.render(&mut |_, _| {})?;
+        frame_a.push(t.elapsed());
+        disp_w.push(infallible(dispatch_overhead(&kw, "k_fresnel", per_round)));
+        disp_a.push(dispatch_overhead(&ka, "k_fresnel", per_round)?);
+    }
+    println!(
+        "scene {} at 512x512 on {} ({}); {rounds} rounds, {per_round} tiny dispatches each; images identical: {same}",
+        path.as_deref().map_or("default".into(), |p| p.display().to_string()),
+        ctx.info.name,
+        ctx.info.driver_info
+    );
+    println!("| | wgpu | ash |");
+    println!("| --- | --- | --- |");
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    println!("| device open, first in the process (ms) | {:.1} | |", ms(open_w));
+    println!("| device open, loader and driver loaded (ms) | {:.1} | {:.1} |", ms(open_w_warm), ms(open_a));
+    println!("| setup + first frame (ms) | {:.0} | {:.0} |", ms(first_w), ms(first_a));
+    println!("| frame, median (ms) | {:.1} | {:.1} |", median(frame_w), median(frame_a));
+    println!(
+        "| tiny dispatch, median of medians (µs) | {:.1} | {:.1} |",
+        median(disp_w) * 1e3,
+        median(disp_a) * 1e3
+    );
+    Ok(())
+}

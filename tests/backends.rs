@@ -1,0 +1,177 @@
+//! The two device paths agree (issue #12): the band renderer and readback kernels give the same
+//! bits on wgpu and on raw Vulkan through ash, and the ash path's failures are messages.
+mod common;
+
+use common::*;
+use glam::DVec3;
+use irt::accel::Grid;
+use irt::gpu::vk::{self, VkContext, VkError, VkRenderer, VkScene};
+use irt::gpu::{AdapterChoice, GpuContext, GpuScene, RenderOptions, Renderer};
+use irt::scene::Scene;
+
+fn vk_ctx() -> VkContext {
+    VkContext::new(&AdapterChoice::Lavapipe).expect("lavapipe through ash")
+}
+
+fn load(path: &str, w: u32, h: u32) -> Scene {
+    let mut s = irt::io::load_or_default(Some(std::path::Path::new(path))).expect(path);
+    s.camera.width = w;
+    s.camera.height = h;
+    s
+}
+
+/// Renders `scene` with `opts` on both paths and asserts the same pixels (bit for bit), rays and
+/// loop meter.
+fn assert_same(what: &str, ctx: &GpuContext, vk: &VkContext, scene: &Scene, opts: RenderOptions) {
+    let a = Renderer::new(ctx, scene, opts).expect("wgpu renderer");
+    let fa = a.render(ctx, &mut |_, _| {});
+    let b = VkRenderer::new(vk, scene, opts).expect("ash renderer");
+    let fb = b.render(&mut |_, _| {}).expect("ash render");
+    assert_eq!(a.variant, b.variant, "{what}: variant");
+    let bits = |i: &irt::image::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+    let (pa, pb) = (bits(&fa.image), bits(&fb.image));
+    let differ = pa.iter().zip(&pb).filter(|(x, y)| x != y).count();
+    assert_eq!(differ, 0, "{what}: {differ} of {} channels differ", pa.len());
+    assert_eq!(fa.rays, fb.rays, "{what}: ray counts");
+    assert_eq!((fa.eye_hits, fa.max_loop_iterations), (fb.eye_hits, fb.max_loop_iterations), "{what}");
+    // Not a blank image agreeing with a blank image.
+    assert!(fa.eye_hits > 0, "{what}: nothing hit");
+}
+
+#[test]
+fn bands_agree_bit_for_bit() {
+    let (ctx, vk) = (gpu(), vk_ctx());
+    let counting = RenderOptions { count_rays: true, ..Default::default() };
+    assert_same("default", &ctx, &vk, &load("scenes/default.toml", 96, 72), counting);
+    assert_same("textured", &ctx, &vk, &load("scenes/textured.toml", 80, 60), RenderOptions::default());
+    assert_same("dielectric", &ctx, &vk, &load("scenes/dielectric.toml", 80, 60), counting);
+    assert_same("cones", &ctx, &vk, &load("scenes/cones.toml", 64, 48), RenderOptions::default());
+    // Split soft-shadow bundles: several passes per band.
+    let mut soft = load("scenes/default.toml", 64, 48);
+    soft.trace.shadows = "bundle:24".parse().expect("bundle mode");
+    soft.lights.iter_mut().for_each(|l| l.radius = 0.4);
+    assert_same("default, bundle:24", &ctx, &vk, &soft, counting);
+    // SPD at small size: SPD's corner rays, and triangles.
+    let spd = RenderOptions { corner_rays: true, count_rays: true, ..Default::default() };
+    assert_same("balls_s1", &ctx, &vk, &load("scenes/spd/balls_s1.nff", 64, 64), spd);
+    assert_same("gears_s1", &ctx, &vk, &load("scenes/spd/gears_s1.nff", 64, 64), RenderOptions::default());
+}
+
+#[test]
+fn layered_uber_and_f64_variants_agree() {
+    let (ctx, vk) = (gpu(), vk_ctx());
+    let s = load("scenes/default.toml", 48, 36);
+    // A 2D-array scene texture (layered past 0 rows), the uber-shader, f64 traversal.
+    assert_same("layered", &ctx, &vk, &s, RenderOptions { max_scene_rows: Some(0), ..Default::default() });
+    assert_same(
+        "uber",
+        &ctx,
+        &vk,
+        &s,
+        RenderOptions { uber_shader: true, count_rays: true, ..Default::default() },
+    );
+    assert_same("f64", &ctx, &vk, &s, RenderOptions { f64: true, ..Default::default() });
+}
+
+#[test]
+fn readback_kernels_agree() {
+    let (ctx, vkc) = (gpu(), vk_ctx());
+    let s = scene_of(vec![irt::scene::Sphere { center: DVec3::ZERO, radius: 1.0, material: 0 }], vec![]);
+    let grid = Grid::build(&s);
+    let (a, b) = (
+        GpuScene::upload(&ctx, &s, &grid).expect("upload"),
+        VkScene::upload(&vkc, &s, &grid).expect("upload"),
+    );
+    let mut rng = Rng::new(7);
+    let n = 1000;
+    // k_sphere: (o, t_min), (d, t_max), (c, r), anchor.
+    let mut sphere = Vec::new();
+    for _ in 0..n {
+        let (c, o) = (rng.vec(-5.0, 5.0), rng.vec(-10.0, 10.0));
+        sphere.extend([v4(o, 1e-4), v4((c - o).normalize(), 1e30), v4(c, rng.range(0.1, 3.0)), v4(o, 0.0)]);
+    }
+    // k_fresnel: (cos, r0, eta, inside).
+    let fresnel: Vec<[f32; 4]> = (0..n)
+        .map(|i| [rng.f() as f32, rng.range(0.0, 0.2) as f32, rng.range(1.0, 2.5) as f32, (i % 2) as f32])
+        .collect();
+    for (entry, inputs) in [("k_sphere", &sphere), ("k_fresnel", &fresnel)] {
+        let wa = irt::gpu::readback::run_kernel(&ctx, &a, entry, inputs, n, 1);
+        let wb = vk::run_kernel(&vkc, &b, entry, inputs, n, 1).expect(entry);
+        let bits = |v: &[[f32; 4]]| v.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&wa), bits(&wb), "{entry}");
+        assert!(wa.iter().any(|p| p[0] > 0.0), "{entry}: all zero");
+    }
+}
+
+#[test]
+fn corrupted_spirv_is_rejected_with_a_message() {
+    let vk = vk_ctx();
+    let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, irt::gpu::shaders::Variant::FULL);
+    let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
+    let good = vk::compile_entry(&module, &info, "render", &vk::spv_options(&vk)).expect("SPIR-V");
+    vk.try_pipeline(&good, "render", false).expect("naga's SPIR-V is accepted");
+    // An instruction's opcode half of its first word, past the header (word 5 is the first
+    // instruction, an OpCapability).
+    let at = 5 + (good[5] >> 16) as usize;
+    type Corrupt = Box<dyn Fn(&mut Vec<u32>)>;
+    let corruptions: [(&str, Corrupt); 4] = [
+        ("magic", Box::new(|w: &mut Vec<u32>| w[0] ^= 1)),
+        ("opcode", Box::new(move |w: &mut Vec<u32>| w[at] = (w[at] & 0xffff_0000) | 0xfff0)),
+        ("word count", Box::new(move |w: &mut Vec<u32>| w[at] |= 0xffff_0000)),
+        ("truncated", Box::new(|w: &mut Vec<u32>| w.truncate(w.len() - 3))),
+    ];
+    for (what, corrupt) in corruptions {
+        let mut words = good.clone();
+        corrupt(&mut words);
+        match vk.try_pipeline(&words, "render", false) {
+            Err(VkError::Shader(msg)) => assert!(msg.contains("SPIR-V rejected"), "{what}: {msg}"),
+            other => panic!("{what}: expected a SPIR-V rejection, got {other:?}"),
+        }
+    }
+    match vk.try_pipeline(&good, "no_such_entry", false) {
+        Err(VkError::Shader(msg)) => assert!(msg.contains("no OpEntryPoint"), "{msg}"),
+        other => panic!("a missing entry point: {other:?}"),
+    }
+}
+
+#[test]
+fn unknown_adapter_has_the_wgpu_message() {
+    let choice = AdapterChoice::Named("no-such-adapter-42".into());
+    let a = GpuContext::new(&choice).expect_err("no such adapter").to_string();
+    let b = VkContext::new(&choice).expect_err("no such adapter").to_string();
+    assert_eq!(a, b);
+    assert!(a.starts_with("no Vulkan adapter matches 'no-such-adapter-42'; available: "), "{a}");
+}
+
+/// Binding 1 is a SAMPLED_IMAGE descriptor without a sampler because naga writes the scene
+/// texture as an `OpTypeImage` with Sampled = 1, read by `OpImageFetch`, and no sampler types.
+#[test]
+fn scene_texture_is_a_sampled_image_read_without_a_sampler() {
+    let vkc = vk_ctx();
+    for layered in [false, true] {
+        let variant = irt::gpu::shaders::Variant { layered, ..irt::gpu::shaders::Variant::FULL };
+        let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, variant);
+        let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
+        let words = vk::compile_entry(&module, &info, "render", &vk::spv_options(&vkc)).expect("SPIR-V");
+        let (mut images, mut fetches, mut samplers) = (Vec::new(), 0, 0);
+        let mut at = 5;
+        while at < words.len() {
+            let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
+            match op {
+                // OpTypeImage: result, sampled type, dim, depth, arrayed, MS, sampled, format.
+                25 => images.push((words[at + 5], words[at + 7])),
+                26 | 27 => samplers += 1,
+                95 => fetches += 1,
+                _ => {}
+            }
+            at += count;
+        }
+        assert_eq!(
+            images,
+            vec![(layered as u32, 1)],
+            "layered {layered}: (arrayed, sampled) of each image type"
+        );
+        assert_eq!(samplers, 0, "no sampler types");
+        assert!(fetches > 0, "textureLoad is an OpImageFetch");
+    }
+}
