@@ -597,15 +597,17 @@ impl Dispatcher {
     pub fn read(&self, ctx: &GpuContext) -> (Vec<[f32; 4]>, RayCounts) {
         let out_bytes = self.out_len * 16;
         self.read_back(ctx, &[(&self.out_buf, out_bytes), (&self.stats_buf, 16)], |d| {
-            let out: Vec<[f32; 4]> = bytemuck::cast_slice(&d[..out_bytes as usize]).to_vec();
-            let c: &[u32] = bytemuck::cast_slice(&d[out_bytes as usize..]);
-            let counts = RayCounts {
-                eye: c[0] as u64,
-                reflection: c[1] as u64,
-                refraction: c[2] as u64,
-                shadow: c[3] as u64,
-            };
-            (out, counts)
+            decode_output(d, out_bytes)
         })
     }
+}
+
+/// The output buffer's vec4s and the ray counters, from `out_bytes` of output followed by the
+/// 16 bytes of counters (how both device paths read them back).
+pub fn decode_output(d: &[u8], out_bytes: u64) -> (Vec<[f32; 4]>, RayCounts) {
+    let out: Vec<[f32; 4]> = bytemuck::cast_slice(&d[..out_bytes as usize]).to_vec();
+    let c: &[u32] = bytemuck::cast_slice(&d[out_bytes as usize..out_bytes as usize + 16]);
+    let counts =
+        RayCounts { eye: c[0] as u64, reflection: c[1] as u64, refraction: c[2] as u64, shadow: c[3] as u64 };
+    (out, counts)
 }

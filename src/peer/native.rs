@@ -221,6 +221,25 @@ impl Shade {
     /// One frame on `threads` threads (rows handed out one at a time, so a slow region does not
     /// leave the other threads idle).
     pub(super) fn render<C: Caster>(&self, caster: &C, threads: usize) -> PeerFrame {
+        self.rows_on(
+            threads,
+            || caster.context(),
+            |ctx, y, row, shadow| {
+                for (x, px) in row.iter_mut().enumerate() {
+                    *px = self.pixel(caster, ctx, x as u32, y, shadow).to_array();
+                }
+            },
+        )
+    }
+
+    /// The frame, its rows dealt to `threads` workers one at a time; each worker makes its
+    /// caster context with `context` and fills a row with `row(ctx, y, pixels, shadow_rays)`.
+    fn rows_on<X>(
+        &self,
+        threads: usize,
+        context: impl Fn() -> X + Sync,
+        row: impl Fn(&mut X, u32, &mut [[f32; 3]], &mut u64) + Sync,
+    ) -> PeerFrame {
         let (w, h) = (self.width as usize, self.height as usize);
         let mut pixels = vec![[0.0f32; 3]; w * h];
         let rows = Mutex::new(pixels.chunks_mut(w).enumerate());
@@ -229,14 +248,11 @@ impl Shade {
                 .map(|_| {
                     s.spawn(|| {
                         let mut shadow = 0u64;
-                        let mut ctx = caster.context();
+                        let mut ctx = context();
                         loop {
                             let next = rows.lock().expect("no worker panics holding the lock").next();
-                            let Some((y, row)) = next else { break };
-                            for (x, px) in row.iter_mut().enumerate() {
-                                *px =
-                                    self.pixel(caster, &mut ctx, x as u32, y as u32, &mut shadow).to_array();
-                            }
+                            let Some((y, pixels)) = next else { break };
+                            row(&mut ctx, y as u32, pixels, &mut shadow);
                         }
                         shadow
                     })
@@ -277,30 +293,15 @@ impl Shade {
     /// wherever the packet kernel finds the same hits.
     #[cfg(feature = "embree")]
     pub(super) fn render8<C: Caster8>(&self, caster: &C, threads: usize) -> PeerFrame {
-        let (w, h) = (self.width as usize, self.height as usize);
-        let mut pixels = vec![[0.0f32; 3]; w * h];
-        let rows = Mutex::new(pixels.chunks_mut(w).enumerate());
-        let shadow = std::thread::scope(|s| {
-            let workers: Vec<_> = (0..threads.max(1))
-                .map(|_| {
-                    s.spawn(|| {
-                        let mut shadow = 0u64;
-                        let mut ctx = caster.context();
-                        loop {
-                            let next = rows.lock().expect("no worker panics holding the lock").next();
-                            let Some((y, row)) = next else { break };
-                            for (i, px) in row.chunks_mut(8).enumerate() {
-                                self.pixels8(caster, &mut ctx, 8 * i as u32, y as u32, px, &mut shadow);
-                            }
-                        }
-                        shadow
-                    })
-                })
-                .collect();
-            workers.into_iter().map(|t| t.join().expect("peer worker")).sum()
-        });
-        let image = Image { width: self.width, height: self.height, pixels };
-        PeerFrame { image, rays: PeerRays { eye: (w * h) as u64, shadow } }
+        self.rows_on(
+            threads,
+            || caster.context(),
+            |ctx, y, row, shadow| {
+                for (i, px) in row.chunks_mut(8).enumerate() {
+                    self.pixels8(caster, ctx, 8 * i as u32, y, px, shadow);
+                }
+            },
+        )
     }
 
     /// Pixels x0.. x0 + px.len() (at most 8) of row y.

@@ -555,15 +555,7 @@ impl VkDispatcher {
             }
         })?;
         let data = self.readback.read(out_bytes + 16);
-        let out: Vec<[f32; 4]> = bytemuck::cast_slice(&data[..out_bytes as usize]).to_vec();
-        let c: &[u32] = bytemuck::cast_slice(&data[out_bytes as usize..]);
-        let counts = RayCounts {
-            eye: c[0] as u64,
-            reflection: c[1] as u64,
-            refraction: c[2] as u64,
-            shadow: c[3] as u64,
-        };
-        Ok((out, counts))
+        Ok(crate::gpu::dispatch::decode_output(&data, out_bytes))
     }
 }
 
