@@ -7,6 +7,7 @@ use glam::DVec3;
 use irt::accel::Grid;
 use irt::gpu::vk::{self, VkContext, VkError, VkRenderer, VkScene};
 use irt::gpu::{AdapterChoice, GpuContext, GpuScene, RenderOptions, Renderer};
+use irt::render::{Session, Settings};
 use irt::scene::Scene;
 
 fn vk_ctx() -> VkContext {
@@ -173,5 +174,204 @@ fn scene_texture_is_a_sampled_image_read_without_a_sampler() {
         );
         assert_eq!(samplers, 0, "no sampler types");
         assert!(fetches > 0, "textureLoad is an OpImageFetch");
+    }
+}
+
+/// The bits of every channel of `i`.
+fn bits(i: &irt::image::Image) -> Vec<u32> {
+    i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect()
+}
+
+/// Asserts the same picture (bit for bit) and, for images that should show something, that it
+/// is not blank.
+fn assert_images(what: &str, a: &irt::image::Image, b: &irt::image::Image) {
+    let (pa, pb) = (bits(a), bits(b));
+    assert_eq!(pa.len(), pb.len(), "{what}: sizes");
+    let differ = pa.iter().zip(&pb).filter(|(x, y)| x != y).count();
+    assert_eq!(differ, 0, "{what}: {differ} of {} channels differ", pa.len());
+    assert!(a.pixels.iter().any(|p| p.iter().any(|&c| c > 0.0)), "{what}: a blank picture");
+}
+
+/// Sessions on both paths, stepped alike: `steps` steps, then the frame buffer and the raw
+/// output of the last traced pixels compared bit for bit, as are the step reports.
+fn assert_sessions_agree(
+    what: &str,
+    ctx: &GpuContext,
+    vk: &VkContext,
+    scene: &Scene,
+    settings: Settings,
+    steps: u32,
+) {
+    let mut a = Session::new(ctx, scene, settings.clone()).expect("wgpu session");
+    let mut b = Session::new(vk, scene, settings.clone()).expect("ash session");
+    assert_eq!(a.variant, b.variant, "{what}: variant");
+    for k in 0..steps {
+        let (ra, rb) = (a.step(ctx), b.try_step(vk).expect("ash step"));
+        let key = |r: &irt::render::StepReport| (r.pixels, r.eye_rays, r.frame_done, r.slice, r.idle);
+        assert_eq!(key(&ra), key(&rb), "{what}: step {k}");
+    }
+    assert_eq!(a.samples(), b.samples(), "{what}: samples");
+    assert_images(what, &a.read_image(ctx), &b.try_read_image(vk).expect("ash frame buffer"));
+    let (oa, ob) = (a.read_output(ctx), b.try_read_output(vk).expect("ash output"));
+    // The radiance, bit for bit. The alpha's loop meter only where each invocation's work is
+    // fixed: the tile queue's workgroups meter all the tiles they took, which depends on how
+    // lavapipe's threads raced for the queue (two wgpu runs differ there too).
+    let queue = matches!(settings.mode, irt::render::Mode::Conventional { schedule, .. } if schedule != irt::render::Schedule::Plain);
+    let channels = if queue { 3 } else { 4 };
+    let same = oa.iter().zip(&ob).all(|(x, y)| (0..channels).all(|c| x[c].to_bits() == y[c].to_bits()));
+    assert!(same, "{what}: output");
+}
+
+#[test]
+fn sessions_agree_in_every_mode() {
+    use irt::render::{Mode, PixelOrder, Schedule};
+    let (ctx, vk) = (gpu(), vk_ctx());
+    let scene = load("scenes/default.toml", 131, 67);
+    let frameless = |order, slice, blend, jitter_pairs| Mode::Frameless {
+        order,
+        slice,
+        present_every: 0,
+        blend,
+        jitter_pairs,
+    };
+    let modes = [
+        ("conventional", Mode::conventional(), 9),
+        (
+            "conventional fixed:1 ×1",
+            Mode::Conventional { schedule: Schedule::Fixed { tiles: 1 }, workers: 1 },
+            12,
+        ),
+        ("conventional guided ×3", Mode::Conventional { schedule: Schedule::Guided, workers: 3 }, 6),
+        ("conventional plain", Mode::Conventional { schedule: Schedule::Plain, workers: 0 }, 3),
+        ("frameless", Mode::frameless(), 2),
+        ("frameless random 999", frameless(PixelOrder::Random, 999, None, false), 25),
+        ("frameless dissolve 1000", frameless(PixelOrder::Dissolve, 1000, None, false), 20),
+        ("frameless blend 0.3", frameless(PixelOrder::default(), 4000, Some(0.3), false), 5),
+        ("frameless jitter pairs", frameless(PixelOrder::default(), 4000, None, true), 5),
+    ];
+    for (name, mode, steps) in modes {
+        // Several steps: waves of a frame, and refinement samples after the first.
+        assert_sessions_agree(name, &ctx, &vk, &scene, Settings { mode, ..Settings::default() }, steps);
+    }
+}
+
+#[test]
+fn sessions_agree_in_every_shadow_mode_and_precision() {
+    use irt::render::Mode;
+    let (ctx, vk) = (gpu(), vk_ctx());
+    let base = load("scenes/default.toml", 64, 48);
+    for shadows in ["hard", "bundle:32", "bundle:4:fixed", "shell", "shell:smoothstep:product"] {
+        for mode in [Mode::conventional(), Mode::frameless()] {
+            let settings = Settings {
+                mode,
+                shadows: Some(shadows.parse().expect("shadow mode")),
+                light_radius: Some(0.4),
+                ..Settings::default()
+            };
+            assert_sessions_agree(&format!("{shadows}, {mode}"), &ctx, &vk, &base, settings, 6);
+        }
+    }
+    for (path, w, h) in [
+        ("scenes/textured.toml", 48, 36),
+        ("scenes/dielectric.toml", 48, 36),
+        ("scenes/cones.toml", 48, 36),
+        ("scenes/spd/balls_s1.nff", 48, 48),
+        ("scenes/spd/gears_s1.nff", 48, 48),
+    ] {
+        let s = load(path, w, h);
+        for f64 in [false, true] {
+            let settings = Settings { mode: Mode::frameless(), f64, ..Settings::default() };
+            assert_sessions_agree(&format!("{path} f64 {f64}"), &ctx, &vk, &s, settings, 3);
+        }
+    }
+}
+
+/// What the interactive loop changes between steps, alike on both paths: the camera, the render
+/// size, a live setting, a material of a new kind (a recompiled kernel taking the frame buffer
+/// over), an animated scene's time, and a scene that outgrows its texture (a new image bound in
+/// place).
+#[test]
+fn live_changes_agree() {
+    use irt::render::Mode;
+    use irt::scene::{Animated, Channel, Interpolation, Motion, Sphere, Stage, Target, Trs};
+    let (ctx, vk) = (gpu(), vk_ctx());
+    // Diffuse only, so that a metal later needs a kernel with metal compiled in.
+    let mut scene = load("scenes/default.toml", 80, 60);
+    for m in &mut scene.materials {
+        m.kind = irt::scene::MaterialKind::Diffuse { color: DVec3::splat(0.6) };
+    }
+    for mode in [Mode::conventional(), Mode::frameless()] {
+        let settings = Settings { mode, ..Settings::default() };
+        let mut a = Session::new(&ctx, &scene, settings.clone()).unwrap();
+        let mut b = Session::new(&vk, &scene, settings.clone()).unwrap();
+        let both = |a: &mut Session, b: &mut Session<VkContext>, steps: u32, what: &str| {
+            for _ in 0..steps {
+                a.step(&ctx);
+                b.try_step(&vk).unwrap();
+            }
+            assert_images(&format!("{mode}: {what}"), &a.read_image(&ctx), &b.try_read_image(&vk).unwrap());
+        };
+        both(&mut a, &mut b, 3, "start");
+        let mut cam = scene.camera.clone();
+        cam.eye += DVec3::new(0.4, 0.2, -0.3);
+        a.set_camera(&ctx, &cam);
+        b.set_camera(&vk, &cam);
+        both(&mut a, &mut b, 2, "moved camera");
+        a.set_size(&ctx, 40, 30).unwrap();
+        b.set_size(&vk, 40, 30).unwrap();
+        both(&mut a, &mut b, 2, "smaller");
+        let deeper = Settings { max_depth: Some(1), ..settings.clone() };
+        a.apply(&ctx, deeper.clone()).unwrap();
+        b.apply(&vk, deeper).unwrap();
+        both(&mut a, &mut b, 2, "max depth 1");
+        let mut edited = a.base_scene().clone();
+        edited.materials[0].kind =
+            irt::scene::MaterialKind::Metal { color: DVec3::splat(0.9), exponent: 40.0 };
+        let (ra, rb) = (a.set_scene(&ctx, &edited).unwrap(), b.set_scene(&vk, &edited).unwrap());
+        assert_eq!((ra.recompiled, rb.recompiled), (true, true), "a new kind recompiles on both");
+        both(&mut a, &mut b, 1, "recompiled, frame buffer taken over");
+        both(&mut a, &mut b, 2, "metal");
+    }
+
+    // Animated: the default scene's motions, and a ball that swells past the texture.
+    let animated = load("scenes/animated.toml", 64, 48);
+    let mut a = Session::new(&ctx, &animated, Settings::default()).unwrap();
+    let mut b = Session::new(&vk, &animated, Settings::default()).unwrap();
+    for t in [0.0, 0.7, 1.9, 0.2] {
+        a.set_time(&ctx, t).unwrap();
+        b.set_time(&vk, t).unwrap();
+        a.complete_pass(&ctx);
+        b.try_complete_pass(&vk).unwrap();
+        assert_images(&format!("animated at {t}"), &a.read_image(&ctx), &b.try_read_image(&vk).unwrap());
+    }
+    let mut grows = load("scenes/default.toml", 48, 36);
+    let mut rng = Rng::new(7);
+    for _ in 0..20000 {
+        let center = rng.vec(-3.0, 3.0) + 3.0 * DVec3::Y;
+        grows.spheres.push(Sphere { center, radius: 0.02, material: 1 });
+    }
+    grows.spheres.push(Sphere { center: 3.0 * DVec3::Y, radius: 0.1, material: 0 });
+    let scale = Channel {
+        interpolation: Interpolation::Linear,
+        times: vec![0.0, 1.0],
+        values: vec![DVec3::ONE, DVec3::splat(28.0)],
+    };
+    let stages = vec![
+        Stage::Fixed(glam::DAffine3::from_translation(3.0 * DVec3::Y)),
+        Stage::Keyed { translation: None, rotation: None, scale: Some(scale), rest: Trs::default() },
+        Stage::Fixed(glam::DAffine3::from_translation(-3.0 * DVec3::Y)),
+    ];
+    let target = Target::Sphere(grows.spheres.len() as u32 - 1);
+    grows.motions.push(Animated { target, motion: Motion { stages } });
+    grows.validate().unwrap();
+    let settings = Settings { mode: Mode::conventional(), ..Settings::default() };
+    let mut a = Session::new(&ctx, &grows, settings.clone()).unwrap();
+    let mut b = Session::new(&vk, &grows, settings).unwrap();
+    for (t, grown) in [(1.0, true), (0.0, false)] {
+        let (ra, rb) = (a.set_time(&ctx, t).unwrap(), b.set_time(&vk, t).unwrap());
+        assert_eq!((ra.reallocated, rb.reallocated), (grown, grown), "texture replaced at {t}");
+        a.complete_pass(&ctx);
+        b.try_complete_pass(&vk).unwrap();
+        assert_images(&format!("grown scene at {t}"), &a.read_image(&ctx), &b.try_read_image(&vk).unwrap());
     }
 }

@@ -413,3 +413,30 @@ fn bench_embree_peer_or_how_to_build_it() {
         fails_with(&out, &["built without Embree", "--features embree", "libembree-dev"]);
     }
 }
+
+/// `--backend ash` runs the interactive modes and image sequences too, writing the files the
+/// wgpu path writes, byte for byte.
+#[test]
+fn ash_renders_modes_and_sequences_like_wgpu() {
+    let size = ["--width", "64", "--height", "48"];
+    let cases: [(&str, &[&str]); 3] = [
+        ("frameless", &["--mode", "frameless"]),
+        ("conventional", &["--mode", "conventional"]),
+        ("frames_%02d", &["scenes/animated.toml", "--frames", "3..5", "--fps", "2"]),
+    ];
+    for (name, extra) in cases {
+        let mut files = Vec::new();
+        for backend in ["wgpu", "ash"] {
+            let out = tmp(&format!("ash-{backend}-{name}.png"));
+            let path = out.to_str().unwrap();
+            let mut args = vec!["render", "--backend", backend, "--out", path];
+            args.extend_from_slice(&size);
+            args.extend_from_slice(extra);
+            let run = irt(&args);
+            assert!(run.status.success(), "{backend} {name}: {}", String::from_utf8_lossy(&run.stderr));
+            files.push(path.replace("%02d", "04"));
+        }
+        let read = |p: &String| std::fs::read(p).unwrap_or_else(|e| panic!("{p}: {e}"));
+        assert_eq!(read(&files[0]), read(&files[1]), "{name}: the two paths wrote different files");
+    }
+}

@@ -3,6 +3,7 @@
 use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
+use irt::gpu::backend::Device;
 use irt::gpu::{RenderOptions, Renderer};
 use irt::image::{Image, OutputFormat};
 use irt::render::{ModeArgs, Session, Settings};
@@ -46,8 +47,8 @@ pub struct RenderArgs {
     /// give the same picture bit for bit.
     #[command(flatten)]
     pub mode: ModeArgs,
-    /// Device path: wgpu (default), or ash (raw Vulkan, the same shaders; the band renderer only,
-    /// without --mode or --frames). See docs/backends.md.
+    /// Device path: wgpu (default), or ash (raw Vulkan: the same shaders, bands, modes and
+    /// frames). See docs/backends.md.
     #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
     pub backend: super::Backend,
     #[command(flatten)]
@@ -63,12 +64,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
         irt::io::nff::apply_spd_rules(&mut scene);
     }
     let mode = args.mode.mode().map_err(anyhow::Error::msg)?;
-    if args.backend == super::Backend::Ash && (mode.is_some() || args.frames.is_some()) {
-        anyhow::bail!(
-            "--backend ash renders with the band renderer only: drop --mode and --frames (the \
-             interactive modes run on wgpu for now)"
-        );
-    }
     if let Some(frames) = args.frames.clone() {
         if args.stats {
             anyhow::bail!("--stats counts rays of one frame: drop --frames to use it");
@@ -85,22 +80,22 @@ pub fn run(args: RenderArgs) -> Result<()> {
         scene = scene.at(t);
         scene.validate().map_err(|e| anyhow::anyhow!("at time {t} s: {}", e.0))?;
     }
-    if args.backend == super::Backend::Ash {
-        return run_ash(&args, format, &scene);
-    }
-    let ctx = open_device(&args.device)?;
     if let Some(mode) = mode {
         if args.stats {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
         let settings = Settings { mode, f64: args.scene.f64(), max_samples: 1, ..Settings::default() };
-        let mut session = Session::new(&ctx, &scene, settings).map_err(anyhow::Error::msg)?;
-        let t = Instant::now();
-        session.complete_pass(&ctx);
-        let elapsed = t.elapsed();
-        let image = session.read_image(&ctx);
-        return write(&args, format, &image, &scene, elapsed, &ctx.info.name, &mode.to_string());
+        return match args.backend {
+            super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
+            super::Backend::Ash => {
+                one_pass(&super::open_vk_device(&args.device)?, &args, format, &scene, settings)
+            }
+        };
     }
+    if args.backend == super::Backend::Ash {
+        return run_ash(&args, format, &scene);
+    }
+    let ctx = open_device(&args.device)?;
     let opts = options(&args);
     let h = scene.camera.height;
     let setup = super::setup_bar(scene.primitive_count());
@@ -129,6 +124,27 @@ pub fn run(args: RenderArgs) -> Result<()> {
     write(&args, format, &frame.image, &scene, elapsed, &ctx.info.name, "bands")?;
     print_stats(&args, &frame);
     Ok(())
+}
+
+/// One complete frame (conventional) or pass (frameless) of an interactive mode, on `ctx`'s path.
+fn one_pass<D: Device>(
+    ctx: &D,
+    args: &RenderArgs,
+    format: OutputFormat,
+    scene: &irt::scene::Scene,
+    settings: Settings,
+) -> Result<()> {
+    let mode = settings.mode;
+    let mut session = Session::new(ctx, scene, settings).map_err(anyhow::Error::msg)?;
+    let t = Instant::now();
+    session.try_complete_pass(ctx)?;
+    let elapsed = t.elapsed();
+    let image = session.try_read_image(ctx)?;
+    let how = match args.backend {
+        super::Backend::Wgpu => mode.to_string(),
+        super::Backend::Ash => format!("{mode}, ash"),
+    };
+    write(args, format, &image, scene, elapsed, ctx.adapter_name(), &how)
 }
 
 fn options(args: &RenderArgs) -> RenderOptions {

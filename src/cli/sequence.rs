@@ -4,6 +4,7 @@
 
 use super::render::RenderArgs;
 use anyhow::{bail, Context, Result};
+use irt::gpu::backend::Device;
 use irt::image::OutputFormat;
 use irt::render::schedule::Schedule;
 use irt::render::{Mode, Session, Settings, UpdateReport};
@@ -35,34 +36,55 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
     if !scene.is_animated() {
         log::warn!("the scene has no motion: every frame will be the same picture");
     }
-    let ctx = super::open_device(&args.device)?;
     let mode = mode.unwrap_or(Mode::Conventional { schedule: Schedule::Plain, workers: 0 });
     let settings = Settings { mode, f64: args.scene.f64(), max_samples: 1, ..Settings::default() };
-    let mut session = Session::new(&ctx, scene, settings).map_err(anyhow::Error::msg)?;
-    session.incremental = !args.full_rebuild;
-    let bar = indicatif::ProgressBar::new(frames.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} frame {pos}/{len} [{bar:30}] {elapsed_precise} eta {eta}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    let mut cost = Totals::default();
-    let t0 = Instant::now();
-    for k in frames.clone() {
-        let update = session.set_time(&ctx, k as f64 / fps).map_err(anyhow::Error::msg)?;
-        let trace = session.complete_pass(&ctx);
-        let image = session.read_image(&ctx);
-        let path = pattern.path(k);
-        image.save_as(&path, format).with_context(|| format!("writing {}", path.display()))?;
-        cost.add(&update, trace);
-        bar.inc(1);
+    let job = Job { args, scene, frames, pattern, format, settings };
+    match args.backend {
+        super::Backend::Wgpu => job.run(&super::open_device(&args.device)?),
+        super::Backend::Ash => job.run(&super::open_vk_device(&args.device)?),
     }
-    bar.finish_and_clear();
-    let n = frames.len() as f64;
-    let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
-    eprintln!(
+}
+
+/// The frames to write, and how.
+struct Job<'a> {
+    args: &'a RenderArgs,
+    scene: &'a Scene,
+    frames: Range<u32>,
+    pattern: FramePattern,
+    format: OutputFormat,
+    settings: Settings,
+}
+
+impl Job<'_> {
+    fn run<D: Device>(self, ctx: &D) -> Result<()> {
+        let Job { args, scene, frames, pattern, format, settings } = self;
+        let fps = args.fps;
+        let first = pattern.path(frames.start);
+        let mut session = Session::new(ctx, scene, settings).map_err(anyhow::Error::msg)?;
+        session.incremental = !args.full_rebuild;
+        let bar = indicatif::ProgressBar::new(frames.len() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} frame {pos}/{len} [{bar:30}] {elapsed_precise} eta {eta}",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        let mut cost = Totals::default();
+        let t0 = Instant::now();
+        for k in frames.clone() {
+            let update = session.set_time(ctx, k as f64 / fps).map_err(anyhow::Error::msg)?;
+            let trace = session.try_complete_pass(ctx)?;
+            let image = session.try_read_image(ctx)?;
+            let path = pattern.path(k);
+            image.save_as(&path, format).with_context(|| format!("writing {}", path.display()))?;
+            cost.add(&update, trace);
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        let n = frames.len() as f64;
+        let ms = |d: Duration| d.as_secs_f64() * 1e3 / n;
+        eprintln!(
         "wrote {} frames {} … {} ({}x{}, {} primitives, {:.1} s on {}); per frame: update {:.1} ms (grid {:.1}, \
          pack {:.1}, upload {:.1}; the grid {} in {} of {} frames), trace {:.1} ms",
         frames.len(),
@@ -72,7 +94,7 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
         scene.camera.height,
         scene.primitive_count(),
         t0.elapsed().as_secs_f64(),
-        ctx.info.name,
+        ctx.adapter_name(),
         ms(cost.update),
         ms(cost.grid),
         ms(cost.pack),
@@ -82,7 +104,8 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
         frames.len(),
         ms(cost.trace),
     );
-    Ok(())
+        Ok(())
+    }
 }
 
 #[derive(Default)]

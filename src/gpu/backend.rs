@@ -4,11 +4,14 @@
 //!
 //! A backend holds one compiled kernel bound to an uploaded scene and its buffers (the bindings of
 //! shaders/types.wgsl); the recording says which entry points run over which tiles, in order.
-//! Phase 1 of issue #12 expresses the headless bands and the readback kernels of the tests this
-//! way; the interactive modes (tile queue, frameless slices) still call the wgpu dispatcher.
+//! The headless bands, the readback kernels of the tests and the interactive modes of
+//! `render::Session` (the conventional tile queue's waves, the frameless slices) are all
+//! recordings; a [`Device`] is what a session needs beyond them: uploading and updating a scene,
+//! compiling a kernel, binding it.
 
-use super::dispatch::{Dispatcher, RayCounts};
-use super::layout::Tile;
+use super::dispatch::{Dispatcher, GpuScene, ModeBuffers, RayCounts};
+use super::layout::{PackedScene, Params, Tile};
+use super::shaders::{Kernel, Variant};
 use super::GpuContext;
 use std::convert::Infallible;
 use std::time::{Duration, Instant};
@@ -35,6 +38,8 @@ impl Dispatch {
 pub enum Command {
     /// Zero the ray counters.
     ResetCounts,
+    /// Restart the conventional mode's tile queue (its counter to 0).
+    ResetQueue,
     /// Run a dispatch and wait for it (each waits, so a progress mark after it is true).
     Dispatch(Dispatch),
     /// Report progress: `done` of `total` (rows, for the bands).
@@ -67,12 +72,23 @@ pub trait ComputeBackend {
     fn dispatch(&self, d: &Dispatch) -> Result<(), Self::Error>;
     /// The output buffer and the ray counters.
     fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), Self::Error>;
+    /// Restarts the tile queue.
+    fn reset_queue(&self) -> Result<(), Self::Error>;
+    /// The tile queue's counter: chunks taken so far (past the last once the queue is empty).
+    fn read_queue(&self) -> Result<u32, Self::Error>;
+    /// Writes `data` at the start of the work buffer (a schedule's boundaries, a pixel order).
+    fn write_work(&self, data: &[u32]) -> Result<(), Self::Error>;
+    /// Zeroes the frame buffer (no samples anywhere).
+    fn clear_frame(&self) -> Result<(), Self::Error>;
+    /// The frame buffer: per pixel the sum of its samples (rgb) and their count (a).
+    fn read_frame(&self) -> Result<Vec<[f32; 4]>, Self::Error>;
 
     /// Runs every command of `rec`, reporting its progress marks to `progress`.
     fn run(&self, rec: &Recording, progress: &mut dyn FnMut(u32, u32)) -> Result<(), Self::Error> {
         for c in &rec.commands {
             match c {
                 Command::ResetCounts => self.reset_counts()?,
+                Command::ResetQueue => self.reset_queue()?,
                 Command::Dispatch(d) => self.dispatch(d)?,
                 &Command::Progress { done, total } => progress(done, total),
             }
@@ -100,6 +116,148 @@ impl ComputeBackend for WgpuKernel<'_> {
     fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), Infallible> {
         Ok(self.dispatcher.read(self.ctx))
     }
+    fn reset_queue(&self) -> Result<(), Infallible> {
+        self.dispatcher.reset_queue(self.ctx);
+        Ok(())
+    }
+    fn read_queue(&self) -> Result<u32, Infallible> {
+        Ok(self.dispatcher.read_queue(self.ctx))
+    }
+    fn write_work(&self, data: &[u32]) -> Result<(), Infallible> {
+        self.dispatcher.write_work(self.ctx, data);
+        Ok(())
+    }
+    fn clear_frame(&self) -> Result<(), Infallible> {
+        self.dispatcher.clear_frame(self.ctx);
+        Ok(())
+    }
+    fn read_frame(&self) -> Result<Vec<[f32; 4]>, Infallible> {
+        Ok(self.dispatcher.read_frame(self.ctx))
+    }
+}
+
+/// A device path as `render::Session` uses it: scenes uploaded and updated in place, kernels
+/// compiled for a variant with the interactive modes' buffers, and bound as a [`ComputeBackend`]
+/// that runs the recordings. Implemented by [`GpuContext`] (wgpu) and `vk::VkContext` (ash).
+pub trait Device {
+    /// What a dispatch or readback can fail with.
+    type Error: std::error::Error + Send + Sync + 'static;
+    /// A scene resident on the device (texture and frame constants).
+    type Scene;
+    /// A compiled kernel bound to a scene and its buffers.
+    type Kernel;
+    /// A kernel bound to this device, ready to run recordings.
+    type Bound<'a>: ComputeBackend<Error = Self::Error>
+    where
+        Self: 'a;
+
+    /// The adapter's name, for reports.
+    fn adapter_name(&self) -> &str;
+    /// The device runs on the CPU (lavapipe): schedules are built for its threads.
+    fn is_cpu(&self) -> bool;
+    /// Uploads `packed` with its frame constants.
+    fn upload(&self, packed: PackedScene, params: Params) -> Result<Self::Scene, String>;
+    /// Replaces `scene`'s contents: in place while they fit, else in a new texture with room to
+    /// spare; returns whether the texture is new (kernels bound to it must [`Device::rebind`]).
+    fn update_scene(
+        &self,
+        scene: &mut Self::Scene,
+        packed: PackedScene,
+        params: Params,
+    ) -> Result<bool, String>;
+    /// The frame constants `scene` holds now.
+    fn params(scene: &Self::Scene) -> Params;
+    /// `scene`'s texture is layered (see `Variant::layered`).
+    fn layered(scene: &Self::Scene) -> bool;
+    /// Replaces the frame constants; the next dispatch sees them.
+    fn write_params(&self, scene: &mut Self::Scene, params: Params);
+    /// Compiles `kernel` for `variant` (`layered` taken from the scene) bound to `scene`, an
+    /// output of `out_len` vec4s and the modes' buffers. Fails, naming what is missing, when the
+    /// device cannot run it (f64 without shader f64).
+    fn compile(
+        &self,
+        scene: &Self::Scene,
+        kernel: Kernel,
+        variant: Variant,
+        out_len: u64,
+        modes: ModeBuffers,
+    ) -> Result<Self::Kernel, String>;
+    /// The variant `kernel` was compiled for.
+    fn variant(kernel: &Self::Kernel) -> Variant;
+    /// Binds `kernel` to `scene`'s new texture (after [`Device::update_scene`] replaced it),
+    /// keeping its buffers.
+    fn rebind(&self, kernel: &mut Self::Kernel, scene: &Self::Scene) -> Result<(), String>;
+    /// Copies `from`'s frame buffer into `to`'s (as much as both hold): what a recompiled kernel
+    /// takes over, so that the picture does not go black.
+    fn copy_frame(&self, to: &Self::Kernel, from: &Self::Kernel) -> Result<(), String>;
+    /// `kernel` on this device, as a backend.
+    fn bind<'a>(&'a self, kernel: &'a Self::Kernel) -> Self::Bound<'a>;
+}
+
+impl Device for GpuContext {
+    type Error = Infallible;
+    type Scene = GpuScene;
+    type Kernel = Dispatcher;
+    type Bound<'a> = WgpuKernel<'a>;
+
+    fn adapter_name(&self) -> &str {
+        &self.info.name
+    }
+    fn is_cpu(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+    fn upload(&self, packed: PackedScene, params: Params) -> Result<GpuScene, String> {
+        GpuScene::upload_packed(self, packed, params)
+    }
+    fn update_scene(
+        &self,
+        scene: &mut GpuScene,
+        packed: PackedScene,
+        params: Params,
+    ) -> Result<bool, String> {
+        scene.update(self, packed, params)
+    }
+    fn params(scene: &GpuScene) -> Params {
+        scene.params
+    }
+    fn layered(scene: &GpuScene) -> bool {
+        scene.layered
+    }
+    fn write_params(&self, scene: &mut GpuScene, params: Params) {
+        scene.write_params(self, params)
+    }
+    fn compile(
+        &self,
+        scene: &GpuScene,
+        kernel: Kernel,
+        variant: Variant,
+        out_len: u64,
+        modes: ModeBuffers,
+    ) -> Result<Dispatcher, String> {
+        if variant.f64 && !self.device.features().contains(wgpu::Features::SHADER_F64) {
+            return Err(missing_f64(&self.info.name));
+        }
+        Ok(Dispatcher::with_modes(self, scene, kernel, variant, "render", out_len, &[], modes))
+    }
+    fn variant(kernel: &Dispatcher) -> Variant {
+        kernel.variant()
+    }
+    fn rebind(&self, kernel: &mut Dispatcher, scene: &GpuScene) -> Result<(), String> {
+        kernel.rebind(self, scene);
+        Ok(())
+    }
+    fn copy_frame(&self, to: &Dispatcher, from: &Dispatcher) -> Result<(), String> {
+        to.copy_frame_from(self, from);
+        Ok(())
+    }
+    fn bind<'a>(&'a self, kernel: &'a Dispatcher) -> WgpuKernel<'a> {
+        WgpuKernel { ctx: self, dispatcher: kernel }
+    }
+}
+
+/// Why an f64 kernel cannot run on `adapter`: the same words on every path.
+pub fn missing_f64(adapter: &str) -> String {
+    format!("{adapter} has no f64 shader support (shaderFloat64 / SHADER_F64): use --precision f32")
 }
 
 /// The value of a result that cannot fail.

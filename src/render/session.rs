@@ -2,13 +2,19 @@
 //! window, the headless mode renders, `irt replay` and the benches share. One call to
 //! [`Session::step`] is one unit of work of the current mode (a wave of the conventional tile
 //! queue, or one frameless slice); the caller decides when to present.
+//!
+//! Every step is a [`Recording`] that the session's device path runs: a session is generic over
+//! the [`Device`] (wgpu's [`GpuContext`], the default, or raw Vulkan's `gpu::vk::VkContext`), so
+//! each mode exists once and runs on both. On wgpu, which cannot fail a dispatch, the plain
+//! methods ([`Session::step`] …) return their values; the `try_` forms return the path's errors.
 
 use super::order::{Dissolve, PixelOrder};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, Settings};
 use crate::accel::grid::Frame;
 use crate::accel::Grid;
-use crate::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
+use crate::gpu::backend::{infallible, Command, ComputeBackend, Device, Dispatch, Recording};
+use crate::gpu::dispatch::ModeBuffers;
 use crate::gpu::layout::{
     self, Params, Tile, FRAME_ACCUMULATE, FRAME_BLEND, FRAME_JITTER_PAIRS, FRAME_WRITE, LAVAPIPE_LOOP_LIMIT,
     MAX_CHUNK_TILES, ORDER_DISSOLVE, ORDER_TABLE, TILE_H, TILE_W,
@@ -113,7 +119,7 @@ impl UpdateReport {
     }
 }
 
-pub struct Session {
+pub struct Session<D: Device = GpuContext> {
     /// The scene as given, motions included (settings are applied to a copy, so that dropping
     /// an override restores the scene's own value).
     base: Scene,
@@ -125,8 +131,8 @@ pub struct Session {
     /// Positions were packed relative to this point (the camera's eye when uploaded).
     origin: DVec3,
     pub grid: Grid,
-    gpu_scene: GpuScene,
-    dispatcher: Dispatcher,
+    gpu_scene: D::Scene,
+    dispatcher: D::Kernel,
     pub variant: Variant,
     /// Pixels the buffers hold (the render size never exceeds it).
     capacity: [u32; 2],
@@ -195,10 +201,10 @@ fn animation_frame(base: &Scene, moving: &[std::ops::Range<usize>]) -> Option<(F
     Some((Frame::around(lo, hi, n), lo, hi))
 }
 
-impl Session {
+impl<D: Device> Session<D> {
     /// Builds the grid, uploads the scene (positions relative to its camera's eye) and compiles
     /// the kernel for the scene and `settings`.
-    pub fn new(ctx: &GpuContext, scene: &Scene, settings: Settings) -> Result<Self, String> {
+    pub fn new(ctx: &D, scene: &Scene, settings: Settings) -> Result<Self, String> {
         let base = scene.clone();
         let mut scene = scene.at(0.0);
         settings.apply_to(&mut scene);
@@ -211,17 +217,11 @@ impl Session {
         let origin = scene.camera.eye;
         let packed = layout::pack_scene(&scene, &grid, origin);
         let params = layout::params(&scene, &grid, &packed, origin);
-        let gpu_scene = GpuScene::upload_packed(ctx, packed, params)?;
-        if settings.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(format!(
-                "{} has no f64 shader support (SHADER_F64): use --precision f32",
-                ctx.info.name
-            ));
-        }
+        let gpu_scene = ctx.upload(packed, params)?;
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
-        let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity);
-        let variant = dispatcher.variant();
+        let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity)?;
+        let variant = D::variant(&dispatcher);
         let mut s = Session {
             base,
             passes: crate::gpu::renderer::passes(&scene),
@@ -249,7 +249,7 @@ impl Session {
             incremental: true,
         };
         s.configure_mode(ctx)?;
-        s.dispatcher.clear_frame(ctx);
+        s.bound(ctx).clear_frame().map_err(|e| e.to_string())?;
         Ok(s)
     }
 
@@ -277,7 +277,7 @@ impl Session {
     /// moved objects are posed, the grid rebuilt and the texture rewritten, from the next step.
     /// Restarts refinement; frameless slices carry on over the old pixels. A still scene
     /// costs nothing.
-    pub fn set_time(&mut self, ctx: &GpuContext, t: f64) -> Result<UpdateReport, String> {
+    pub fn set_time(&mut self, ctx: &D, t: f64) -> Result<UpdateReport, String> {
         self.time = t;
         if !self.base.is_animated() {
             return Ok(UpdateReport::default());
@@ -292,7 +292,7 @@ impl Session {
     /// Replaces what the scene holds (lights, materials, objects, motions; the camera stays the
     /// session's): an edit in the viewer. The grid is rebuilt only if geometry moved; a
     /// material of a new kind recompiles the kernel. Restarts refinement.
-    pub fn set_scene(&mut self, ctx: &GpuContext, scene: &Scene) -> Result<UpdateReport, String> {
+    pub fn set_scene(&mut self, ctx: &D, scene: &Scene) -> Result<UpdateReport, String> {
         scene.validate().map_err(|e| e.0)?;
         self.base = Scene { camera: self.base.camera.clone(), ..scene.clone() };
         self.moving = Grid::moving_prims(&self.base);
@@ -303,7 +303,7 @@ impl Session {
 
     /// Draws `posed` from the next step. `motion`: it differs from the scene traced now only by
     /// where the moving primitives are (a new time), so their cells can be updated alone.
-    fn update(&mut self, ctx: &GpuContext, posed: Scene, motion: bool) -> Result<UpdateReport, String> {
+    fn update(&mut self, ctx: &D, posed: Scene, motion: bool) -> Result<UpdateReport, String> {
         // Keys can move objects past what f32 (or f64) holds; say so rather than trace NaNs.
         posed.validate().map_err(|e| format!("at time {} s: {}", self.time, e.0))?;
         let mut report = UpdateReport::default();
@@ -324,22 +324,22 @@ impl Session {
         let t = Instant::now();
         let packed = layout::pack_scene(&scene, &self.grid, self.origin);
         let mut params = layout::params(&scene, &self.grid, &packed, self.origin);
-        params.eye_grid = self.gpu_scene.params.eye_grid;
+        params.eye_grid = D::params(&self.gpu_scene).eye_grid;
         report.pack = t.elapsed();
         let t = Instant::now();
-        let new_texture = self.gpu_scene.update(ctx, packed, params)?;
+        let new_texture = ctx.update_scene(&mut self.gpu_scene, packed, params)?;
         report.reallocated = new_texture;
         let variant = Variant { f64: self.settings.f64, ..Variant::for_scene(&scene, false) };
-        let layered = self.gpu_scene.layered;
+        let layered = D::layered(&self.gpu_scene);
         if (Variant { layered, ..variant }) != self.variant {
-            let fresh = make_dispatcher(ctx, &self.gpu_scene, variant, self.capacity);
-            fresh.copy_frame_from(ctx, &self.dispatcher);
+            let fresh = make_dispatcher(ctx, &self.gpu_scene, variant, self.capacity)?;
+            ctx.copy_frame(&fresh, &self.dispatcher)?;
             self.dispatcher = fresh;
-            self.variant = self.dispatcher.variant();
+            self.variant = D::variant(&self.dispatcher);
             self.configure_mode(ctx)?;
             report.recompiled = true;
         } else if new_texture {
-            self.dispatcher.rebind(ctx, &self.gpu_scene);
+            ctx.rebind(&mut self.dispatcher, &self.gpu_scene)?;
         }
         report.upload = t.elapsed();
         self.passes = crate::gpu::renderer::passes(&scene);
@@ -377,16 +377,10 @@ impl Session {
         self.cursor
     }
 
-    /// The frame buffer the window blits: `size()[0] × size()[1]` vec4s, row-major, rgb the sum
-    /// of a pixel's samples and a their count (0: never traced).
-    pub fn frame_buffer(&self) -> &wgpu::Buffer {
-        self.dispatcher.frame_buffer()
-    }
-
     /// Moves the camera (its width and height are ignored: see [`Session::set_size`]); takes
     /// effect from the next step. Cancels the conventional frame in flight and restarts
     /// refinement; frameless slices simply carry on with the new camera.
-    pub fn set_camera(&mut self, ctx: &GpuContext, camera: &Camera) {
+    pub fn set_camera(&mut self, ctx: &D, camera: &Camera) {
         let [w, h] = self.size();
         let cam = Camera { width: w, height: h, ..camera.clone() };
         if cam == self.scene.camera {
@@ -399,7 +393,7 @@ impl Session {
 
     /// Changes the render size (at most the size the session was made with: scale down for
     /// speed); restarts everything.
-    pub fn set_size(&mut self, ctx: &GpuContext, width: u32, height: u32) -> Result<(), String> {
+    pub fn set_size(&mut self, ctx: &D, width: u32, height: u32) -> Result<(), String> {
         let (width, height) = (width.max(1), height.max(1));
         if [width, height] == self.size() {
             return Ok(());
@@ -409,13 +403,13 @@ impl Session {
             || width as u64 * height as u64 > self.capacity_pixels()
         {
             self.capacity = [width.max(self.capacity[0]), height.max(self.capacity[1])];
-            self.dispatcher = make_dispatcher(ctx, &self.gpu_scene, self.variant, self.capacity);
+            self.dispatcher = make_dispatcher(ctx, &self.gpu_scene, self.variant, self.capacity)?;
         }
         self.scene.camera.width = width;
         self.scene.camera.height = height;
         self.write_camera(ctx);
         self.configure_mode(ctx)?;
-        self.dispatcher.clear_frame(ctx);
+        self.bound(ctx).clear_frame().map_err(|e| e.to_string())?;
         self.restart();
         Ok(())
     }
@@ -427,7 +421,7 @@ impl Session {
     /// Applies new settings: the mode, depth and refinement limit take effect at once; a new
     /// shadow mode or precision repacks the scene (shell mode adds its shell objects) and
     /// recompiles the kernel.
-    pub fn apply(&mut self, ctx: &GpuContext, settings: Settings) -> Result<(), String> {
+    pub fn apply(&mut self, ctx: &D, settings: Settings) -> Result<(), String> {
         if settings == self.settings {
             return Ok(());
         }
@@ -446,18 +440,23 @@ impl Session {
         self.settings = settings;
         self.scene.trace = self.base.trace.clone();
         self.settings.apply_to(&mut self.scene);
-        let mut p = self.gpu_scene.params;
+        let mut p = D::params(&self.gpu_scene);
         p.image[2] = self.scene.trace.max_depth;
-        self.gpu_scene.write_params(ctx, p);
+        ctx.write_params(&mut self.gpu_scene, p);
         self.configure_mode(ctx)?;
         self.restart();
         Ok(())
     }
 
-    fn write_camera(&mut self, ctx: &GpuContext) {
-        let mut p: Params = self.gpu_scene.params;
+    fn write_camera(&mut self, ctx: &D) {
+        let mut p: Params = D::params(&self.gpu_scene);
         layout::set_camera(&mut p, &self.scene.camera, self.origin);
-        self.gpu_scene.write_params(ctx, p);
+        ctx.write_params(&mut self.gpu_scene, p);
+    }
+
+    /// The kernel on `ctx`, to run recordings and buffer operations.
+    fn bound<'a>(&'a self, ctx: &'a D) -> D::Bound<'a> {
+        ctx.bind(&self.dispatcher)
     }
 
     fn restart(&mut self) {
@@ -468,15 +467,16 @@ impl Session {
     }
 
     /// Uploads what the mode reads from the work buffer.
-    fn configure_mode(&mut self, ctx: &GpuContext) -> Result<(), String> {
+    fn configure_mode(&mut self, ctx: &D) -> Result<(), String> {
         let [w, h] = self.size();
+        let write_work = |s: &Self, data: &[u32]| s.bound(ctx).write_work(data).map_err(|e| e.to_string());
         match self.settings.mode {
             Mode::Conventional { schedule, workers } => {
                 let [tx, ty] = tile_grid(w, h);
                 let workers = if workers == 0 { Schedule::default_workers(ctx) } else { workers };
                 let b = cap_chunks(&schedule.boundaries(tx * ty, workers), MAX_CHUNK_TILES);
                 self.chunks = b.len() as u32 - 1;
-                self.dispatcher.write_work(ctx, &b);
+                write_work(self, &b)?;
                 self.frame_in_flight = false;
             }
             Mode::Frameless { order, .. } => {
@@ -488,11 +488,11 @@ impl Session {
                         ));
                     }
                     let d = Dissolve::new(pixels);
-                    self.dispatcher.write_work(ctx, &d.jumps());
+                    write_work(self, &d.jumps())?;
                     self.dissolve = Some((d, 1));
                 } else {
                     let table = order.table(w, h).expect("table orders have tables");
-                    self.dispatcher.write_work(ctx, &table);
+                    write_work(self, &table)?;
                     self.dissolve = None;
                 }
                 self.pass_len = order.pass_len(w, h);
@@ -508,9 +508,9 @@ impl Session {
     }
 
     /// One unit of work: a wave of the conventional frame, or one frameless slice.
-    pub fn step(&mut self, ctx: &GpuContext) -> StepReport {
+    pub fn try_step(&mut self, ctx: &D) -> Result<StepReport, D::Error> {
         if self.converged() {
-            return StepReport { idle: true, camera_version: self.camera_version, ..Default::default() };
+            return Ok(StepReport { idle: true, camera_version: self.camera_version, ..Default::default() });
         }
         match self.settings.mode {
             Mode::Conventional { .. } => self.step_conventional(ctx),
@@ -520,18 +520,23 @@ impl Session {
 
     /// Runs steps until the current conventional frame or frameless pass is complete (or
     /// refinement converged): one whole picture, what the headless commands write.
-    pub fn complete_pass(&mut self, ctx: &GpuContext) -> Duration {
+    pub fn try_complete_pass(&mut self, ctx: &D) -> Result<Duration, D::Error> {
         let mut t = Duration::ZERO;
         loop {
-            let r = self.step(ctx);
+            let r = self.try_step(ctx)?;
             t += r.trace_time;
             if r.frame_done || r.idle {
-                return t;
+                return Ok(t);
             }
         }
     }
 
-    fn step_conventional(&mut self, ctx: &GpuContext) -> StepReport {
+    /// Runs `rec` on the session's kernel.
+    fn run(&self, ctx: &D, rec: &Recording) -> Result<(), D::Error> {
+        self.bound(ctx).run(rec, &mut |_, _| {})
+    }
+
+    fn step_conventional(&mut self, ctx: &D) -> Result<StepReport, D::Error> {
         let [w, h] = self.size();
         if let Mode::Conventional { schedule: Schedule::Plain, .. } = self.settings.mode {
             return self.step_plain(ctx);
@@ -555,68 +560,82 @@ impl Session {
                 jitter: [jitter[0], jitter[1], 0.0, 0.0],
                 ..Tile::default()
             };
+            let wave = Command::Dispatch(Dispatch {
+                entry: "render_queue".into(),
+                tile,
+                groups: [self.wave_groups, 1, 1],
+            });
+            let mut rec = Recording::default();
             if split || new_frame {
-                self.dispatcher.reset_queue(ctx);
+                rec.commands.push(Command::ResetQueue);
             }
+            rec.commands.push(wave);
             loop {
                 // One wave; the queue's counter carries over between waves. A split bundle's
                 // passes each walk the whole queue here (waves would interleave passes).
-                self.dispatcher.run(ctx, "render_queue", tile, [self.wave_groups, 1, 1]);
-                done = self.dispatcher.read_queue(ctx) >= self.chunks;
+                self.run(ctx, &rec)?;
+                done = self.bound(ctx).read_queue()? >= self.chunks;
                 if done || !split {
                     break;
                 }
+                rec.commands.retain(|c| *c != Command::ResetQueue);
             }
         }
         self.frame_in_flight = !done;
         if done {
             return self.finish_frame(ctx, t0.elapsed());
         }
-        StepReport { trace_time: t0.elapsed(), camera_version: self.camera_version, ..Default::default() }
+        Ok(StepReport { trace_time: t0.elapsed(), camera_version: self.camera_version, ..Default::default() })
     }
 
     /// The whole frame in one dispatch per pass, no queue.
-    fn step_plain(&mut self, ctx: &GpuContext) -> StepReport {
+    fn step_plain(&mut self, ctx: &D) -> Result<StepReport, D::Error> {
         let [w, h] = self.size();
         let k = self.samples;
         let jitter = refinement_jitter(k);
         let t0 = Instant::now();
-        for &pass in &self.passes {
-            let tile = Tile {
-                rect: [0, 0, w, h],
-                pass_range: pass,
-                sample: [k, 0, 0, 0],
-                jitter: [jitter[0], jitter[1], 0.0, 0.0],
-                ..Tile::default()
-            };
-            self.dispatcher.run(ctx, "render", tile, [w.div_ceil(8), h.div_ceil(8), 1]);
-        }
+        let commands = self
+            .passes
+            .iter()
+            .map(|&pass| {
+                let tile = Tile {
+                    rect: [0, 0, w, h],
+                    pass_range: pass,
+                    sample: [k, 0, 0, 0],
+                    jitter: [jitter[0], jitter[1], 0.0, 0.0],
+                    ..Tile::default()
+                };
+                Command::Dispatch(Dispatch::over_rect("render", tile))
+            })
+            .collect();
+        self.run(ctx, &Recording { commands })?;
         let trace_time = t0.elapsed();
         self.finish_frame(ctx, trace_time)
     }
 
     /// A conventional frame is whole: into the frame buffer (a first sample replaces, later
     /// ones add).
-    fn finish_frame(&mut self, ctx: &GpuContext, trace_time: Duration) -> StepReport {
+    fn finish_frame(&mut self, ctx: &D, trace_time: Duration) -> Result<StepReport, D::Error> {
         let [w, h] = self.size();
         let k = self.samples;
         let flags = if k == 0 { FRAME_WRITE } else { FRAME_WRITE | FRAME_ACCUMULATE };
         let t1 = Instant::now();
         let tile = Tile { sample: [k, flags, 0, 0], work: [w * h, 0, 0, 0], ..Tile::default() };
-        self.dispatcher.run(ctx, "resolve_frame", tile, [(w * h).div_ceil(64), 1, 1]);
+        let resolve = Dispatch { entry: "resolve_frame".into(), tile, groups: [(w * h).div_ceil(64), 1, 1] };
+        self.run(ctx, &Recording { commands: vec![Command::Dispatch(resolve)] })?;
         self.samples += 1;
         let pixels = w as u64 * h as u64;
-        StepReport {
+        Ok(StepReport {
             pixels,
             eye_rays: pixels,
             trace_time: trace_time + t1.elapsed(),
             frame_done: true,
             camera_version: self.camera_version,
             ..Default::default()
-        }
+        })
     }
 
-    fn step_frameless(&mut self, ctx: &GpuContext) -> StepReport {
+    fn step_frameless(&mut self, ctx: &D) -> Result<StepReport, D::Error> {
         let Mode::Frameless { slice, blend, jitter_pairs, .. } = self.settings.mode else { unreachable!() };
         let visit = (self.positions_since_change / self.pass_len) as u32;
         // A slice ends at the end of the pass and where this visit since the change ends, so
@@ -640,16 +659,22 @@ impl Session {
             None => (ORDER_TABLE, 0, 0),
         };
         let t0 = Instant::now();
-        for &pass in &self.passes {
-            let tile = Tile {
-                pass_range: pass,
-                work: [first as u32, len as u32, kind, bits],
-                sample: [visit, flags, state, 0],
-                jitter: [jitter[0], jitter[1], alpha, 0.0],
-                ..Tile::default()
-            };
-            self.dispatcher.run(ctx, "render_slice", tile, [(len as u32).div_ceil(64), 1, 1]);
-        }
+        let commands = self
+            .passes
+            .iter()
+            .map(|&pass| {
+                let tile = Tile {
+                    pass_range: pass,
+                    work: [first as u32, len as u32, kind, bits],
+                    sample: [visit, flags, state, 0],
+                    jitter: [jitter[0], jitter[1], alpha, 0.0],
+                    ..Tile::default()
+                };
+                let groups = [(len as u32).div_ceil(64), 1, 1];
+                Command::Dispatch(Dispatch { entry: "render_slice".into(), tile, groups })
+            })
+            .collect();
+        self.run(ctx, &Recording { commands })?;
         let trace_time = t0.elapsed();
         self.cursor += len;
         self.positions_since_change += len;
@@ -674,7 +699,7 @@ impl Session {
             }
             None => len,
         };
-        StepReport {
+        Ok(StepReport {
             pixels,
             eye_rays: pixels * if jitter_pairs { 2 } else { 1 },
             trace_time,
@@ -682,25 +707,25 @@ impl Session {
             slice: Some(SliceSpan { first, len }),
             camera_version: self.camera_version,
             idle: false,
-        }
+        })
     }
 
     /// The frame buffer as an image (each pixel the mean of its samples): what is on screen.
-    pub fn read_image(&self, ctx: &GpuContext) -> Image {
+    pub fn try_read_image(&self, ctx: &D) -> Result<Image, D::Error> {
         let [w, h] = self.size();
-        let f = self.dispatcher.read_frame(ctx);
+        let f = self.bound(ctx).read_frame()?;
         let pixels = f[..(w * h) as usize]
             .iter()
             .map(|p| if p[3] > 0.0 { [p[0] / p[3], p[1] / p[3], p[2] / p[3]] } else { [0.0; 3] })
             .collect();
-        Image { width: w, height: h, pixels }
+        Ok(Image { width: w, height: h, pixels })
     }
 
     /// The raw output buffer of the last traced pixels (rgb radiance, alpha 2 × loop
     /// iterations + eye hit), for tests that compare modes bit for bit.
-    pub fn read_output(&mut self, ctx: &GpuContext) -> Vec<[f32; 4]> {
+    pub fn try_read_output(&mut self, ctx: &D) -> Result<Vec<[f32; 4]>, D::Error> {
         let [w, h] = self.size();
-        let (out, _) = self.dispatcher.read(ctx);
+        let (out, _) = self.bound(ctx).read_output()?;
         let out = out[..(w * h) as usize].to_vec();
         self.max_loop_iterations = out.iter().map(|p| p[3] as u32 >> 1).max().unwrap_or(0);
         if self.max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
@@ -709,11 +734,41 @@ impl Session {
                 self.max_loop_iterations
             );
         }
-        out
+        Ok(out)
     }
 }
 
-impl Session {
+/// The wgpu path, whose dispatches cannot fail (its errors surface as device loss): the values
+/// without a `Result`, and the frame buffer the window blits.
+impl Session<GpuContext> {
+    /// [`Session::try_step`].
+    pub fn step(&mut self, ctx: &GpuContext) -> StepReport {
+        infallible(self.try_step(ctx))
+    }
+
+    /// [`Session::try_complete_pass`].
+    pub fn complete_pass(&mut self, ctx: &GpuContext) -> Duration {
+        infallible(self.try_complete_pass(ctx))
+    }
+
+    /// [`Session::try_read_image`].
+    pub fn read_image(&self, ctx: &GpuContext) -> Image {
+        infallible(self.try_read_image(ctx))
+    }
+
+    /// [`Session::try_read_output`].
+    pub fn read_output(&mut self, ctx: &GpuContext) -> Vec<[f32; 4]> {
+        infallible(self.try_read_output(ctx))
+    }
+
+    /// The frame buffer the window blits: `size()[0] × size()[1]` vec4s, row-major, rgb the sum
+    /// of a pixel's samples and a their count (0: never traced).
+    pub fn frame_buffer(&self) -> &wgpu::Buffer {
+        self.dispatcher.frame_buffer()
+    }
+}
+
+impl<D: Device> Session<D> {
     /// The grid of `scene`: the moving primitives re-inserted into the current grid when only
     /// they moved and the frame still holds them; else a build in the animation's frame (grown
     /// to hold the scene if it must) or, for a still scene, a fitted build.
@@ -737,12 +792,17 @@ impl Session {
     }
 }
 
-fn make_dispatcher(ctx: &GpuContext, scene: &GpuScene, variant: Variant, capacity: [u32; 2]) -> Dispatcher {
+fn make_dispatcher<D: Device>(
+    ctx: &D,
+    scene: &D::Scene,
+    variant: Variant,
+    capacity: [u32; 2],
+) -> Result<D::Kernel, String> {
     let pixels = capacity[0] as u64 * capacity[1] as u64;
     let [tx, ty] = tile_grid(capacity[0], capacity[1]);
     let work_len = pixels.max(tx as u64 * ty as u64 + 1).max(Dissolve::new(pixels).jumps().len() as u64);
     let modes = ModeBuffers { work_len, frame_len: pixels };
-    Dispatcher::with_modes(ctx, scene, Kernel::Modes, variant, "render", pixels, &[], modes)
+    ctx.compile(scene, Kernel::Modes, variant, pixels, modes)
 }
 
 // render_queue's workgroup is one tile.
@@ -751,8 +811,8 @@ const _: () = assert!(TILE_W * TILE_H == 64);
 impl Schedule {
     /// The workers P a schedule is built for by default on `ctx`'s device: lavapipe's threads
     /// (its pool is one thread per core), or a GPU's many workgroups in flight.
-    pub fn default_workers(ctx: &GpuContext) -> u32 {
-        if ctx.info.device_type == wgpu::DeviceType::Cpu {
+    pub fn default_workers(ctx: &impl Device) -> u32 {
+        if ctx.is_cpu() {
             std::thread::available_parallelism().map_or(2, |n| n.get() as u32)
         } else {
             256

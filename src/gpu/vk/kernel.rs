@@ -6,7 +6,7 @@ use super::spirv::{compile_entry, options_for};
 use super::{fail, Buffer, Shared, VkContext, VkError};
 use crate::accel::Grid;
 use crate::gpu::backend::{ComputeBackend, Dispatch};
-use crate::gpu::dispatch::{pad_rows, scene_bands, scene_texture_extent, RayCounts};
+use crate::gpu::dispatch::{pad_rows, scene_bands, scene_texture_extent, ModeBuffers, RayCounts};
 use crate::gpu::layout::{self, PackedScene, Params, Tile, SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
 use crate::gpu::renderer::{prepare, Bands, Frame, Prepared, RenderOptions, SetupProgress, SetupTimings};
 use crate::gpu::shaders::{self, Kernel, Variant};
@@ -15,6 +15,8 @@ use ash::vk;
 use glam::DVec3;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+
+mod modes;
 
 /// Descriptor types of bindings 0–8 (shaders/types.wgsl): the frame constants, the scene texture
 /// (naga writes `texture_2d<u32>` read with `textureLoad` as an `OpTypeImage` with Sampled = 1
@@ -124,6 +126,8 @@ struct SceneResources {
     memory: vk::DeviceMemory,
     view: vk::ImageView,
     params: Buffer,
+    /// All of the image's layers.
+    range: vk::ImageSubresourceRange,
 }
 
 impl Drop for SceneResources {
@@ -144,6 +148,10 @@ pub struct VkScene {
     pub layered: bool,
     /// Bytes uploaded (texture + uniforms).
     pub bytes: u64,
+    /// Rows the image holds (all layers): updates that fit are written in place.
+    capacity_rows: u32,
+    /// The `max_rows` it was uploaded with (updates keep it).
+    max_rows: Option<u32>,
 }
 
 impl VkScene {
@@ -164,11 +172,23 @@ impl VkScene {
         params: Params,
         max_rows: Option<u32>,
     ) -> Result<Self, VkError> {
+        Self::upload_reserving(ctx, packed, params, max_rows, 0)
+    }
+
+    /// [`Self::upload_packed_with`] into an image of at least `reserve_rows` rows, so that later
+    /// [`Self::update`]s of a growing scene fit.
+    fn upload_reserving(
+        ctx: &VkContext,
+        packed: PackedScene,
+        params: Params,
+        max_rows: Option<u32>,
+        reserve_rows: u32,
+    ) -> Result<Self, VkError> {
         let shared = &ctx.shared;
         let caps = shared.caps;
         let (height, layers, layered) = scene_texture_extent(
             &packed,
-            0,
+            reserve_rows,
             max_rows,
             caps.max_texture_dimension_2d,
             caps.max_texture_array_layers,
@@ -241,11 +261,61 @@ impl VkScene {
                     return Err(fail("vkCreateImageView")(e));
                 }
             };
-            SceneResources { shared: shared.clone(), image, memory, view, params: params_buf }
+            SceneResources { shared: shared.clone(), image, memory, view, params: params_buf, range }
         };
-        let mut data = packed.texels;
+        let bytes = res.write_rows(packed.texels, layered, vk::ImageLayout::UNDEFINED)?
+            + std::mem::size_of::<Params>() as u64;
+        let capacity_rows = height * layers;
+        Ok(VkScene { params, res: Arc::new(res), layered, bytes, capacity_rows, max_rows })
+    }
+
+    /// Replaces the frame constants; the next dispatch sees them.
+    pub fn write_params(&mut self, params: Params) {
+        self.params = params;
+        self.res.params.write(0, bytemuck::bytes_of(&params));
+    }
+
+    /// Replaces the scene's contents with `packed`: written into the image in place while it fits
+    /// (and stays as layered), else into a new image with a quarter more rows than needed, as
+    /// `GpuScene::update` does. Returns whether the image is new (dispatchers bound to this scene
+    /// must then [`VkDispatcher::rebind`]).
+    pub fn update(&mut self, ctx: &VkContext, packed: PackedScene, params: Params) -> Result<bool, VkError> {
+        let rows = packed.rows();
+        let max_dim = ctx.shared.caps.max_texture_dimension_2d;
+        let max_side = self.max_rows.map_or(max_dim, |m| m.min(max_dim));
+        let fits = rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered;
+        if fits {
+            self.bytes = self.res.write_rows(
+                packed.texels,
+                self.layered,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            )? + std::mem::size_of::<Params>() as u64;
+            self.write_params(params);
+            return Ok(false);
+        }
+        let reserve = rows.saturating_add(rows / 4);
+        *self = Self::upload_reserving(ctx, packed, params, self.max_rows, reserve)?;
+        Ok(true)
+    }
+}
+
+impl SceneResources {
+    /// Writes `texels` (consumed) into the first rows of the image, whose layout is `from`
+    /// (UNDEFINED when new, SHADER_READ_ONLY_OPTIMAL when updated), and leaves it ready for the
+    /// kernels. The texels go through one host-visible staging band of [`SCENE_LAYER_ROWS`] rows
+    /// at a time, from the last band to the first, each freed on the host once copied (as
+    /// `GpuScene::upload_packed` does through wgpu's staging). Returns the bytes written.
+    fn write_rows(
+        &self,
+        texels: Vec<[u32; 4]>,
+        layered: bool,
+        from: vk::ImageLayout,
+    ) -> Result<u64, VkError> {
+        let shared = &self.shared;
+        let (res, range) = (self, self.range);
+        let mut data = texels;
         let rows = pad_rows(&mut data);
-        let bytes = data.len() as u64 * 16 + std::mem::size_of::<Params>() as u64;
+        let bytes = data.len() as u64 * 16;
         let row_bytes = SCENE_TEX_WIDTH as u64 * 16;
         let staging = shared.buffer(
             rows.min(SCENE_LAYER_ROWS) as u64 * row_bytes,
@@ -273,14 +343,14 @@ impl VkScene {
                 // SAFETY: recording into the command buffer `submit` began.
                 if first_band {
                     let b = barrier(
-                        vk::ImageLayout::UNDEFINED,
+                        from,
                         vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        vk::AccessFlags::empty(),
+                        vk::AccessFlags::SHADER_READ,
                         vk::AccessFlags::TRANSFER_WRITE,
                     );
                     d.cmd_pipeline_barrier(
                         cmd,
-                        vk::PipelineStageFlags::TOP_OF_PIPE,
+                        vk::PipelineStageFlags::COMPUTE_SHADER,
                         vk::PipelineStageFlags::TRANSFER,
                         vk::DependencyFlags::empty(),
                         &[],
@@ -330,13 +400,7 @@ impl VkScene {
             data.truncate(start);
             data.shrink_to_fit();
         }
-        Ok(VkScene { params, res: Arc::new(res), layered, bytes })
-    }
-
-    /// Replaces the frame constants; the next dispatch sees them.
-    pub fn write_params(&mut self, params: Params) {
-        self.params = params;
-        self.res.params.write(0, bytemuck::bytes_of(&params));
+        Ok(bytes)
     }
 }
 
@@ -356,12 +420,13 @@ pub struct VkDispatcher {
     stats: Buffer,
     tile: Buffer,
     _inputs: Buffer,
-    _work: Buffer,
-    _queue: Buffer,
-    _frame: Buffer,
+    work: Buffer,
+    queue: Buffer,
+    frame: Buffer,
     readback: Buffer,
     out_len: u64,
-    _scene: Arc<SceneResources>,
+    frame_len: u64,
+    scene: Arc<SceneResources>,
 }
 
 impl Drop for VkDispatcher {
@@ -388,13 +453,23 @@ impl VkDispatcher {
         out_len: u64,
         inputs: &[[f32; 4]],
     ) -> Result<Self, VkError> {
+        Self::with_modes(ctx, scene, kernel, variant, out_len, inputs, ModeBuffers::default())
+    }
+
+    /// [`Self::new`] with the dispatch modes' buffers sized as `modes` says.
+    pub fn with_modes(
+        ctx: &VkContext,
+        scene: &VkScene,
+        kernel: Kernel,
+        variant: Variant,
+        out_len: u64,
+        inputs: &[[f32; 4]],
+        modes: ModeBuffers,
+    ) -> Result<Self, VkError> {
         let shared = &ctx.shared;
         let variant = Variant { layered: scene.layered, ..variant };
         if variant.f64 && !shared.caps.f64 {
-            return Err(VkError::Other(format!(
-                "{} has no f64 shader support (shaderFloat64): use --precision f32",
-                ctx.info.name
-            )));
+            return Err(VkError::Other(crate::gpu::backend::missing_f64(&ctx.info.name)));
         }
         let src = shaders::compose(kernel, variant);
         let (module, info) =
@@ -423,10 +498,10 @@ impl VkDispatcher {
                 )
             })?;
         }
-        let work = storage(16, U::TRANSFER_DST)?;
+        let work = storage(modes.work_len * 4, U::TRANSFER_DST)?;
         let queue = storage(16, U::TRANSFER_DST | U::TRANSFER_SRC)?;
-        let frame = storage(16, U::TRANSFER_DST | U::TRANSFER_SRC)?;
-        let readback = shared.buffer(out_len * 16 + 16, U::TRANSFER_DST, true)?;
+        let frame = storage(modes.frame_len * 16, U::TRANSFER_DST | U::TRANSFER_SRC)?;
+        let readback = shared.buffer((out_len * 16).max(modes.frame_len * 16) + 16, U::TRANSFER_DST, true)?;
         let d = &shared.device;
         let sizes = [
             vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 2 },
@@ -491,12 +566,13 @@ impl VkDispatcher {
             stats,
             tile,
             _inputs: inputs_buf,
-            _work: work,
-            _queue: queue,
-            _frame: frame,
+            work,
+            queue,
+            frame,
             readback,
             out_len,
-            _scene: scene.res.clone(),
+            frame_len: modes.frame_len,
+            scene: scene.res.clone(),
         })
     }
 
@@ -572,6 +648,21 @@ impl ComputeBackend for VkKernel<'_> {
     }
     fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), VkError> {
         self.0.read()
+    }
+    fn reset_queue(&self) -> Result<(), VkError> {
+        self.0.reset_queue()
+    }
+    fn read_queue(&self) -> Result<u32, VkError> {
+        self.0.read_queue()
+    }
+    fn write_work(&self, data: &[u32]) -> Result<(), VkError> {
+        self.0.write_work(data)
+    }
+    fn clear_frame(&self) -> Result<(), VkError> {
+        self.0.clear_frame()
+    }
+    fn read_frame(&self) -> Result<Vec<[f32; 4]>, VkError> {
+        self.0.read_frame()
     }
 }
 
