@@ -3,6 +3,10 @@
 //! docs/backends.md.
 //!
 //!     cargo run --release --example backends -- [SCENE] [ROUNDS] [DISPATCHES_PER_ROUND]
+//!
+//! Then frameless slices of S = 1 K … 256 K pixels on both paths (`render::Session`, the same
+//! code on each): the wall time per slice, dispatch + submit + wait included, and the pixels per
+//! second it leaves.
 
 use irt::gpu::backend::{dispatch_overhead, infallible, WgpuKernel};
 use irt::gpu::shaders::{Kernel, Variant};
@@ -86,5 +90,43 @@ fn main() -> anyhow::Result<()> {
         median(disp_w) * 1e3,
         median(disp_a) * 1e3
     );
+    slices(&ctx, &vk, &scene, rounds)
+}
+
+/// Frameless slices per size on both paths, rounds interleaved: each round traces one pass (the
+/// whole image) on each path in slices of S pixels, after a warm-up pass.
+fn slices(ctx: &GpuContext, vk: &VkContext, scene: &irt::scene::Scene, rounds: usize) -> anyhow::Result<()> {
+    use irt::render::{Mode, PixelOrder, Session, Settings};
+    println!();
+    println!("| slice S (pixels) | wgpu ms / slice | ash ms / slice | wgpu Mpixels/s | ash Mpixels/s | ash / wgpu time |");
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for slice in [1024u32, 4096, 16384, 65536, 262144] {
+        let mode = Mode::Frameless {
+            order: PixelOrder::default(),
+            slice,
+            present_every: 0,
+            blend: None,
+            jitter_pairs: false,
+        };
+        // No sample limit: every pass traces the whole image again (jittered after the first).
+        let settings = Settings { mode, max_samples: 0, ..Settings::default() };
+        let mut w = Session::new(ctx, scene, settings.clone()).map_err(anyhow::Error::msg)?;
+        let mut a = Session::new(vk, scene, settings).map_err(anyhow::Error::msg)?;
+        w.complete_pass(ctx);
+        a.try_complete_pass(vk)?;
+        let (mut tw, mut ta) = (vec![], vec![]);
+        let slices_per_pass = w.pass_len().div_ceil(slice as u64) as u32;
+        for _ in 0..rounds {
+            let t = Instant::now();
+            w.complete_pass(ctx);
+            tw.push(t.elapsed() / slices_per_pass);
+            let t = Instant::now();
+            a.try_complete_pass(vk)?;
+            ta.push(t.elapsed() / slices_per_pass);
+        }
+        let (mw, ma) = (median(tw), median(ta));
+        let rate = |ms: f64| slice.min(w.pass_len() as u32) as f64 / (ms * 1e3);
+        println!("| {slice} | {mw:.2} | {ma:.2} | {:.2} | {:.2} | {:.2} |", rate(mw), rate(ma), ma / mw);
+    }
     Ok(())
 }

@@ -192,7 +192,8 @@ fn assert_images(what: &str, a: &irt::image::Image, b: &irt::image::Image) {
     assert!(a.pixels.iter().any(|p| p.iter().any(|&c| c > 0.0)), "{what}: a blank picture");
 }
 
-/// Sessions on both paths, stepped alike: `steps` steps, then the frame buffer and the raw
+/// Sessions on both paths, stepped alike: `steps` steps (0: one complete frame or pass), then
+/// the frame buffer and the raw
 /// output of the last traced pixels compared bit for bit, as are the step reports.
 fn assert_sessions_agree(
     what: &str,
@@ -209,6 +210,10 @@ fn assert_sessions_agree(
         let (ra, rb) = (a.step(ctx), b.try_step(vk).expect("ash step"));
         let key = |r: &irt::render::StepReport| (r.pixels, r.eye_rays, r.frame_done, r.slice, r.idle);
         assert_eq!(key(&ra), key(&rb), "{what}: step {k}");
+    }
+    if steps == 0 {
+        a.complete_pass(ctx);
+        b.try_complete_pass(vk).expect("ash pass");
     }
     assert_eq!(a.samples(), b.samples(), "{what}: samples");
     assert_images(what, &a.read_image(ctx), &b.try_read_image(vk).expect("ash frame buffer"));
@@ -373,5 +378,36 @@ fn live_changes_agree() {
         a.complete_pass(&ctx);
         b.try_complete_pass(&vk).unwrap();
         assert_images(&format!("grown scene at {t}"), &a.read_image(&ctx), &b.try_read_image(&vk).unwrap());
+    }
+}
+
+/// Every scene of scenes/ and every SPD scene, small, in both kinds of mode (a conventional
+/// frame, a frameless pass) and in f64: the same bits on both paths.
+#[test]
+fn every_scene_agrees_in_both_modes_and_precisions() {
+    use irt::render::Mode;
+    let (ctx, vk) = (gpu(), vk_ctx());
+    let mut files: Vec<std::path::PathBuf> = ["scenes", "scenes/spd"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(d).expect(d).map(|e| e.expect("entry").path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml" || e == "nff"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 20, "found only {} scenes", files.len());
+    for file in &files {
+        let s = load(file.to_str().unwrap(), 40, 30);
+        for (mode, f64) in
+            [(Mode::conventional(), false), (Mode::frameless(), false), (Mode::frameless(), true)]
+        {
+            let settings = Settings { mode, f64, max_samples: 1, ..Settings::default() };
+            assert_sessions_agree(
+                &format!("{} {mode} f64 {f64}", file.display()),
+                &ctx,
+                &vk,
+                &s,
+                settings,
+                0,
+            );
+        }
     }
 }

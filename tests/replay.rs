@@ -184,3 +184,21 @@ fn study_arguments_parse() {
     assert_eq!(a.only, ["slices", "modes"]);
     assert!(StudyCli::try_parse_from(["study", "--only", "everything"]).is_err());
 }
+
+/// `irt replay --backend ash`: the same replay on raw Vulkan, on a virtual clock, reports the same
+/// presents, ages, latencies and dynamic errors as on wgpu (the session and its ideal images run
+/// the same recordings on both paths).
+#[test]
+fn a_replay_on_ash_reports_what_wgpu_reports() {
+    let ctx = common::gpu();
+    let vk = irt::gpu::vk::VkContext::new(&irt::gpu::AdapterChoice::Lavapipe).expect("lavapipe through ash");
+    let path = CameraPath::parse_str(PATH, "test path").unwrap();
+    for mode in [frameless(128), Mode::conventional()] {
+        let settings = Settings { mode, max_samples: 1, ..Settings::default() };
+        let opts = ReplayOptions { clock: CLOCK, error_every: 2, ..ReplayOptions::default() };
+        let a = deterministic(run(&ctx, mode, &path, 2));
+        let b = deterministic(replay(&vk, &tiny_scene(), &settings, &path, &opts).unwrap());
+        assert!(a.dynamic_error.is_some() && a.presents.len() > 3, "{mode}: something was measured");
+        assert_eq!(a, b, "{mode}: the two paths' replays differ");
+    }
+}

@@ -79,15 +79,7 @@ pub struct DeviceArgs {
     pub no_cache: bool,
 }
 
-/// The device path of the headless commands (issue #12): wgpu, or raw Vulkan through ash.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum Backend {
-    /// wgpu (Vulkan only), the window's path too.
-    #[default]
-    Wgpu,
-    /// Raw Vulkan through ash: the same SPIR-V, adapter and bands (docs/backends.md).
-    Ash,
-}
+pub use irt::gpu::backend::Backend;
 
 /// Opens the ash path's device on the adapter the arguments name (no pipeline cache: the ash
 /// path has none yet).

@@ -16,6 +16,16 @@ use super::GpuContext;
 use std::convert::Infallible;
 use std::time::{Duration, Instant};
 
+/// The device path of the headless commands (issue #12): wgpu, or raw Vulkan through ash.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    /// wgpu (Vulkan only), the window's path too.
+    #[default]
+    Wgpu,
+    /// Raw Vulkan through ash: the same SPIR-V, adapter, bands and modes (docs/backends.md).
+    Ash,
+}
+
 /// One compute dispatch: `groups` workgroups of `entry`, with `tile` as its uniform.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Dispatch {
@@ -153,6 +163,8 @@ pub trait Device {
 
     /// The adapter's name, for reports.
     fn adapter_name(&self) -> &str;
+    /// Its driver's own description (version), for reports.
+    fn adapter_driver(&self) -> &str;
     /// The device runs on the CPU (lavapipe): schedules are built for its threads.
     fn is_cpu(&self) -> bool;
     /// Uploads `packed` with its frame constants.
@@ -202,6 +214,9 @@ impl Device for GpuContext {
 
     fn adapter_name(&self) -> &str {
         &self.info.name
+    }
+    fn adapter_driver(&self) -> &str {
+        &self.info.driver_info
     }
     fn is_cpu(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu

@@ -23,6 +23,7 @@
 
 use super::metrics::{AgeStats, AgeTracker, Clock, LatencyStats, LatencyTracker, LATENCY_LEVELS};
 use super::{Mode, Session, Settings};
+use crate::gpu::backend::Device;
 use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use crate::image::Image;
 use crate::io::LoadError;
@@ -342,35 +343,36 @@ impl ReplayReport {
 
 /// The ideal images: a second session (same scene upload, same settings, conventional, one
 /// sample), rendering whole frames of any camera, and of the scene at any time.
-struct Ideal {
-    session: Session,
+struct Ideal<D: Device> {
+    session: Session<D>,
     last: Option<(Camera, f64, Image)>,
 }
 
-impl Ideal {
-    fn new(ctx: &GpuContext, scene: &Scene, settings: &Settings) -> Result<Self, String> {
+impl<D: Device> Ideal<D> {
+    fn new(ctx: &D, scene: &Scene, settings: &Settings) -> Result<Self, String> {
         let settings = Settings { mode: Mode::conventional(), max_samples: 1, ..settings.clone() };
         Ok(Ideal { session: Session::new(ctx, scene, settings)?, last: None })
     }
 
-    fn image(&mut self, ctx: &GpuContext, camera: &Camera, t: f64) -> Result<&Image, String> {
+    fn image(&mut self, ctx: &D, camera: &Camera, t: f64) -> Result<&Image, String> {
         if self.last.as_ref().is_none_or(|(c, at, _)| c != camera || *at != t) {
             self.session.set_camera(ctx, camera);
             self.session.set_time(ctx, t)?;
-            self.session.complete_pass(ctx);
-            self.last = Some((camera.clone(), t, self.session.read_image(ctx)));
+            self.session.try_complete_pass(ctx).map_err(|e| e.to_string())?;
+            self.last =
+                Some((camera.clone(), t, self.session.try_read_image(ctx).map_err(|e| e.to_string())?));
         }
         Ok(&self.last.as_ref().expect("just rendered").2)
     }
 }
 
-struct Replayer<'a> {
-    ctx: &'a GpuContext,
+struct Replayer<'a, D: Device> {
+    ctx: &'a D,
     path: &'a CameraPath,
     opts: &'a ReplayOptions,
     size: [u32; 2],
-    session: Session,
-    ideal: Option<Ideal>,
+    session: Session<D>,
+    ideal: Option<Ideal<D>>,
     /// The scene's motions end here (0: a still scene).
     motion_end: f64,
     screen: AgeTracker,
@@ -387,7 +389,7 @@ struct Replayer<'a> {
     frames_written: u64,
 }
 
-impl Replayer<'_> {
+impl<D: Device> Replayer<'_, D> {
     fn camera(&self, t: f64) -> Camera {
         self.path.camera_at(t, self.size[0], self.size[1])
     }
@@ -450,7 +452,8 @@ impl Replayer<'_> {
         if let Some(dir) = &self.opts.frames_dir {
             let file = dir.join(format!("frame_{:04}.png", self.frames_written));
             self.session
-                .read_image(self.ctx)
+                .try_read_image(self.ctx)
+                .map_err(|e| e.to_string())?
                 .save_png(&file)
                 .map_err(|e| format!("writing {}: {e}", file.display()))?;
             self.frames_written += 1;
@@ -463,7 +466,7 @@ impl Replayer<'_> {
         self.present(t)?;
         if t <= self.end {
             let error = if self.error_due(t) {
-                let shown = self.session.read_image(self.ctx);
+                let shown = self.session.try_read_image(self.ctx).map_err(|e| e.to_string())?;
                 Some(self.error_of(&shown, t)?)
             } else {
                 None
@@ -494,8 +497,8 @@ impl Replayer<'_> {
 
 /// Runs `settings`' mode over `path` on `scene` (its camera's width and height; the rest of its
 /// camera is the path's) and measures it; see the module documentation.
-pub fn replay(
-    ctx: &GpuContext,
+pub fn replay<D: Device>(
+    ctx: &D,
     scene: &Scene,
     settings: &Settings,
     path: &CameraPath,
@@ -537,9 +540,9 @@ pub fn replay(
         frames_written: 0,
     };
     // Warm start: the first camera's picture is on screen at t = 0.
-    r.session.complete_pass(ctx);
+    r.session.try_complete_pass(ctx).map_err(|e| e.to_string())?;
     if r.ideal.is_some() && conventional {
-        r.held = Some(r.session.read_image(ctx));
+        r.held = Some(r.session.try_read_image(ctx).map_err(|e| e.to_string())?);
     }
     let bar = if opts.progress {
         let bar = indicatif::ProgressBar::new((r.end * 1000.0).ceil() as u64);
@@ -576,7 +579,7 @@ pub fn replay(
             frame_start = now;
             in_frame = true;
         }
-        let step = r.session.step(ctx);
+        let step = r.session.try_step(ctx).map_err(|e| e.to_string())?;
         if step.idle {
             // Converged at rest: nothing to trace until the next refresh.
             in_frame = false;
@@ -615,7 +618,7 @@ pub fn replay(
                 r.screen.record_frame(frame_start);
                 r.present(now)?;
                 if r.ideal.is_some() {
-                    r.held = Some(r.session.read_image(ctx));
+                    r.held = Some(r.session.try_read_image(ctx).map_err(|e| e.to_string())?);
                 }
             }
         } else {
@@ -670,11 +673,14 @@ fn median_per_pixel(units: &[(u64, Duration)]) -> f64 {
 /// Seconds per pixel of `settings`' shadows and depth on `scene` as a conventional frame (the
 /// default schedule) takes them on `ctx`: the median of `frames` frames after one untimed one.
 /// What a virtual clock charges to compare modes at the device's real rate.
-pub fn calibrate(ctx: &GpuContext, scene: &Scene, settings: &Settings, frames: u32) -> Result<f64, String> {
+pub fn calibrate<D: Device>(ctx: &D, scene: &Scene, settings: &Settings, frames: u32) -> Result<f64, String> {
     let settings = Settings { mode: Mode::conventional(), max_samples: 0, ..settings.clone() };
     let mut s = Session::new(ctx, scene, settings)?;
-    s.complete_pass(ctx);
-    let mut times: Vec<Duration> = (0..frames.max(1)).map(|_| s.complete_pass(ctx)).collect();
+    s.try_complete_pass(ctx).map_err(|e| e.to_string())?;
+    let mut times: Vec<Duration> = (0..frames.max(1))
+        .map(|_| s.try_complete_pass(ctx))
+        .collect::<Result<_, _>>()
+        .map_err(|e| e.to_string())?;
     times.sort();
     let [w, h] = s.size();
     Ok(times[times.len() / 2].as_secs_f64() / (w as f64 * h as f64))
@@ -746,9 +752,12 @@ pub struct ReplayArgs {
     /// Vulkan adapter: "lavapipe" (default), "gpu", or part of a device name (also $IRT_ADAPTER).
     #[arg(long, value_name = "NAME")]
     pub adapter: Option<String>,
-    /// Do not read or write the on-disk pipeline cache.
+    /// Do not read or write the on-disk pipeline cache (wgpu; the ash path has none).
     #[arg(long)]
     pub no_cache: bool,
+    /// Device path: wgpu (default) or ash (raw Vulkan; the same modes and pictures).
+    #[arg(long, value_enum, default_value_t = crate::gpu::backend::Backend::Wgpu)]
+    pub backend: crate::gpu::backend::Backend,
 }
 
 impl ReplayArgs {
@@ -784,16 +793,32 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     let path = CameraPath::load(&args.path)?;
     let scene = args.scene()?;
     let settings = args.settings()?;
-    let ctx = GpuContext::with_cache(
-        &AdapterChoice::from_arg_or_env(args.adapter.as_deref()),
-        &CacheSetting::from_flag_or_env(args.no_cache),
-    )?;
+    let choice = AdapterChoice::from_arg_or_env(args.adapter.as_deref());
+    match args.backend {
+        crate::gpu::backend::Backend::Wgpu => {
+            let ctx = GpuContext::with_cache(&choice, &CacheSetting::from_flag_or_env(args.no_cache))?;
+            run_on(&ctx, &args, &path, &scene, &settings)
+        }
+        crate::gpu::backend::Backend::Ash => {
+            run_on(&crate::gpu::vk::VkContext::new(&choice)?, &args, &path, &scene, &settings)
+        }
+    }
+}
+
+/// `irt replay` on `ctx`'s device path.
+fn run_on<D: Device>(
+    ctx: &D,
+    args: &ReplayArgs,
+    path: &CameraPath,
+    scene: &Scene,
+    settings: &Settings,
+) -> anyhow::Result<()> {
     let clock = match args.clock {
         ClockArg::Given(c) => c,
         ClockArg::Calibrated => {
             let mut s = scene.clone();
             s.camera = path.camera_at(0.0, scene.camera.width, scene.camera.height);
-            let spp = calibrate(&ctx, &s, &settings, 3).map_err(anyhow::Error::msg)?;
+            let spp = calibrate(ctx, &s, settings, 3).map_err(anyhow::Error::msg)?;
             Clock::Virtual { seconds_per_pixel: spp }
         }
     };
@@ -805,9 +830,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
         progress: true,
     };
     let t = Instant::now();
-    let report = replay(&ctx, &scene, &settings, &path, &opts).map_err(anyhow::Error::msg)?;
+    let report = replay(ctx, scene, settings, path, &opts).map_err(anyhow::Error::msg)?;
     let scene_name = args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
-    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), &ctx));
+    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), ctx));
     eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());
     if let Some(csv) = &args.csv {
         crate::image::write_atomic(csv, samples_csv(&report).as_bytes())?;
@@ -821,11 +846,11 @@ fn ms(s: f64) -> String {
 }
 
 /// What `irt replay` prints.
-pub fn summary(r: &ReplayReport, mode: &Mode, what: &str, ctx: &GpuContext) -> String {
+pub fn summary(r: &ReplayReport, mode: &Mode, what: &str, ctx: &impl Device) -> String {
     let mut out = String::new();
     let [w, h] = r.size;
     let _ = writeln!(out, "replay     {what}, {w}x{h}, {mode}");
-    let _ = writeln!(out, "device     {} ({})", ctx.info.name, ctx.info.driver_info);
+    let _ = writeln!(out, "device     {} ({})", ctx.adapter_name(), ctx.adapter_driver());
     let clock = match r.clock {
         Clock::Real => "real (measured dispatch time)".to_string(),
         Clock::Virtual { seconds_per_pixel } => {

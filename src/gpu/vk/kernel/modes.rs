@@ -126,6 +126,9 @@ impl Device for VkContext {
     fn adapter_name(&self) -> &str {
         &self.info.name
     }
+    fn adapter_driver(&self) -> &str {
+        &self.info.driver_info
+    }
     fn is_cpu(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
