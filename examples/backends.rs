@@ -46,8 +46,8 @@ fn main() -> anyhow::Result<()> {
     let fw = w.render(&ctx, &mut |_, _| {});
     let first_w = t.elapsed();
     let t = Instant::now();
-    let a = VkRenderer::new(&vk, &scene, opts)?;
-    let fa = a.render(&mut |_, _| {})?;
+    let a = VkRenderer::new(&vk, &scene, opts).map_err(anyhow::Error::msg)?;
+    let fa = a.try_render(&vk, &mut |_, _| {})?;
     let first_a = t.elapsed();
     let same = fw.image.pixels.iter().flatten().map(|x| x.to_bits()).eq(fa
         .image
@@ -58,7 +58,7 @@ fn main() -> anyhow::Result<()> {
 
     let input = [[0.5f32, 0.04, 1.5, 0.0]];
     let dw = Dispatcher::new(&ctx, &w.gpu_scene, Kernel::Tests, Variant::FULL, "k_fresnel", 1, &input);
-    let da = VkDispatcher::new(&vk, &a.scene, Kernel::Tests, Variant::FULL, 1, &input)?;
+    let da = VkDispatcher::new(&vk, &a.gpu_scene, Kernel::Tests, Variant::FULL, 1, &input)?;
     let kw = WgpuKernel { ctx: &ctx, dispatcher: &dw };
     let ka = VkKernel(&da);
     let (mut frame_w, mut frame_a, mut disp_w, mut disp_a) = (vec![], vec![], vec![], vec![]);
@@ -67,7 +67,7 @@ fn main() -> anyhow::Result<()> {
         w.render(&ctx, &mut |_, _| {});
         frame_w.push(t.elapsed());
         let t = Instant::now();
-        a.render(&mut |_, _| {})?;
+        a.try_render(&vk, &mut |_, _| {})?;
         frame_a.push(t.elapsed());
         disp_w.push(infallible(dispatch_overhead(&kw, "k_fresnel", per_round)));
         disp_a.push(dispatch_overhead(&ka, "k_fresnel", per_round)?);

@@ -27,7 +27,7 @@ fn assert_same(what: &str, ctx: &GpuContext, vk: &VkContext, scene: &Scene, opts
     let a = Renderer::new(ctx, scene, opts).expect("wgpu renderer");
     let fa = a.render(ctx, &mut |_, _| {});
     let b = VkRenderer::new(vk, scene, opts).expect("ash renderer");
-    let fb = b.render(&mut |_, _| {}).expect("ash render");
+    let fb = b.try_render(vk, &mut |_, _| {}).expect("ash render");
     assert_eq!(a.variant, b.variant, "{what}: variant");
     let bits = |i: &irt::image::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
     let (pa, pb) = (bits(&fa.image), bits(&fb.image));

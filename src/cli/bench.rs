@@ -3,6 +3,7 @@
 use super::{load_scene, open_device_with, DeviceArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
+use irt::gpu::backend::Device;
 use irt::gpu::{CacheSetting, RenderOptions, Renderer};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -42,7 +43,8 @@ pub struct BenchArgs {
     /// Threads for each peer (default: all cores).
     #[arg(long)]
     pub peer_threads: Option<usize>,
-    /// Device path: wgpu (default) or ash (raw Vulkan; no --peer). See docs/backends.md.
+    /// Device path: wgpu (default) or ash (raw Vulkan: the same shaders, and --peer too). See
+    /// docs/backends.md.
     #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
     pub backend: super::Backend,
     /// Also time this many tiny dispatches (one workgroup of a readback kernel, one item):
@@ -67,13 +69,6 @@ struct Measured {
     overhead: Option<Duration>,
 }
 
-/// What the ash measurement needs of [`BenchArgs`] (whose scene arguments are moved out).
-struct BenchArgsOf<'a> {
-    device: &'a DeviceArgs,
-    frames: u32,
-    dispatch_overhead: u32,
-}
-
 /// The readback kernel and input of the per-dispatch overhead: one Fresnel evaluation.
 const TINY_ENTRY: &str = "k_fresnel";
 const TINY_INPUT: [[f32; 4]; 1] = [[0.5, 0.04, 1.5, 0.0]];
@@ -90,48 +85,6 @@ fn memory_mib() -> (u64, u64) {
             .map_or(0, |kib| kib >> 10)
     };
     (field("VmRSS:"), field("VmHWM:"))
-}
-
-fn measure_ash(args: &BenchArgsOf, scene: &irt::scene::Scene, opts: RenderOptions) -> Result<Measured> {
-    use irt::gpu::vk::{VkDispatcher, VkKernel, VkRenderer};
-    let t = Instant::now();
-    let ctx = super::open_vk_device(args.device)?;
-    let open = t.elapsed();
-    let t = Instant::now();
-    let renderer = VkRenderer::new(&ctx, scene, opts)?;
-    let first = renderer.render(&mut |_, _| {})?;
-    let first_frame = t.elapsed();
-    if first.image.non_finite() > 0 {
-        bail!("the benchmark frame contains NaN/Inf values");
-    }
-    let counting = VkRenderer::new(&ctx, scene, RenderOptions { count_rays: true, ..opts })?;
-    let rays = counting.render(&mut |_, _| {})?.rays;
-    drop(counting);
-    let frame = renderer.median_frame_time(args.frames)?;
-    let overhead = if args.dispatch_overhead > 0 {
-        let d = VkDispatcher::new(
-            &ctx,
-            &renderer.scene,
-            irt::gpu::shaders::Kernel::Tests,
-            irt::gpu::shaders::Variant::FULL,
-            1,
-            &TINY_INPUT,
-        )?;
-        Some(irt::gpu::backend::dispatch_overhead(&VkKernel(&d), TINY_ENTRY, args.dispatch_overhead)?)
-    } else {
-        None
-    };
-    Ok(Measured {
-        open,
-        first_frame,
-        frame,
-        rays,
-        grid: renderer.grid.stats().to_string(),
-        device: ctx.info.name.clone(),
-        driver_info: ctx.info.driver_info.clone(),
-        cache_status: "none (the ash path has no pipeline cache yet)".into(),
-        overhead,
-    })
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -235,86 +188,29 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let grid_build = median(builds);
     let f64 = scene_args.f64();
     let opts = RenderOptions { uber_shader: args.uber, f64, ..Default::default() };
-    let measured = if args.backend == super::Backend::Ash {
-        if !args.peer.is_empty() {
-            bail!("--peer runs on the wgpu path: drop --backend ash");
+    let job = Job {
+        name: scene_args.name_or("default"),
+        scene: &scene,
+        opts,
+        peers: &args.peer,
+        peer_threads: args.peer_threads,
+        frames: args.frames,
+        dispatch_overhead: args.dispatch_overhead,
+        markdown: args.markdown,
+    };
+    let t = Instant::now();
+    let measured = match args.backend {
+        super::Backend::Wgpu => {
+            let ctx = open_device_with(&args.device, &cache)?;
+            job.on(&ctx, t.elapsed(), &ctx.cache_status)?
         }
-        measure_ash(
-            &BenchArgsOf {
-                device: &args.device,
-                frames: args.frames,
-                dispatch_overhead: args.dispatch_overhead,
-            },
-            &scene,
-            opts,
-        )?
-    } else {
-        let t = Instant::now();
-        let ctx = open_device_with(&args.device, &cache)?;
-        let open = t.elapsed();
-
-        // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
-        let t = Instant::now();
-        let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
-        let first = renderer.render(&ctx, &mut |_, _| {});
-        let first_frame = t.elapsed();
-        if first.image.non_finite() > 0 {
-            bail!("the benchmark frame contains NaN/Inf values");
-        }
-        // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
-        let counting =
-            Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, f64, ..Default::default() })
-                .map_err(anyhow::Error::msg)?;
-        let rays = counting.render(&ctx, &mut |_, _| {}).rays;
-        if !args.peer.is_empty() {
-            let peers = args
-                .peer
-                .iter()
-                .map(|&p| make_peer(p, &scene, &renderer.grid))
-                .collect::<Result<Vec<_>>>()?;
-            let name = scene_args.name_or("default");
-            return peer_rounds(
-                &name,
-                &scene,
-                &renderer,
-                &ctx,
-                rays.total(),
-                &peers,
-                args.frames,
-                args.peer_threads,
-                args.markdown,
-            );
-        }
-        let frame = renderer.median_frame_time(&ctx, args.frames);
-        let overhead = (args.dispatch_overhead > 0).then(|| {
-            let d = irt::gpu::Dispatcher::new(
-                &ctx,
-                &renderer.gpu_scene,
-                irt::gpu::shaders::Kernel::Tests,
-                irt::gpu::shaders::Variant::FULL,
-                TINY_ENTRY,
-                1,
-                &TINY_INPUT,
-            );
-            let kernel = irt::gpu::backend::WgpuKernel { ctx: &ctx, dispatcher: &d };
-            irt::gpu::backend::infallible(irt::gpu::backend::dispatch_overhead(
-                &kernel,
-                TINY_ENTRY,
-                args.dispatch_overhead,
-            ))
-        });
-        Measured {
-            open,
-            first_frame,
-            frame,
-            rays,
-            grid: renderer.grid.stats().to_string(),
-            device: ctx.info.name.clone(),
-            driver_info: ctx.info.driver_info.clone(),
-            cache_status: ctx.cache_status.clone(),
-            overhead,
+        super::Backend::Ash => {
+            let ctx = super::open_vk_device(&args.device)?;
+            job.on(&ctx, t.elapsed(), "none (the ash path has no pipeline cache yet)")?
         }
     };
+    // The peer rounds printed their own table.
+    let Some(measured) = measured else { return Ok(()) };
     let Measured { open, first_frame, frame, rays, grid: stats, device, driver_info, cache_status, overhead } =
         measured;
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
@@ -371,15 +267,97 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// One measurement, whichever device path runs it.
+struct Job<'a> {
+    name: String,
+    scene: &'a irt::scene::Scene,
+    opts: RenderOptions,
+    peers: &'a [Peer],
+    peer_threads: Option<usize>,
+    frames: u32,
+    dispatch_overhead: u32,
+    markdown: bool,
+}
+
+impl Job<'_> {
+    /// Measures on `ctx` (opened in `open`); `None` when the peer rounds ran instead (they print
+    /// their own report).
+    fn on<D: Device>(&self, ctx: &D, open: Duration, cache_status: &str) -> Result<Option<Measured>> {
+        let (scene, opts) = (self.scene, self.opts);
+        // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
+        let t = Instant::now();
+        let renderer = Renderer::new(ctx, scene, opts).map_err(anyhow::Error::msg)?;
+        let first = renderer.try_render(ctx, &mut |_, _| {})?;
+        let first_frame = t.elapsed();
+        if first.image.non_finite() > 0 {
+            bail!("the benchmark frame contains NaN/Inf values");
+        }
+        // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
+        let counting = Renderer::new(ctx, scene, RenderOptions { count_rays: true, ..opts })
+            .map_err(anyhow::Error::msg)?;
+        let rays = counting.try_render(ctx, &mut |_, _| {})?.rays;
+        drop(counting);
+        if !self.peers.is_empty() {
+            let peers = self
+                .peers
+                .iter()
+                .map(|&p| make_peer(p, scene, &renderer.grid))
+                .collect::<Result<Vec<_>>>()?;
+            peer_rounds(
+                &self.name,
+                scene,
+                &renderer,
+                ctx,
+                rays.total(),
+                &peers,
+                self.frames,
+                self.peer_threads,
+                self.markdown,
+            )?;
+            return Ok(None);
+        }
+        let frame = renderer.try_median_frame_time(ctx, self.frames)?;
+        let overhead = if self.dispatch_overhead > 0 {
+            use irt::gpu::shaders::{Kernel, Variant};
+            let d = ctx
+                .compile(
+                    &renderer.gpu_scene,
+                    Kernel::Tests,
+                    Variant::FULL,
+                    1,
+                    &TINY_INPUT,
+                    Default::default(),
+                )
+                .map_err(anyhow::Error::msg)?;
+            let overhead =
+                irt::gpu::backend::dispatch_overhead(&ctx.bind(&d), TINY_ENTRY, self.dispatch_overhead)?;
+            Some(overhead)
+        } else {
+            None
+        };
+        Ok(Some(Measured {
+            open,
+            first_frame,
+            frame,
+            rays,
+            grid: renderer.grid.stats().to_string(),
+            device: ctx.adapter_name().to_string(),
+            driver_info: ctx.adapter_driver().to_string(),
+            cache_status: cache_status.to_string(),
+            overhead,
+        }))
+    }
+}
+
 /// irt and each peer on the same scene and rays, `frames` rounds interleaved (one irt frame, then
 /// one frame of each peer) so that load from other processes falls on all alike; medians.
 /// Markdown row: irt ms, each peer's ms, irt Mrays/s, each peer's Mrays/s, each ratio irt / peer.
 #[allow(clippy::too_many_arguments)]
-fn peer_rounds(
+fn peer_rounds<D: Device>(
     name: &str,
     scene: &irt::scene::Scene,
-    renderer: &Renderer,
-    ctx: &irt::gpu::GpuContext,
+    renderer: &Renderer<D>,
+    ctx: &D,
     irt_rays: u64,
     peers: &[Box<dyn irt::peer::Peer>],
     frames: u32,
@@ -393,7 +371,7 @@ fn peer_rounds(
     let mut peer_t = vec![Vec::new(); peers.len()];
     for _ in 0..frames.max(1) {
         let t = Instant::now();
-        renderer.render(ctx, &mut |_, _| {});
+        renderer.try_render(ctx, &mut |_, _| {})?;
         irt_t.push(t.elapsed());
         for (p, times) in peers.iter().zip(&mut peer_t) {
             let t = Instant::now();
@@ -419,11 +397,11 @@ fn peer_rounds(
             "| {name} | {w}x{h} | {} | {} | {} |",
             scene.primitive_count(),
             cells.join(" | "),
-            ctx.info.name
+            ctx.adapter_name()
         );
     } else {
         println!("scene            {name} ({w}x{h}, {} primitives), primary-shadow", scene.primitive_count());
-        println!("device           {} ({})", ctx.info.name, ctx.info.driver_info);
+        println!("device           {} ({})", ctx.adapter_name(), ctx.adapter_driver());
         let counts: Vec<String> =
             peers.iter().zip(&peer_rays).map(|(p, r)| format!("{} {r}", p.name())).collect();
         println!("rays/frame        irt {irt_rays}, {}", counts.join(", "));

@@ -92,14 +92,26 @@ pub fn run(args: RenderArgs) -> Result<()> {
             }
         };
     }
-    if args.backend == super::Backend::Ash {
-        return run_ash(&args, format, &scene);
+    match args.backend {
+        super::Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, &scene, "bands"),
+        super::Backend::Ash => {
+            bands(&super::open_vk_device(&args.device)?, &args, format, &scene, "bands, ash")
+        }
     }
-    let ctx = open_device(&args.device)?;
-    let opts = options(&args);
+}
+
+/// The band renderer on `ctx`'s path, with a bar for the setup and one for the tracing.
+fn bands<D: Device>(
+    ctx: &D,
+    args: &RenderArgs,
+    format: OutputFormat,
+    scene: &irt::scene::Scene,
+    how: &str,
+) -> Result<()> {
+    let opts = options(args);
     let h = scene.camera.height;
     let setup = super::setup_bar(scene.primitive_count());
-    let renderer = Renderer::with_progress(&ctx, &scene, opts, &|stage, done, total| {
+    let renderer = Renderer::with_progress(ctx, scene, opts, &|stage, done, total| {
         super::show_setup(&setup, stage, done, total)
     })
     .map_err(anyhow::Error::msg)?;
@@ -113,16 +125,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
             t.grid_build.as_secs_f64(),
             renderer.grid.prim_refs.len(),
             t.upload.as_secs_f64(),
-            renderer.gpu_scene.bytes >> 20
+            D::scene_bytes(&renderer.gpu_scene) >> 20
         ),
     );
     let bar = tracing_bar(h);
     let t = Instant::now();
-    let frame = renderer.render(&ctx, &mut |done, _| bar.set_position(done as u64));
+    let frame = renderer.try_render(ctx, &mut |done, _| bar.set_position(done as u64))?;
     let elapsed = t.elapsed();
     bar.finish_and_clear();
-    write(&args, format, &frame.image, &scene, elapsed, &ctx.info.name, "bands")?;
-    print_stats(&args, &frame);
+    write(args, format, &frame.image, scene, elapsed, ctx.adapter_name(), how)?;
+    print_stats(args, &frame);
     Ok(())
 }
 
@@ -166,25 +178,6 @@ fn tracing_bar(rows: u32) -> indicatif::ProgressBar {
         .progress_chars("=> "),
     );
     bar
-}
-
-/// The band renderer on the ash path.
-fn run_ash(args: &RenderArgs, format: OutputFormat, scene: &irt::scene::Scene) -> Result<()> {
-    let ctx = super::open_vk_device(&args.device)?;
-    let setup = super::setup_bar(scene.primitive_count());
-    let renderer =
-        irt::gpu::vk::VkRenderer::with_progress(&ctx, scene, options(args), &|stage, done, total| {
-            super::show_setup(&setup, stage, done, total)
-        })?;
-    setup.finish_and_clear();
-    let bar = tracing_bar(scene.camera.height);
-    let t = Instant::now();
-    let frame = renderer.render(&mut |done, _| bar.set_position(done as u64))?;
-    let elapsed = t.elapsed();
-    bar.finish_and_clear();
-    write(args, format, &frame.image, scene, elapsed, &ctx.info.name, "bands, ash")?;
-    print_stats(args, &frame);
-    Ok(())
 }
 
 fn print_stats(args: &RenderArgs, frame: &irt::gpu::Frame) {

@@ -167,8 +167,14 @@ pub trait Device {
     fn adapter_driver(&self) -> &str;
     /// The device runs on the CPU (lavapipe): schedules are built for its threads.
     fn is_cpu(&self) -> bool;
-    /// Uploads `packed` with its frame constants.
-    fn upload(&self, packed: PackedScene, params: Params) -> Result<Self::Scene, String>;
+    /// Uploads `packed` with its frame constants (and waits for it), layered past `max_rows`
+    /// rows if given and fewer than the device's largest texture side.
+    fn upload(
+        &self,
+        packed: PackedScene,
+        params: Params,
+        max_rows: Option<u32>,
+    ) -> Result<Self::Scene, String>;
     /// Replaces `scene`'s contents: in place while they fit, else in a new texture with room to
     /// spare; returns whether the texture is new (kernels bound to it must [`Device::rebind`]).
     fn update_scene(
@@ -181,10 +187,13 @@ pub trait Device {
     fn params(scene: &Self::Scene) -> Params;
     /// `scene`'s texture is layered (see `Variant::layered`).
     fn layered(scene: &Self::Scene) -> bool;
+    /// Bytes `scene` took to upload (texture and frame constants).
+    fn scene_bytes(scene: &Self::Scene) -> u64;
     /// Replaces the frame constants; the next dispatch sees them.
     fn write_params(&self, scene: &mut Self::Scene, params: Params);
     /// Compiles `kernel` for `variant` (`layered` taken from the scene) bound to `scene`, an
-    /// output of `out_len` vec4s and the modes' buffers. Fails, naming what is missing, when the
+    /// output of `out_len` vec4s, the read-only test `inputs` (may be empty) and the modes'
+    /// buffers. Fails, naming what is missing, when the
     /// device cannot run it (f64 without shader f64).
     fn compile(
         &self,
@@ -192,6 +201,7 @@ pub trait Device {
         kernel: Kernel,
         variant: Variant,
         out_len: u64,
+        inputs: &[[f32; 4]],
         modes: ModeBuffers,
     ) -> Result<Self::Kernel, String>;
     /// The variant `kernel` was compiled for.
@@ -204,6 +214,9 @@ pub trait Device {
     fn copy_frame(&self, to: &Self::Kernel, from: &Self::Kernel) -> Result<(), String>;
     /// `kernel` on this device, as a backend.
     fn bind<'a>(&'a self, kernel: &'a Self::Kernel) -> Self::Bound<'a>;
+    /// A first frame has run, so drivers that compile at the first dispatch have compiled: what
+    /// a pipeline cache on disk waits for.
+    fn pipelines_compiled(&self) {}
 }
 
 impl Device for GpuContext {
@@ -221,8 +234,10 @@ impl Device for GpuContext {
     fn is_cpu(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
-    fn upload(&self, packed: PackedScene, params: Params) -> Result<GpuScene, String> {
-        GpuScene::upload_packed(self, packed, params)
+    fn upload(&self, packed: PackedScene, params: Params, max_rows: Option<u32>) -> Result<GpuScene, String> {
+        let scene = GpuScene::upload_packed_with(self, packed, params, max_rows)?;
+        self.wait();
+        Ok(scene)
     }
     fn update_scene(
         &self,
@@ -238,6 +253,9 @@ impl Device for GpuContext {
     fn layered(scene: &GpuScene) -> bool {
         scene.layered
     }
+    fn scene_bytes(scene: &GpuScene) -> u64 {
+        scene.bytes
+    }
     fn write_params(&self, scene: &mut GpuScene, params: Params) {
         scene.write_params(self, params)
     }
@@ -247,12 +265,13 @@ impl Device for GpuContext {
         kernel: Kernel,
         variant: Variant,
         out_len: u64,
+        inputs: &[[f32; 4]],
         modes: ModeBuffers,
     ) -> Result<Dispatcher, String> {
         if variant.f64 && !self.device.features().contains(wgpu::Features::SHADER_F64) {
             return Err(missing_f64(&self.info.name));
         }
-        Ok(Dispatcher::with_modes(self, scene, kernel, variant, "render", out_len, &[], modes))
+        Ok(Dispatcher::with_modes(self, scene, kernel, variant, "render", out_len, inputs, modes))
     }
     fn variant(kernel: &Dispatcher) -> Variant {
         kernel.variant()
@@ -267,6 +286,9 @@ impl Device for GpuContext {
     }
     fn bind<'a>(&'a self, kernel: &'a Dispatcher) -> WgpuKernel<'a> {
         WgpuKernel { ctx: self, dispatcher: kernel }
+    }
+    fn pipelines_compiled(&self) {
+        self.save_pipeline_cache();
     }
 }
 

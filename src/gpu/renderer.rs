@@ -1,7 +1,7 @@
 //! Headless rendering: a scene in, a linear radiance image (and ray counts) out.
 
-use super::backend::{infallible, Command, ComputeBackend, Dispatch, Recording, WgpuKernel};
-use super::dispatch::{Dispatcher, GpuScene, RayCounts};
+use super::backend::{infallible, Command, ComputeBackend, Device, Dispatch, Recording};
+use super::dispatch::{ModeBuffers, RayCounts};
 use super::layout::{self, PackedScene, Params, Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
 use super::shaders::{Kernel, Variant};
 use super::GpuContext;
@@ -57,10 +57,12 @@ pub fn passes(scene: &Scene) -> Vec<[u32; 4]> {
     }
 }
 
-pub struct Renderer {
+/// The headless band renderer on a device path (wgpu's [`GpuContext`] by default, or ash's
+/// `vk::VkContext`): one scene, one compiled kernel, the bands of [`Bands::recording`].
+pub struct Renderer<D: Device = GpuContext> {
     pub grid: Grid,
-    pub gpu_scene: GpuScene,
-    dispatcher: Dispatcher,
+    pub gpu_scene: D::Scene,
+    dispatcher: D::Kernel,
     bands: Bands,
     pub variant: Variant,
     pub timings: SetupTimings,
@@ -209,29 +211,25 @@ pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> P
     Prepared { grid, packed, params, variant, bands, grid_build }
 }
 
-impl Renderer {
-    pub fn new(ctx: &GpuContext, scene: &Scene, opts: RenderOptions) -> Result<Self, String> {
+impl<D: Device> Renderer<D> {
+    pub fn new(ctx: &D, scene: &Scene, opts: RenderOptions) -> Result<Self, String> {
         Self::with_progress(ctx, scene, opts, &|_, _, _| {})
     }
 
     /// [`Renderer::new`], reporting the grid build and the upload as they go.
     pub fn with_progress(
-        ctx: &GpuContext,
+        ctx: &D,
         scene: &Scene,
         opts: RenderOptions,
         progress: SetupProgress,
     ) -> Result<Self, String> {
         let t1 = Instant::now();
         let Prepared { grid, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
-        let gpu_scene = GpuScene::upload_packed_with(ctx, packed, params, opts.max_scene_rows)?;
-        ctx.wait();
+        let gpu_scene = ctx.upload(packed, params, opts.max_scene_rows)?;
         let t2 = Instant::now();
-        if opts.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(super::backend::missing_f64(&ctx.info.name));
-        }
         let dispatcher =
-            Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", bands.out_len(), &[]);
-        let variant = dispatcher.variant();
+            ctx.compile(&gpu_scene, Kernel::Render, variant, bands.out_len(), &[], ModeBuffers::default())?;
+        let variant = D::variant(&dispatcher);
         let timings = SetupTimings { grid_build, upload: t2 - t1 - grid_build, pipeline: t2.elapsed() };
         Ok(Renderer {
             grid,
@@ -245,8 +243,8 @@ impl Renderer {
     }
 
     /// The bound kernel, as a backend (for measuring single dispatches).
-    pub fn kernel<'a>(&'a self, ctx: &'a GpuContext) -> WgpuKernel<'a> {
-        WgpuKernel { ctx, dispatcher: &self.dispatcher }
+    pub fn kernel<'a>(&'a self, ctx: &'a D) -> D::Bound<'a> {
+        ctx.bind(&self.dispatcher)
     }
 
     /// The bands this renderer traces.
@@ -256,27 +254,38 @@ impl Renderer {
 
     /// Median wall time of `frames` (at least 1) further renders: what the measurement commands
     /// report. Call after a first frame, which carries lavapipe's shader compile.
-    pub fn median_frame_time(&self, ctx: &GpuContext, frames: u32) -> Duration {
-        let mut times: Vec<Duration> = (0..frames.max(1))
-            .map(|_| {
-                let t = Instant::now();
-                self.render(ctx, &mut |_, _| {});
-                t.elapsed()
-            })
-            .collect();
+    pub fn try_median_frame_time(&self, ctx: &D, frames: u32) -> Result<Duration, D::Error> {
+        let mut times = Vec::new();
+        for _ in 0..frames.max(1) {
+            let t = Instant::now();
+            self.try_render(ctx, &mut |_, _| {})?;
+            times.push(t.elapsed());
+        }
         times.sort();
-        times[times.len() / 2]
+        Ok(times[times.len() / 2])
     }
 
     /// Traces every eye ray, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after
     /// each.
-    pub fn render(&self, ctx: &GpuContext, progress: &mut dyn FnMut(u32, u32)) -> Frame {
-        let kernel = WgpuKernel { ctx, dispatcher: &self.dispatcher };
-        let frame = infallible(self.bands.render(&kernel, progress));
+    pub fn try_render(&self, ctx: &D, progress: &mut dyn FnMut(u32, u32)) -> Result<Frame, D::Error> {
+        let frame = self.bands.render(&self.kernel(ctx), progress)?;
         // Drivers that compile at the first dispatch (lavapipe) fill the cache only now.
         if !self.cache_saved.swap(true, Ordering::Relaxed) {
-            ctx.save_pipeline_cache();
+            ctx.pipelines_compiled();
         }
-        frame
+        Ok(frame)
+    }
+}
+
+/// The wgpu path, whose dispatches cannot fail: the values without a `Result`.
+impl Renderer<GpuContext> {
+    /// [`Renderer::try_render`].
+    pub fn render(&self, ctx: &GpuContext, progress: &mut dyn FnMut(u32, u32)) -> Frame {
+        infallible(self.try_render(ctx, progress))
+    }
+
+    /// [`Renderer::try_median_frame_time`].
+    pub fn median_frame_time(&self, ctx: &GpuContext, frames: u32) -> Duration {
+        infallible(self.try_median_frame_time(ctx, frames))
     }
 }

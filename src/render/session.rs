@@ -217,7 +217,7 @@ impl<D: Device> Session<D> {
         let origin = scene.camera.eye;
         let packed = layout::pack_scene(&scene, &grid, origin);
         let params = layout::params(&scene, &grid, &packed, origin);
-        let gpu_scene = ctx.upload(packed, params)?;
+        let gpu_scene = ctx.upload(packed, params, None)?;
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
         let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity)?;
@@ -802,7 +802,7 @@ fn make_dispatcher<D: Device>(
     let [tx, ty] = tile_grid(capacity[0], capacity[1]);
     let work_len = pixels.max(tx as u64 * ty as u64 + 1).max(Dissolve::new(pixels).jumps().len() as u64);
     let modes = ModeBuffers { work_len, frame_len: pixels };
-    ctx.compile(scene, Kernel::Modes, variant, pixels, modes)
+    ctx.compile(scene, Kernel::Modes, variant, pixels, &[], modes)
 }
 
 // render_queue's workgroup is one tile.

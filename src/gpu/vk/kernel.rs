@@ -8,13 +8,11 @@ use crate::accel::Grid;
 use crate::gpu::backend::{ComputeBackend, Dispatch};
 use crate::gpu::dispatch::{pad_rows, scene_bands, scene_texture_extent, ModeBuffers, RayCounts};
 use crate::gpu::layout::{self, PackedScene, Params, Tile, SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
-use crate::gpu::renderer::{prepare, Bands, Frame, Prepared, RenderOptions, SetupProgress, SetupTimings};
 use crate::gpu::shaders::{self, Kernel, Variant};
 use crate::scene::Scene;
 use ash::vk;
 use glam::DVec3;
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
 
 mod modes;
 
@@ -681,58 +679,5 @@ pub fn run_kernel(
     crate::gpu::readback::run_readback(&VkKernel(&d), entry, items)
 }
 
-/// The headless band renderer on the ash path: the same preparation and bands as
-/// [`crate::gpu::Renderer`], run by [`VkKernel`].
-pub struct VkRenderer {
-    pub grid: Grid,
-    pub scene: VkScene,
-    dispatcher: VkDispatcher,
-    bands: Bands,
-    pub variant: Variant,
-    pub timings: SetupTimings,
-}
-
-impl VkRenderer {
-    pub fn new(ctx: &VkContext, scene: &Scene, opts: RenderOptions) -> Result<Self, VkError> {
-        Self::with_progress(ctx, scene, opts, &|_, _, _| {})
-    }
-
-    /// [`VkRenderer::new`], reporting the grid build and the upload as they go.
-    pub fn with_progress(
-        ctx: &VkContext,
-        scene: &Scene,
-        opts: RenderOptions,
-        progress: SetupProgress,
-    ) -> Result<Self, VkError> {
-        let t1 = Instant::now();
-        let Prepared { grid, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
-        let scene = VkScene::upload_packed_with(ctx, packed, params, opts.max_scene_rows)?;
-        let t2 = Instant::now();
-        let dispatcher = VkDispatcher::new(ctx, &scene, Kernel::Render, variant, bands.out_len(), &[])?;
-        let variant = dispatcher.variant();
-        let timings = SetupTimings { grid_build, upload: t2 - t1 - grid_build, pipeline: t2.elapsed() };
-        Ok(VkRenderer { grid, scene, dispatcher, bands, variant, timings })
-    }
-
-    /// Traces every eye ray in bands; `progress(rows_done, rows)` after each.
-    pub fn render(&self, progress: &mut dyn FnMut(u32, u32)) -> Result<Frame, VkError> {
-        self.bands.render(&VkKernel(&self.dispatcher), progress)
-    }
-
-    /// Median wall time of `frames` (at least 1) further renders.
-    pub fn median_frame_time(&self, frames: u32) -> Result<Duration, VkError> {
-        let mut times = Vec::new();
-        for _ in 0..frames.max(1) {
-            let t = Instant::now();
-            self.render(&mut |_, _| {})?;
-            times.push(t.elapsed());
-        }
-        times.sort();
-        Ok(times[times.len() / 2])
-    }
-
-    /// The bound kernel, as a backend (for measuring single dispatches).
-    pub fn kernel(&self) -> VkKernel<'_> {
-        VkKernel(&self.dispatcher)
-    }
-}
+/// The headless band renderer on the ash path: the one band renderer, on raw Vulkan.
+pub type VkRenderer = crate::gpu::Renderer<VkContext>;

@@ -132,8 +132,8 @@ impl Device for VkContext {
     fn is_cpu(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
-    fn upload(&self, packed: PackedScene, params: Params) -> Result<VkScene, String> {
-        VkScene::upload_packed_with(self, packed, params, None).map_err(|e| e.to_string())
+    fn upload(&self, packed: PackedScene, params: Params, max_rows: Option<u32>) -> Result<VkScene, String> {
+        VkScene::upload_packed_with(self, packed, params, max_rows).map_err(|e| e.to_string())
     }
     fn update_scene(&self, scene: &mut VkScene, packed: PackedScene, params: Params) -> Result<bool, String> {
         scene.update(self, packed, params).map_err(|e| e.to_string())
@@ -144,6 +144,9 @@ impl Device for VkContext {
     fn layered(scene: &VkScene) -> bool {
         scene.layered
     }
+    fn scene_bytes(scene: &VkScene) -> u64 {
+        scene.bytes
+    }
     fn write_params(&self, scene: &mut VkScene, params: Params) {
         scene.write_params(params)
     }
@@ -153,9 +156,11 @@ impl Device for VkContext {
         kernel: Kernel,
         variant: Variant,
         out_len: u64,
+        inputs: &[[f32; 4]],
         modes: ModeBuffers,
     ) -> Result<VkDispatcher, String> {
-        VkDispatcher::with_modes(self, scene, kernel, variant, out_len, &[], modes).map_err(|e| e.to_string())
+        VkDispatcher::with_modes(self, scene, kernel, variant, out_len, inputs, modes)
+            .map_err(|e| e.to_string())
     }
     fn variant(kernel: &VkDispatcher) -> Variant {
         kernel.variant()
