@@ -1,7 +1,8 @@
 //! `irt stability`: how far the GPU, in f32 and in f64, drifts from the f64 reference as a scene
 //! moves away from the origin, and what f64 costs (docs/stability.md).
 
-use crate::gpu::{GpuContext, RenderOptions, Renderer};
+use crate::gpu::backend::Device;
+use crate::gpu::{RenderOptions, Renderer};
 use crate::metrics::{compare, ImageDiff};
 use crate::reference;
 use crate::scene::Scene;
@@ -28,7 +29,7 @@ pub struct Row {
 }
 
 /// Measures `scene` moved `distance` from where it is.
-pub fn measure(ctx: &GpuContext, scene: &Scene, distance: f64) -> Result<Row, String> {
+pub fn measure<D: Device>(ctx: &D, scene: &Scene, distance: f64) -> Result<Row, String> {
     let s = scene.transformed(1.0, offset(distance));
     let r = reference::render(&s);
     let reference = crate::image::Image {
@@ -38,8 +39,8 @@ pub fn measure(ctx: &GpuContext, scene: &Scene, distance: f64) -> Result<Row, St
     };
     let run = |f64| -> Result<(ImageDiff, Duration), String> {
         let renderer = Renderer::new(ctx, &s, RenderOptions { f64, ..Default::default() })?;
-        let image = renderer.render(ctx, &mut |_, _| {}).image;
-        Ok((compare(&image, &reference), renderer.median_frame_time(ctx, 3)))
+        let image = renderer.try_render(ctx, &mut |_, _| {}).map_err(|e| e.to_string())?.image;
+        Ok((compare(&image, &reference), renderer.try_median_frame_time(ctx, 3).map_err(|e| e.to_string())?))
     };
     let ((f32, f32_time), (f64, f64_time)) = (run(false)?, run(true)?);
     Ok(Row { distance, f32, f64, f32_time, f64_time })

@@ -1,7 +1,8 @@
 //! `irt tradeoff`: what each shadow mode costs and how wrong it is, measured side by side in one
 //! run against the CPU ground truth (docs/shadows.md).
 
-use crate::gpu::{GpuContext, RenderOptions, Renderer};
+use crate::gpu::backend::Device;
+use crate::gpu::{RenderOptions, Renderer};
 use crate::image::Image;
 use crate::metrics::{compare, ssim};
 use crate::scene::{Combine, Falloff, Scene, ShadowMode};
@@ -42,8 +43,8 @@ pub fn modes() -> Vec<ShadowMode> {
 /// interleaved: `frames` rounds, each timing one warm frame of every mode in turn, and each
 /// mode's median. On a shared, loaded machine the load then falls on all modes alike, so the
 /// ratios to hard shadows hold within one run even where absolute times drift.
-pub fn measure_all(
-    ctx: &GpuContext,
+pub fn measure_all<D: Device>(
+    ctx: &D,
     scene: &Scene,
     modes: &[ShadowMode],
     truth: &Image,
@@ -56,9 +57,10 @@ pub fn measure_all(
         let mut s = scene.clone();
         s.trace.shadows = mode;
         let renderer = Renderer::new(ctx, &s, RenderOptions::default())?;
-        let image = renderer.render(ctx, &mut |_, _| {}).image;
+        let image = renderer.try_render(ctx, &mut |_, _| {}).map_err(|e| e.to_string())?.image;
         let rays = Renderer::new(ctx, &s, RenderOptions { count_rays: true, ..Default::default() })?
-            .render(ctx, &mut |_, _| {})
+            .try_render(ctx, &mut |_, _| {})
+            .map_err(|e| e.to_string())?
             .rays;
         prepared.push((mode, renderer, image, rays));
     }
@@ -67,7 +69,7 @@ pub fn measure_all(
         for (k, (mode, renderer, _, _)) in prepared.iter().enumerate() {
             progress(&format!("round {}/{}: {mode}", round + 1, frames.max(1)));
             let t = Instant::now();
-            renderer.render(ctx, &mut |_, _| {});
+            renderer.try_render(ctx, &mut |_, _| {}).map_err(|e| e.to_string())?;
             times[k].push(t.elapsed());
         }
     }

@@ -4,6 +4,7 @@
 use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
+use irt::gpu::backend::Device;
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -13,6 +14,9 @@ pub struct StabilityArgs {
     /// Where table.md and plot.svg go (created if missing).
     #[arg(long, default_value = "stability")]
     pub out_dir: PathBuf,
+    /// Device path: wgpu (default) or ash (raw Vulkan).
+    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
+    pub backend: super::Backend,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -26,20 +30,15 @@ pub fn run(args: StabilityArgs) -> Result<()> {
     }
     let scene = load_scene(&scene_args)?;
     std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
-    let ctx = open_device(&args.device)?;
-    let bar = indicatif::ProgressBar::new(irt::stability::DISTANCES.len() as u64);
-    let mut rows = Vec::new();
-    for d in irt::stability::DISTANCES {
-        bar.set_message(format!("{d:e}"));
-        rows.push(irt::stability::measure(&ctx, &scene, d).map_err(anyhow::Error::msg)?);
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
+    let (rows, device) = match args.backend {
+        super::Backend::Wgpu => measure(&open_device(&args.device)?, &scene)?,
+        super::Backend::Ash => measure(&super::open_vk_device(&args.device)?, &scene)?,
+    };
     let name = scene_args.name_or("default scene");
     let (w, h) = (scene.camera.width, scene.camera.height);
     let table = format!(
         "Scene: {name}, {w}x{h}, moved along (1, 0.8, -0.6); device: {}; {}; command: `irt stability{}`\n\n{}",
-        ctx.info.name,
+        device,
         machine_line(),
         command_args(),
         irt::stability::markdown_table(&rows)
@@ -54,4 +53,17 @@ pub fn run(args: StabilityArgs) -> Result<()> {
     .map_err(anyhow::Error::msg)?;
     eprintln!("wrote {}/table.md and plot.svg", args.out_dir.display());
     Ok(())
+}
+
+/// Every distance on `ctx`'s path, with a bar; and the adapter's name.
+fn measure<D: Device>(ctx: &D, scene: &irt::scene::Scene) -> Result<(Vec<irt::stability::Row>, String)> {
+    let bar = indicatif::ProgressBar::new(irt::stability::DISTANCES.len() as u64);
+    let mut rows = Vec::new();
+    for d in irt::stability::DISTANCES {
+        bar.set_message(format!("{d:e}"));
+        rows.push(irt::stability::measure(ctx, scene, d).map_err(anyhow::Error::msg)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok((rows, ctx.adapter_name().to_string()))
 }

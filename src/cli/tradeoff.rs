@@ -3,6 +3,7 @@
 use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use irt::gpu::backend::Device;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -24,6 +25,9 @@ pub struct TradeoffArgs {
     /// docs/tradeoff.md when omitted. `hard` is added first if missing (the `× hard` column).
     #[arg(long, value_delimiter = ',', value_name = "MODE,...")]
     pub modes: Vec<irt::scene::ShadowMode>,
+    /// Device path: wgpu (default) or ash (raw Vulkan).
+    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
+    pub backend: super::Backend,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -44,7 +48,6 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
         bail!("--strata {} must be between 1 and 256", args.strata);
     }
     std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
-    let ctx = open_device(&args.device)?;
     let name = scene_args.name_or("default scene");
     let (w, h) = (scene.camera.width, scene.camera.height);
     eprintln!(
@@ -70,17 +73,16 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
         std::fs::read_to_string("/proc/loadavg").ok().and_then(|s| s.split(' ').next().map(str::to_string))
     };
     let load_start = load();
-    let bar = indicatif::ProgressBar::new_spinner();
-    let rows = irt::tradeoff::measure_all(&ctx, &scene, &modes, &truth, args.frames, &mut |m| {
-        bar.set_message(m.to_string());
-        bar.tick();
-    })
-    .map_err(anyhow::Error::msg)?;
-    bar.finish_and_clear();
+    let (rows, device) = match args.backend {
+        super::Backend::Wgpu => measure(&open_device(&args.device)?, &scene, &modes, &truth, args.frames)?,
+        super::Backend::Ash => {
+            measure(&super::open_vk_device(&args.device)?, &scene, &modes, &truth, args.frames)?
+        }
+    };
     let header = format!(
         "Scene: {name}, {w}x{h}, light radius {}; device: {}; ground truth {}² stratified rays (f64 CPU); {}, load {} → {}; {} interleaved rounds; command: `irt tradeoff{}`\n\n",
         scene.lights.iter().map(|l| l.radius.to_string()).collect::<Vec<_>>().join(", "),
-        ctx.info.name,
+        device,
         args.strata,
         machine_line(),
         load_start.unwrap_or_else(|| "?".into()),
@@ -99,4 +101,22 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     .map_err(anyhow::Error::msg)?;
     eprintln!("wrote {}/table.md, plot.svg, ground-truth.png", args.out_dir.display());
     Ok(())
+}
+
+/// Every mode on `ctx`'s path, with a spinner; and the adapter's name.
+fn measure<D: Device>(
+    ctx: &D,
+    scene: &irt::scene::Scene,
+    modes: &[irt::scene::ShadowMode],
+    truth: &irt::image::Image,
+    frames: u32,
+) -> Result<(Vec<irt::tradeoff::Row>, String)> {
+    let bar = indicatif::ProgressBar::new_spinner();
+    let rows = irt::tradeoff::measure_all(ctx, scene, modes, truth, frames, &mut |m| {
+        bar.set_message(m.to_string());
+        bar.tick();
+    })
+    .map_err(anyhow::Error::msg)?;
+    bar.finish_and_clear();
+    Ok((rows, ctx.adapter_name().to_string()))
 }
