@@ -227,10 +227,7 @@ impl Renderer {
         ctx.wait();
         let t2 = Instant::now();
         if opts.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(format!(
-                "{} has no f64 shader support (SHADER_F64): use --precision f32",
-                ctx.info.name
-            ));
+            return Err(super::context::no_f64_message(&ctx.info.name));
         }
         let dispatcher =
             Dispatcher::new(ctx, &gpu_scene, Kernel::Render, variant, "render", bands.out_len(), &[]);
