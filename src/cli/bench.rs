@@ -50,6 +50,8 @@ pub struct BenchArgs {
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub dispatch_overhead: u32,
     #[command(flatten)]
+    pub ash: super::AshArgs,
+    #[command(flatten)]
     pub device: DeviceArgs,
 }
 
@@ -65,6 +67,56 @@ struct Measured {
     driver_info: String,
     cache_status: String,
     overhead: Option<Duration>,
+    /// `--profile`: what the queries said of one frame.
+    profile: Option<Profile>,
+}
+
+/// The queries' view of one frame (`--profile`).
+struct Profile {
+    support: String,
+    samples: Vec<irt::gpu::vk::DispatchSample>,
+    /// Pixels (eye rays) x passes: what the invocations should add up to, less the
+    /// workgroups' rounding up to 8x8.
+    eye_rays_x_passes: u64,
+}
+
+fn print_profile(p: &Profile) {
+    let n = p.samples.len();
+    println!("queries          {}", p.support);
+    if n == 0 {
+        return;
+    }
+    let med = |mut v: Vec<Duration>| {
+        v.sort();
+        v[v.len() / 2].as_secs_f64() * 1e3
+    };
+    let host = med(p.samples.iter().map(|s| s.host).collect());
+    let host_sum: Duration = p.samples.iter().map(|s| s.host).sum();
+    if p.samples.iter().all(|s| s.device.is_some()) {
+        let device = med(p.samples.iter().filter_map(|s| s.device).collect());
+        let device_sum: Duration = p.samples.iter().filter_map(|s| s.device).sum();
+        let gap = med(p.samples.iter().filter_map(|s| s.device.map(|d| s.host.saturating_sub(d))).collect());
+        println!(
+            "per dispatch     device {device:.3} ms, host wall {host:.3} ms, host - device {:.1} µs (medians of {n}, one frame)",
+            gap * 1e3
+        );
+        println!(
+            "frame            device {:.1} ms of host wall {:.1} ms in its {n} dispatches",
+            device_sum.as_secs_f64() * 1e3,
+            host_sum.as_secs_f64() * 1e3
+        );
+    } else {
+        println!("per dispatch     host wall {host:.3} ms (median of {n}); no timestamps");
+    }
+    if p.samples.iter().all(|s| s.invocations.is_some()) {
+        let inv: u64 = p.samples.iter().filter_map(|s| s.invocations).sum();
+        let groups: u64 = p.samples.iter().map(|s| s.groups.iter().map(|&g| g as u64).product::<u64>()).sum();
+        println!(
+            "invocations      {inv} per frame (workgroups x 64: {}; eye rays x passes: {})",
+            groups * 64,
+            p.eye_rays_x_passes
+        );
+    }
 }
 
 /// What the ash measurement needs of [`BenchArgs`] (whose scene arguments are moved out).
@@ -72,6 +124,7 @@ struct BenchArgsOf<'a> {
     device: &'a DeviceArgs,
     frames: u32,
     dispatch_overhead: u32,
+    options: irt::gpu::vk::VkOptions,
 }
 
 /// The readback kernel and input of the per-dispatch overhead: one Fresnel evaluation.
@@ -95,7 +148,7 @@ fn memory_mib() -> (u64, u64) {
 fn measure_ash(args: &BenchArgsOf, scene: &irt::scene::Scene, opts: RenderOptions) -> Result<Measured> {
     use irt::gpu::vk::{VkDispatcher, VkKernel, VkRenderer};
     let t = Instant::now();
-    let ctx = super::open_vk_device(args.device)?;
+    let ctx = super::open_vk_device(args.device, args.options)?;
     let open = t.elapsed();
     let t = Instant::now();
     let renderer = VkRenderer::new(&ctx, scene, opts)?;
@@ -108,6 +161,19 @@ fn measure_ash(args: &BenchArgsOf, scene: &irt::scene::Scene, opts: RenderOption
     let rays = counting.render(&mut |_, _| {})?.rays;
     drop(counting);
     let frame = renderer.median_frame_time(args.frames)?;
+    let profile = if args.options.profile {
+        ctx.take_samples();
+        renderer.render(&mut |_, _| {})?;
+        let passes = irt::gpu::renderer::passes(scene).len() as u64;
+        let (w, h) = (scene.camera.width as u64, scene.camera.height as u64);
+        Some(Profile {
+            support: ctx.query_support().describe(),
+            samples: ctx.take_samples(),
+            eye_rays_x_passes: w * h * passes,
+        })
+    } else {
+        None
+    };
     let overhead = if args.dispatch_overhead > 0 {
         let d = VkDispatcher::new(
             &ctx,
@@ -131,6 +197,7 @@ fn measure_ash(args: &BenchArgsOf, scene: &irt::scene::Scene, opts: RenderOption
         driver_info: ctx.info.driver_info.clone(),
         cache_status: "none (the ash path has no pipeline cache yet)".into(),
         overhead,
+        profile,
     })
 }
 
@@ -235,6 +302,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let grid_build = median(builds);
     let f64 = scene_args.f64();
     let opts = RenderOptions { uber_shader: args.uber, f64, ..Default::default() };
+    if args.backend != super::Backend::Ash && args.ash.any() {
+        bail!(
+            "--robust, --push-tile, --profile and --spirv-val are levers of the ash path: add --backend ash"
+        );
+    }
     let measured = if args.backend == super::Backend::Ash {
         if !args.peer.is_empty() {
             bail!("--peer runs on the wgpu path: drop --backend ash");
@@ -244,6 +316,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 device: &args.device,
                 frames: args.frames,
                 dispatch_overhead: args.dispatch_overhead,
+                options: args.ash.options(),
             },
             &scene,
             opts,
@@ -313,10 +386,21 @@ pub fn run(args: BenchArgs) -> Result<()> {
             driver_info: ctx.info.driver_info.clone(),
             cache_status: ctx.cache_status.clone(),
             overhead,
+            profile: None,
         }
     };
-    let Measured { open, first_frame, frame, rays, grid: stats, device, driver_info, cache_status, overhead } =
-        measured;
+    let Measured {
+        open,
+        first_frame,
+        frame,
+        rays,
+        grid: stats,
+        device,
+        driver_info,
+        cache_status,
+        overhead,
+        profile,
+    } = measured;
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut name = scene_args.name_or("default");
@@ -348,7 +432,24 @@ pub fn run(args: BenchArgs) -> Result<()> {
             if args.cold || args.cold_mesa_only { "empty at start" } else { "as found" }
         );
         println!("pipeline cache   {cache_status}");
-        println!("frame            {:.1} ms (median of {})", frame.as_secs_f64() * 1e3, args.frames.max(1));
+        println!(
+            "frame            {:.1} ms (median of {}{})",
+            frame.as_secs_f64() * 1e3,
+            args.frames.max(1),
+            if profile.is_some() { "; queries on" } else { "" }
+        );
+        if args.backend == super::Backend::Ash {
+            let o = args.ash.options();
+            println!(
+                "ash levers       robust {}, tile in {}, spirv-val {}",
+                if o.robust { "on" } else { "off (no device robustness, no naga bounds checks)" },
+                if o.push_tile { "push constants" } else { "a uniform buffer" },
+                if o.full_spirv_check { "on" } else { "off" }
+            );
+        }
+        if let Some(p) = &profile {
+            print_profile(p);
+        }
         if let Some(o) = overhead {
             println!(
                 "dispatch         {:.1} µs (1 workgroup of {TINY_ENTRY}: dispatch + submit + wait, median of {})",

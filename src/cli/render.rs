@@ -154,7 +154,7 @@ fn tracing_bar(rows: u32) -> indicatif::ProgressBar {
 
 /// The band renderer on the ash path.
 fn run_ash(args: &RenderArgs, format: OutputFormat, scene: &irt::scene::Scene) -> Result<()> {
-    let ctx = super::open_vk_device(&args.device)?;
+    let ctx = super::open_vk_device(&args.device, irt::gpu::vk::VkOptions::default())?;
     let setup = super::setup_bar(scene.primitive_count());
     let renderer =
         irt::gpu::vk::VkRenderer::with_progress(&ctx, scene, options(args), &|stage, done, total| {
