@@ -86,7 +86,7 @@ impl Layout {
     /// A compute pipeline of `entry` from checked SPIR-V `words`.
     pub fn pipeline(&self, words: &[u32], entry: &str) -> Result<vk::Pipeline, VkError> {
         // The structural check and naga's read-back always (about 1 % of lavapipe's pipeline
-        // creation), spirv-val on request (about 16 %; docs/backends.md).
+        // creation), spirv-val on request (about a fifth; docs/backends.md).
         super::check_spirv(words, entry)?;
         super::naga_check(words, entry)?;
         if self.shared.caps.options.full_spirv_check {

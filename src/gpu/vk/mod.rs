@@ -102,7 +102,7 @@ pub(crate) struct Caps {
     pub zero_init_workgroup: bool,
     pub max_texture_dimension_2d: u32,
     pub max_texture_array_layers: u32,
-    /// What was asked for ([`VkOptions`]); `robust` only where the device has some robustness.
+    /// The levers the device was opened with ([`VkOptions`]).
     pub options: VkOptions,
     /// Timestamps and pipeline statistics, where `options.profile` asked and the device has them.
     pub queries: QuerySupport,
