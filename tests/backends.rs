@@ -206,7 +206,15 @@ fn assert_sessions_agree(
     let mut a = Session::new(ctx, scene, settings.clone()).expect("wgpu session");
     let mut b = Session::new(vk, scene, settings.clone()).expect("ash session");
     assert_eq!(a.variant, b.variant, "{what}: variant");
+    // How many waves finish a frame of the tile queue depends on how lavapipe's threads raced
+    // for it (each workgroup stops at a loop budget): there a step is a whole frame.
+    let queue = matches!(settings.mode, irt::render::Mode::Conventional { schedule, .. } if schedule != irt::render::Schedule::Plain);
     for k in 0..steps {
+        if queue {
+            a.complete_pass(ctx);
+            b.try_complete_pass(vk).expect("ash frame");
+            continue;
+        }
         let (ra, rb) = (a.step(ctx), b.try_step(vk).expect("ash step"));
         let key = |r: &irt::render::StepReport| (r.pixels, r.eye_rays, r.frame_done, r.slice, r.idle);
         assert_eq!(key(&ra), key(&rb), "{what}: step {k}");
@@ -219,9 +227,8 @@ fn assert_sessions_agree(
     assert_images(what, &a.read_image(ctx), &b.try_read_image(vk).expect("ash frame buffer"));
     let (oa, ob) = (a.read_output(ctx), b.try_read_output(vk).expect("ash output"));
     // The radiance, bit for bit. The alpha's loop meter only where each invocation's work is
-    // fixed: the tile queue's workgroups meter all the tiles they took, which depends on how
-    // lavapipe's threads raced for the queue (two wgpu runs differ there too).
-    let queue = matches!(settings.mode, irt::render::Mode::Conventional { schedule, .. } if schedule != irt::render::Schedule::Plain);
+    // fixed: the tile queue's workgroups meter all the tiles they took, which depends on the
+    // race too (two wgpu runs differ there as well).
     let channels = if queue { 3 } else { 4 };
     let same = oa.iter().zip(&ob).all(|(x, y)| (0..channels).all(|c| x[c].to_bits() == y[c].to_bits()));
     assert!(same, "{what}: output");
@@ -240,13 +247,13 @@ fn sessions_agree_in_every_mode() {
         jitter_pairs,
     };
     let modes = [
-        ("conventional", Mode::conventional(), 9),
+        ("conventional", Mode::conventional(), 3),
         (
             "conventional fixed:1 ×1",
             Mode::Conventional { schedule: Schedule::Fixed { tiles: 1 }, workers: 1 },
-            12,
+            2,
         ),
-        ("conventional guided ×3", Mode::Conventional { schedule: Schedule::Guided, workers: 3 }, 6),
+        ("conventional guided ×3", Mode::Conventional { schedule: Schedule::Guided, workers: 3 }, 2),
         ("conventional plain", Mode::Conventional { schedule: Schedule::Plain, workers: 0 }, 3),
         ("frameless", Mode::frameless(), 2),
         ("frameless random 999", frameless(PixelOrder::Random, 999, None, false), 25),
@@ -255,7 +262,8 @@ fn sessions_agree_in_every_mode() {
         ("frameless jitter pairs", frameless(PixelOrder::default(), 4000, None, true), 5),
     ];
     for (name, mode, steps) in modes {
-        // Several steps: waves of a frame, and refinement samples after the first.
+        // Several steps (frameless slices, or whole conventional frames): refinement samples after
+        // the first.
         assert_sessions_agree(name, &ctx, &vk, &scene, Settings { mode, ..Settings::default() }, steps);
     }
 }
@@ -309,10 +317,12 @@ fn live_changes_agree() {
         let settings = Settings { mode, ..Settings::default() };
         let mut a = Session::new(&ctx, &scene, settings.clone()).unwrap();
         let mut b = Session::new(&vk, &scene, settings.clone()).unwrap();
-        let both = |a: &mut Session, b: &mut Session<VkContext>, steps: u32, what: &str| {
-            for _ in 0..steps {
-                a.step(&ctx);
-                b.try_step(&vk).unwrap();
+        // Whole frames or passes: how many waves finish a frame of the tile queue depends on
+        // how lavapipe's threads raced for it.
+        let both = |a: &mut Session, b: &mut Session<VkContext>, passes: u32, what: &str| {
+            for _ in 0..passes {
+                a.complete_pass(&ctx);
+                b.try_complete_pass(&vk).unwrap();
             }
             assert_images(&format!("{mode}: {what}"), &a.read_image(&ctx), &b.try_read_image(&vk).unwrap());
         };
@@ -410,4 +420,239 @@ fn every_scene_agrees_in_both_modes_and_precisions() {
             );
         }
     }
+}
+
+/// The ash path with `options` against the default ash path: the same pixels bit for bit, rays
+/// and loop meter, on scenes of every primitive kind.
+fn assert_options_keep_the_image(what: &str, options: vk::VkOptions) {
+    let (a, b) = (vk_ctx(), VkContext::with_options(&AdapterChoice::Lavapipe, options).expect(what));
+    let counting = RenderOptions { count_rays: true, ..Default::default() };
+    let spd = RenderOptions { corner_rays: true, count_rays: true, ..Default::default() };
+    let mut soft = load("scenes/default.toml", 48, 40);
+    soft.trace.shadows = "bundle:24".parse().expect("bundle mode");
+    soft.lights.iter_mut().for_each(|l| l.radius = 0.4);
+    let cases = [
+        ("default", load("scenes/default.toml", 80, 60), counting),
+        ("default, bundle:24", soft, counting),
+        ("textured", load("scenes/textured.toml", 64, 48), counting),
+        ("dielectric", load("scenes/dielectric.toml", 64, 48), counting),
+        ("cones", load("scenes/cones.toml", 48, 40), counting),
+        ("balls_s1", load("scenes/spd/balls_s1.nff", 48, 48), spd),
+        ("gears_s1", load("scenes/spd/gears_s1.nff", 48, 48), spd),
+    ];
+    for (name, scene, opts) in cases {
+        let fa = VkRenderer::new(&a, &scene, opts).expect(name).try_render(&a, &mut |_, _| {}).expect(name);
+        let fb = VkRenderer::new(&b, &scene, opts).expect(name).try_render(&b, &mut |_, _| {}).expect(name);
+        let bits =
+            |i: &irt::image::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+        let (pa, pb) = (bits(&fa.image), bits(&fb.image));
+        let differ = pa.iter().zip(&pb).filter(|(x, y)| x != y).count();
+        assert_eq!(differ, 0, "{what}, {name}: {differ} of {} channels differ", pa.len());
+        assert_eq!(fa.rays, fb.rays, "{what}, {name}: ray counts");
+        assert_eq!(fa.max_loop_iterations, fb.max_loop_iterations, "{what}, {name}: loop meter");
+        assert!(fa.eye_hits > 0, "{what}, {name}: nothing hit");
+    }
+}
+
+#[test]
+fn robustness_and_index_checks_off_keep_the_image() {
+    assert_options_keep_the_image(
+        "robust off, index checks off",
+        vk::VkOptions { robust: false, index_checks: false, ..Default::default() },
+    );
+}
+
+#[test]
+fn tile_in_push_constants_keeps_the_image() {
+    assert_options_keep_the_image("push tile", vk::VkOptions { push_tile: true, ..Default::default() });
+}
+
+/// Robustness off changes what naga writes (no index clamps) and what the device was opened with.
+#[test]
+fn robustness_off_writes_unchecked_spirv() {
+    let (on, off) = (
+        vk_ctx(),
+        VkContext::with_options(
+            &AdapterChoice::Lavapipe,
+            vk::VkOptions { robust: false, index_checks: false, ..Default::default() },
+        )
+        .expect("robust off"),
+    );
+    let p = |c: &VkContext| vk::spv_options(c).bounds_check_policies;
+    use naga::proc::BoundsCheckPolicy::{Restrict, Unchecked};
+    assert_eq!((p(&on).index, p(&on).buffer, p(&on).image_load), (Restrict, Unchecked, Unchecked));
+    assert_eq!((p(&off).index, p(&off).buffer, p(&off).image_load), (Unchecked, Unchecked, Unchecked));
+    let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, irt::gpu::shaders::Variant::FULL);
+    let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
+    let words =
+        |c: &VkContext| vk::compile_entry(&module, &info, "render", &vk::spv_options(c)).expect("SPIR-V");
+    assert!(words(&off).len() < words(&on).len(), "no index clamps written");
+}
+
+/// Timestamps and the compute-invocations query around each dispatch: one sample per dispatch,
+/// its invocations the dispatch's workgroups x 64 (8x8), a frame's the pixels x passes (the
+/// image's sides are multiples of 8 and of the bands' rows), device time within host time.
+#[test]
+fn profile_counts_every_invocation_of_a_frame() {
+    let ctx = VkContext::with_options(
+        &AdapterChoice::Lavapipe,
+        vk::VkOptions { profile: true, ..Default::default() },
+    )
+    .expect("profile");
+    let q = ctx.query_support();
+    assert!(q.timestamps && q.invocations, "lavapipe has both: {}", q.describe());
+    let mut soft = load("scenes/default.toml", 64, 48);
+    soft.trace.shadows = "bundle:24".parse().expect("bundle mode");
+    soft.lights.iter_mut().for_each(|l| l.radius = 0.4);
+    for scene in [load("scenes/default.toml", 64, 48), soft] {
+        let passes = irt::gpu::renderer::passes(&scene).len() as u64;
+        let r = VkRenderer::new(&ctx, &scene, RenderOptions::default()).expect("renderer");
+        ctx.take_samples();
+        r.try_render(&ctx, &mut |_, _| {}).expect("frame");
+        let samples = ctx.take_samples();
+        // Two bands (32 + 16 rows) of every pass.
+        assert_eq!(samples.len() as u64, 2 * passes, "one sample per dispatch");
+        for s in &samples {
+            assert_eq!(s.entry, "render");
+            let groups = s.groups.iter().map(|&g| g as u64).product::<u64>();
+            assert_eq!(s.invocations, Some(groups * 64), "{s:?}");
+            let device = s.device.expect("timestamps");
+            assert!(device > std::time::Duration::ZERO && device <= s.host, "{s:?}");
+        }
+        let total: u64 = samples.iter().filter_map(|s| s.invocations).sum();
+        assert_eq!(total, 64 * 48 * passes, "invocations of a frame, {passes} passes");
+    }
+    // Without the option nothing is recorded.
+    let plain = vk_ctx();
+    let r = VkRenderer::new(&plain, &load("scenes/default.toml", 16, 16), RenderOptions::default())
+        .expect("renderer");
+    r.try_render(&plain, &mut |_, _| {}).expect("frame");
+    assert!(plain.take_samples().is_empty());
+    assert!(!plain.query_support().timestamps && !plain.query_support().invocations);
+}
+
+/// Every variant of the variant table (shaders::Variant::all) gives render SPIR-V that passes
+/// the full check (naga reads it back; spirv-val where installed) and that ash makes a pipeline
+/// of; the interactive and readback kernels likewise, every entry point, for the uber-variant
+/// and its layered and f64 forms.
+#[test]
+fn every_variant_passes_the_full_check_and_makes_a_pipeline() {
+    use irt::gpu::shaders::{compose, validate, Kernel, Variant};
+    let ctx = vk_ctx();
+    let options = vk::spv_options(&ctx);
+    let mut jobs: Vec<(Kernel, Variant)> = Variant::all().into_iter().map(|v| (Kernel::Render, v)).collect();
+    for kernel in [Kernel::Modes, Kernel::Tests] {
+        for v in [
+            Variant::FULL,
+            Variant { layered: true, ..Variant::FULL },
+            Variant { f64: true, ..Variant::FULL },
+        ] {
+            jobs.push((kernel, v));
+        }
+    }
+    let (mut checked, mut unread) = (0, 0);
+    for (kernel, v) in jobs {
+        let src = compose(kernel, v);
+        let (module, info) = validate(&src).expect("valid WGSL");
+        for e in &module.entry_points {
+            let what = format!("{kernel:?} {v:?} '{}'", e.name);
+            let words = vk::compile_entry(&module, &info, &e.name, &options).expect(&what);
+            let done = vk::full_check(&words, &e.name).unwrap_or_else(|err| panic!("{what}: {err}"));
+            assert_eq!(done.spirv_val, vk::spirv_val_available(), "{what}");
+            // naga 30 reads back all of the render kernel; of the others not the workgroup
+            // atomic of `render_queue` (validate::naga_cannot_read).
+            if kernel == Kernel::Render {
+                assert!(done.naga, "{what}: naga's read-back");
+            }
+            unread += !done.naga as u32;
+            ctx.try_pipeline(&words, &e.name, v.layered).unwrap_or_else(|err| panic!("{what}: {err}"));
+            checked += 1;
+        }
+    }
+    assert!(checked > Variant::all().len(), "{checked} pipelines");
+    eprintln!("{checked} pipelines; naga could not read back {unread}");
+    if !vk::spirv_val_available() {
+        eprintln!("spirv-val is not installed: only naga's read-back ran (apt-get install spirv-tools)");
+    }
+}
+
+/// A corrupted operand, which the structural check lets through, is rejected by the full check
+/// with a message that names the entry point; a pipeline made with the option refuses it too.
+#[test]
+fn a_corrupted_operand_is_rejected_by_the_full_check() {
+    let ctx = vk_ctx();
+    let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, irt::gpu::shaders::Variant::FULL);
+    let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
+    let good = vk::compile_entry(&module, &info, "render", &vk::spv_options(&ctx)).expect("SPIR-V");
+    vk::full_check(&good, "render").expect("naga's SPIR-V passes");
+    // The first OpFAdd (129: result type, result, operand 1, operand 2) and OpTypeFloat (22).
+    let find = |op: u32| {
+        let mut at = 5;
+        while good[at] & 0xffff != op {
+            at += (good[at] >> 16) as usize;
+        }
+        at
+    };
+    let (fadd, float) = (find(129), find(22));
+    let bound = good[3];
+    let float_type = good[float + 1];
+    type Corrupt = Box<dyn Fn(&mut Vec<u32>)>;
+    let corruptions: [(&str, Corrupt); 2] = [
+        // An id no instruction defines (the id bound itself).
+        ("undefined id", Box::new(move |w: &mut Vec<u32>| w[fadd + 3] = bound)),
+        // A defined id of the wrong kind: a type where a value belongs.
+        ("type as operand", Box::new(move |w: &mut Vec<u32>| w[fadd + 3] = float_type)),
+    ];
+    for (what, corrupt) in corruptions {
+        let mut words = good.clone();
+        corrupt(&mut words);
+        vk::check_spirv(&words, "render").expect("the structural check cannot see operands");
+        // Each half catches both on its own (spirv-val where installed).
+        assert!(vk::naga_check(&words, "render").is_err(), "{what}: naga's read-back");
+        assert!(
+            !vk::spirv_val_available() || vk::spirv_val_check(&words, "render").is_err(),
+            "{what}: spirv-val"
+        );
+        match vk::full_check(&words, "render") {
+            Err(VkError::Shader(msg)) => {
+                assert!(msg.contains("SPIR-V rejected (entry point 'render')"), "{what}: {msg}")
+            }
+            other => panic!("{what}: expected a rejection, got {other:?}"),
+        }
+    }
+    let checked = VkContext::with_options(
+        &AdapterChoice::Lavapipe,
+        vk::VkOptions { full_spirv_check: true, ..Default::default() },
+    )
+    .expect("full check");
+    let mut words = good.clone();
+    words[fadd + 3] = bound;
+    match checked.try_pipeline(&words, "render", false) {
+        Err(VkError::Shader(msg)) => assert!(msg.contains("entry point 'render'"), "{msg}"),
+        other => panic!("expected a rejection, got {other:?}"),
+    }
+}
+
+/// An adapter without shaderFloat64 (forced: lavapipe has it) refuses `--precision f64` with the
+/// words of the wgpu path.
+#[test]
+fn a_missing_f64_feature_has_the_wgpu_message() {
+    let ctx = VkContext::with_options(
+        &AdapterChoice::Lavapipe,
+        vk::VkOptions { pretend_no_f64: true, ..Default::default() },
+    )
+    .expect("device");
+    assert!(!ctx.has_f64());
+    let scene = load("scenes/default.toml", 16, 16);
+    let err = match VkRenderer::new(&ctx, &scene, RenderOptions { f64: true, ..Default::default() }) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("f64 without shaderFloat64 was accepted"),
+    };
+    assert_eq!(err, irt::gpu::context::no_f64_message(&ctx.info.name));
+    assert!(err.ends_with("has no f64 shader support (SHADER_F64): use --precision f32"), "{err}");
+    // f32 still renders on it.
+    VkRenderer::new(&ctx, &scene, RenderOptions::default())
+        .expect("f32")
+        .try_render(&ctx, &mut |_, _| {})
+        .expect("f32");
 }

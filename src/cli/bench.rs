@@ -52,6 +52,8 @@ pub struct BenchArgs {
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub dispatch_overhead: u32,
     #[command(flatten)]
+    pub ash: super::AshArgs,
+    #[command(flatten)]
     pub device: DeviceArgs,
 }
 
@@ -67,6 +69,56 @@ struct Measured {
     driver_info: String,
     cache_status: String,
     overhead: Option<Duration>,
+    /// `--profile`: what the queries said of one frame.
+    profile: Option<Profile>,
+}
+
+/// The queries' view of one frame (`--profile`).
+struct Profile {
+    support: String,
+    samples: Vec<irt::gpu::vk::DispatchSample>,
+    /// Pixels (eye rays) x passes: what the invocations should add up to, less the
+    /// workgroups' rounding up to 8x8.
+    eye_rays_x_passes: u64,
+}
+
+fn print_profile(p: &Profile) {
+    let n = p.samples.len();
+    println!("queries          {}", p.support);
+    if n == 0 {
+        return;
+    }
+    let med = |mut v: Vec<Duration>| {
+        v.sort();
+        v[v.len() / 2].as_secs_f64() * 1e3
+    };
+    let host = med(p.samples.iter().map(|s| s.host).collect());
+    let host_sum: Duration = p.samples.iter().map(|s| s.host).sum();
+    if p.samples.iter().all(|s| s.device.is_some()) {
+        let device = med(p.samples.iter().filter_map(|s| s.device).collect());
+        let device_sum: Duration = p.samples.iter().filter_map(|s| s.device).sum();
+        let gap = med(p.samples.iter().filter_map(|s| s.device.map(|d| s.host.saturating_sub(d))).collect());
+        println!(
+            "per dispatch     device {device:.3} ms, host wall {host:.3} ms, host - device {:.1} µs (medians of {n}, one frame)",
+            gap * 1e3
+        );
+        println!(
+            "frame            device {:.1} ms of host wall {:.1} ms in its {n} dispatches",
+            device_sum.as_secs_f64() * 1e3,
+            host_sum.as_secs_f64() * 1e3
+        );
+    } else {
+        println!("per dispatch     host wall {host:.3} ms (median of {n}); no timestamps");
+    }
+    if p.samples.iter().all(|s| s.invocations.is_some()) {
+        let inv: u64 = p.samples.iter().filter_map(|s| s.invocations).sum();
+        let groups: u64 = p.samples.iter().map(|s| s.groups.iter().map(|&g| g as u64).product::<u64>()).sum();
+        println!(
+            "invocations      {inv} per frame (workgroups x 64: {}; eye rays x passes: {})",
+            groups * 64,
+            p.eye_rays_x_passes
+        );
+    }
 }
 
 /// The readback kernel and input of the per-dispatch overhead: one Fresnel evaluation.
@@ -188,6 +240,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let grid_build = median(builds);
     let f64 = scene_args.f64();
     let opts = RenderOptions { uber_shader: args.uber, f64, ..Default::default() };
+    if args.backend != super::Backend::Ash && args.ash.any() {
+        bail!(
+            "--robust, --push-tile, --profile and --spirv-val are levers of the ash path: add --backend ash"
+        );
+    }
     let job = Job {
         name: scene_args.name_or("default"),
         scene: &scene,
@@ -205,14 +262,29 @@ pub fn run(args: BenchArgs) -> Result<()> {
             job.on(&ctx, t.elapsed(), &ctx.cache_status)?
         }
         super::Backend::Ash => {
-            let ctx = super::open_vk_device(&args.device)?;
-            job.on(&ctx, t.elapsed(), "none (the ash path has no pipeline cache yet)")?
+            let ctx = super::open_vk_device(&args.device, args.ash.options())?;
+            let measured = job.on(&ctx, t.elapsed(), "none (the ash path has no pipeline cache yet)")?;
+            match measured {
+                // One more frame with the queries' samples taken alone.
+                Some(m) if args.ash.profile => Some(Measured { profile: Some(profile(&ctx, &job)?), ..m }),
+                m => m,
+            }
         }
     };
     // The peer rounds printed their own table.
     let Some(measured) = measured else { return Ok(()) };
-    let Measured { open, first_frame, frame, rays, grid: stats, device, driver_info, cache_status, overhead } =
-        measured;
+    let Measured {
+        open,
+        first_frame,
+        frame,
+        rays,
+        grid: stats,
+        device,
+        driver_info,
+        cache_status,
+        overhead,
+        profile,
+    } = measured;
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
     let (w, h) = (scene.camera.width, scene.camera.height);
     let mut name = scene_args.name_or("default");
@@ -244,7 +316,24 @@ pub fn run(args: BenchArgs) -> Result<()> {
             if args.cold || args.cold_mesa_only { "empty at start" } else { "as found" }
         );
         println!("pipeline cache   {cache_status}");
-        println!("frame            {:.1} ms (median of {})", frame.as_secs_f64() * 1e3, args.frames.max(1));
+        println!(
+            "frame            {:.1} ms (median of {}{})",
+            frame.as_secs_f64() * 1e3,
+            args.frames.max(1),
+            if profile.is_some() { "; queries on" } else { "" }
+        );
+        if args.backend == super::Backend::Ash {
+            let o = args.ash.options();
+            println!(
+                "ash levers       robust {}, tile in {}, spirv-val {}",
+                if o.robust { "on" } else { "off (no device robustness, no naga bounds checks)" },
+                if o.push_tile { "push constants" } else { "a uniform buffer" },
+                if o.full_spirv_check { "on" } else { "off" }
+            );
+        }
+        if let Some(p) = &profile {
+            print_profile(p);
+        }
         if let Some(o) = overhead {
             println!(
                 "dispatch         {:.1} µs (1 workgroup of {TINY_ENTRY}: dispatch + submit + wait, median of {})",
@@ -345,8 +434,24 @@ impl Job<'_> {
             driver_info: ctx.adapter_driver().to_string(),
             cache_status: cache_status.to_string(),
             overhead,
+            profile: None,
         }))
     }
+}
+
+/// `--profile` on the ash path: the timestamps and invocation counts of one more frame.
+fn profile(ctx: &irt::gpu::vk::VkContext, job: &Job) -> Result<Profile> {
+    let renderer = Renderer::new(ctx, job.scene, job.opts).map_err(anyhow::Error::msg)?;
+    renderer.try_render(ctx, &mut |_, _| {})?;
+    ctx.take_samples();
+    renderer.try_render(ctx, &mut |_, _| {})?;
+    let passes = irt::gpu::renderer::passes(job.scene).len() as u64;
+    let (w, h) = (job.scene.camera.width as u64, job.scene.camera.height as u64);
+    Ok(Profile {
+        support: ctx.query_support().describe(),
+        samples: ctx.take_samples(),
+        eye_rays_x_passes: w * h * passes,
+    })
 }
 
 /// irt and each peer on the same scene and rays, `frames` rounds interleaved (one irt frame, then

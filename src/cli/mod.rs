@@ -81,10 +81,63 @@ pub struct DeviceArgs {
 
 pub use irt::gpu::backend::Backend;
 
-/// Opens the ash path's device on the adapter the arguments name (no pipeline cache: the ash
-/// path has none yet).
-pub fn open_vk_device(args: &DeviceArgs) -> Result<irt::gpu::vk::VkContext> {
-    Ok(irt::gpu::vk::VkContext::new(&AdapterChoice::from_arg_or_env(args.adapter.as_deref()))?)
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    #[default]
+    On,
+    Off,
+}
+
+/// The ash path's raw-Vulkan levers (docs/backends.md, "Raw-Vulkan levers"); `--backend ash`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct AshArgs {
+    /// Robustness: on (default; the device's robust buffer and image access, naga's index
+    /// checks) or off (neither: out-of-bounds accesses are undefined; the kernels make none).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub robust: OnOff,
+    /// The tile in push constants instead of a uniform buffer written before each dispatch.
+    #[arg(long)]
+    pub push_tile: bool,
+    /// Timestamps around every dispatch and its compute-shader invocations (pipeline
+    /// statistics): device time against host wall time per dispatch, invocations per frame.
+    #[arg(long)]
+    pub profile: bool,
+    /// Also validate every pipeline's SPIR-V with spirv-val (SPIRV-Tools) before the driver sees
+    /// it; the structural check and naga's read-back always run.
+    #[arg(long)]
+    pub spirv_val: bool,
+}
+
+impl AshArgs {
+    pub fn options(&self) -> irt::gpu::vk::VkOptions {
+        let robust = self.robust == OnOff::On;
+        irt::gpu::vk::VkOptions {
+            robust,
+            index_checks: robust,
+            push_tile: self.push_tile,
+            full_spirv_check: self.spirv_val,
+            profile: self.profile,
+            ..Default::default()
+        }
+    }
+
+    /// Whether any lever differs from the default (each needs `--backend ash`).
+    pub fn any(&self) -> bool {
+        self.options() != irt::gpu::vk::VkOptions::default()
+    }
+}
+
+/// Opens the ash path's device on the adapter the arguments name, with `options` (no pipeline
+/// cache: the ash path has none yet).
+pub fn open_vk_device(
+    args: &DeviceArgs,
+    options: irt::gpu::vk::VkOptions,
+) -> Result<irt::gpu::vk::VkContext> {
+    let choice = AdapterChoice::from_arg_or_env(args.adapter.as_deref());
+    if options.full_spirv_check && !irt::gpu::vk::spirv_val_available() {
+        bail!("--spirv-val: spirv-val does not run here (install SPIRV-Tools, e.g. apt-get install spirv-tools, or set IRT_SPIRV_VAL)");
+    }
+    Ok(irt::gpu::vk::VkContext::with_options(&choice, options)?)
 }
 
 #[derive(Args)]

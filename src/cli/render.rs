@@ -87,16 +87,24 @@ pub fn run(args: RenderArgs) -> Result<()> {
         let settings = Settings { mode, f64: args.scene.f64(), max_samples: 1, ..Settings::default() };
         return match args.backend {
             super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
-            super::Backend::Ash => {
-                one_pass(&super::open_vk_device(&args.device)?, &args, format, &scene, settings)
-            }
+            super::Backend::Ash => one_pass(
+                &super::open_vk_device(&args.device, Default::default())?,
+                &args,
+                format,
+                &scene,
+                settings,
+            ),
         };
     }
     match args.backend {
         super::Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, &scene, "bands"),
-        super::Backend::Ash => {
-            bands(&super::open_vk_device(&args.device)?, &args, format, &scene, "bands, ash")
-        }
+        super::Backend::Ash => bands(
+            &super::open_vk_device(&args.device, Default::default())?,
+            &args,
+            format,
+            &scene,
+            "bands, ash",
+        ),
     }
 }
 

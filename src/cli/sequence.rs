@@ -41,7 +41,7 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
     let job = Job { args, scene, frames, pattern, format, settings };
     match args.backend {
         super::Backend::Wgpu => job.run(&super::open_device(&args.device)?),
-        super::Backend::Ash => job.run(&super::open_vk_device(&args.device)?),
+        super::Backend::Ash => job.run(&super::open_vk_device(&args.device, Default::default())?),
     }
 }
 

@@ -32,7 +32,7 @@ pub fn run(args: StabilityArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
     let (rows, device) = match args.backend {
         super::Backend::Wgpu => measure(&open_device(&args.device)?, &scene)?,
-        super::Backend::Ash => measure(&super::open_vk_device(&args.device)?, &scene)?,
+        super::Backend::Ash => measure(&super::open_vk_device(&args.device, Default::default())?, &scene)?,
     };
     let name = scene_args.name_or("default scene");
     let (w, h) = (scene.camera.width, scene.camera.height);

@@ -75,9 +75,13 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     let load_start = load();
     let (rows, device) = match args.backend {
         super::Backend::Wgpu => measure(&open_device(&args.device)?, &scene, &modes, &truth, args.frames)?,
-        super::Backend::Ash => {
-            measure(&super::open_vk_device(&args.device)?, &scene, &modes, &truth, args.frames)?
-        }
+        super::Backend::Ash => measure(
+            &super::open_vk_device(&args.device, Default::default())?,
+            &scene,
+            &modes,
+            &truth,
+            args.frames,
+        )?,
     };
     let header = format!(
         "Scene: {name}, {w}x{h}, light radius {}; device: {}; ground truth {}² stratified rays (f64 CPU); {}, load {} → {}; {} interleaved rounds; command: `irt tradeoff{}`\n\n",

@@ -269,7 +269,7 @@ impl Device for GpuContext {
         modes: ModeBuffers,
     ) -> Result<Dispatcher, String> {
         if variant.f64 && !self.device.features().contains(wgpu::Features::SHADER_F64) {
-            return Err(missing_f64(&self.info.name));
+            return Err(super::context::no_f64_message(&self.info.name));
         }
         Ok(Dispatcher::with_modes(self, scene, kernel, variant, "render", out_len, inputs, modes))
     }
@@ -290,11 +290,6 @@ impl Device for GpuContext {
     fn pipelines_compiled(&self) {
         self.save_pipeline_cache();
     }
-}
-
-/// Why an f64 kernel cannot run on `adapter`: the same words on every path.
-pub fn missing_f64(adapter: &str) -> String {
-    format!("{adapter} has no f64 shader support (shaderFloat64 / SHADER_F64): use --precision f32")
 }
 
 /// The value of a result that cannot fail.

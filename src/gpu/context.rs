@@ -9,6 +9,12 @@ pub const ADAPTER_ENV: &str = "IRT_ADAPTER";
 /// The oldest Mesa whose lavapipe runs irt at full speed (Mesa 22.3 is 2–4x slower than 25.0).
 pub const MIN_FAST_MESA: u32 = 24;
 
+/// What both device paths say when `--precision f64` meets an adapter without f64 shaders
+/// (wgpu's `SHADER_F64`, Vulkan's `shaderFloat64`).
+pub fn no_f64_message(adapter: &str) -> String {
+    format!("{adapter} has no f64 shader support (SHADER_F64): use --precision f32")
+}
+
 /// (major, minor) of the first "Mesa X.Y" in a driver string.
 pub fn mesa_version(driver_info: &str) -> Option<(u32, u32)> {
     let rest = &driver_info[driver_info.find("Mesa ")? + 5..];

@@ -172,9 +172,11 @@ pub fn compose(kernel: Kernel, variant: Variant) -> String {
 /// in the composed source.
 pub fn validate(src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
     let module = naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
-    let info =
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
-            .validate(&module)
-            .map_err(|e| e.emit_to_string(src))?;
+    let info = validator().validate(&module).map_err(|e| e.emit_to_string(src))?;
     Ok((module, info))
+}
+
+/// naga's validator as [`validate`] runs it: every check, every capability.
+pub fn validator() -> naga::valid::Validator {
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
 }

@@ -2,7 +2,7 @@
 //! the counterparts of src/gpu/dispatch.rs and src/gpu/renderer.rs, with the scene packing, the
 //! texture's extent and bands, the recording of a frame and its read-out shared with them.
 
-use super::spirv::{compile_entry, options_for};
+use super::spirv::{compile_entry, options_for, tile_as_push_constants};
 use super::{fail, Buffer, Shared, VkContext, VkError};
 use crate::accel::Grid;
 use crate::gpu::backend::{ComputeBackend, Dispatch};
@@ -13,6 +13,7 @@ use crate::scene::Scene;
 use ash::vk;
 use glam::DVec3;
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 mod modes;
 
@@ -62,9 +63,17 @@ impl Layout {
                 )
                 .map_err(fail("vkCreateDescriptorSetLayout"))?;
             let sets = [set_layout];
-            let pipeline_layout = match d
-                .create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&sets), None)
-            {
+            // `VkOptions::push_tile`: the tile in push constants instead of binding 4.
+            let push = [vk::PushConstantRange {
+                stage_flags: vk::ShaderStageFlags::COMPUTE,
+                offset: 0,
+                size: std::mem::size_of::<Tile>() as u32,
+            }];
+            let mut info = vk::PipelineLayoutCreateInfo::default().set_layouts(&sets);
+            if shared.caps.options.push_tile {
+                info = info.push_constant_ranges(&push);
+            }
+            let pipeline_layout = match d.create_pipeline_layout(&info, None) {
                 Ok(p) => p,
                 Err(e) => {
                     d.destroy_descriptor_set_layout(set_layout, None);
@@ -77,7 +86,13 @@ impl Layout {
 
     /// A compute pipeline of `entry` from checked SPIR-V `words`.
     pub fn pipeline(&self, words: &[u32], entry: &str) -> Result<vk::Pipeline, VkError> {
+        // The structural check and naga's read-back always (about 1 % of lavapipe's pipeline
+        // creation), spirv-val on request (about a fifth; docs/backends.md).
         super::check_spirv(words, entry)?;
+        super::naga_check(words, entry)?;
+        if self.shared.caps.options.full_spirv_check {
+            super::spirv_val_check(words, entry)?;
+        }
         let d = &self.shared.device;
         let name =
             std::ffi::CString::new(entry).map_err(|_| VkError::Shader(format!("entry point {entry:?}")))?;
@@ -86,7 +101,10 @@ impl Layout {
         unsafe {
             let module = d
                 .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(words), None)
-                .map_err(|e| VkError::Shader(format!("the driver rejected the SPIR-V of '{entry}': {e}")))?;
+                .map_err(|e| match e {
+                    vk::Result::ERROR_DEVICE_LOST => VkError::DeviceLost { what: "shader module creation" },
+                    e => VkError::Shader(format!("the driver rejected the SPIR-V of '{entry}': {e}")),
+                })?;
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
@@ -467,11 +485,13 @@ impl VkDispatcher {
         let shared = &ctx.shared;
         let variant = Variant { layered: scene.layered, ..variant };
         if variant.f64 && !shared.caps.f64 {
-            return Err(VkError::Other(crate::gpu::backend::missing_f64(&ctx.info.name)));
+            return Err(VkError::Other(crate::gpu::context::no_f64_message(&ctx.info.name)));
         }
         let src = shaders::compose(kernel, variant);
         let (module, info) =
             shaders::validate(&src).map_err(|e| VkError::Shader(format!("naga rejected the kernel: {e}")))?;
+        let (module, info) =
+            if shared.caps.options.push_tile { tile_as_push_constants(module)? } else { (module, info) };
         let options = options_for(&shared.caps);
         let layout = Layout::new(shared, scene.layered)?;
         use vk::BufferUsageFlags as U;
@@ -591,18 +611,41 @@ impl VkDispatcher {
     }
 
     /// Runs `entry` over `groups` workgroups with `tile` as its uniform, and waits for it.
+    /// With `VkOptions::push_tile` the tile goes in push constants, else into the tile buffer;
+    /// with `VkOptions::profile` the dispatch is timed and its invocations counted
+    /// (`VkContext::take_samples`).
     pub fn run(&self, entry: &str, tile: Tile, groups: [u32; 3]) -> Result<(), VkError> {
         let pipeline = self.pipeline(entry)?;
         let (layout, set) = (self.layout.pipeline_layout, self.set);
-        self.shared.submit("a dispatch", |d, cmd| {
-            // Under the submit lock, so no other submission reads the tile now.
-            self.tile.write(0, bytemuck::bytes_of(&tile));
-            // SAFETY: recording into the command buffer `submit` began; all bound objects live.
+        let push = self.shared.caps.options.push_tile;
+        let queries = self.shared.queries.as_ref();
+        let start = Instant::now();
+        let record = |d: &ash::Device, cmd| {
+            if !push {
+                // Under the submit lock, so no other submission reads the tile now.
+                self.tile.write(0, bytemuck::bytes_of(&tile));
+            }
+            // SAFETY: recording into the command buffer `submit` began; all bound objects live;
+            // the queries' begin and end enclose only the dispatch.
             unsafe {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
                 d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
+                if push {
+                    let bytes = bytemuck::bytes_of(&tile);
+                    d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytes);
+                }
+                if let Some(q) = queries {
+                    q.begin(d, cmd);
+                }
                 d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+                if let Some(q) = queries {
+                    q.end(d, cmd);
+                }
             }
+        };
+        self.shared.submit_then("a dispatch", record, |d| match queries {
+            Some(q) => q.collect(d, entry, groups, start.elapsed()),
+            None => Ok(()),
         })
     }
 

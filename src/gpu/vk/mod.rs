@@ -10,10 +10,15 @@
 //! Every Vulkan failure is a [`VkError`], never a panic.
 
 mod kernel;
+mod queries;
 mod spirv;
+mod validate;
 
 pub use kernel::{run_kernel, VkDispatcher, VkKernel, VkRenderer, VkScene};
+pub use queries::{DispatchSample, QuerySupport};
+pub use spirv::TILE_BINDING;
 pub use spirv::{check_spirv, compile_entry, spv_options};
+pub use validate::{full_check, naga_check, spirv_val_available, spirv_val_check, FullCheck};
 
 use super::context::{choose_adapter, AdapterChoice, AdapterFacts, ContextError};
 use ash::vk;
@@ -36,6 +41,49 @@ pub enum VkError {
     Other(String),
 }
 
+/// How the ash path opens its device and makes its pipelines: the raw-Vulkan levers of
+/// docs/backends.md, each measured there. [`VkOptions::default`] is what pays (or is safe).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VkOptions {
+    /// The device's robustness (robustBufferAccess, robustBufferAccess2, robustImageAccess(2)) on,
+    /// as wgpu-hal opens it, with naga's buffer and image checks off where it covers them (the
+    /// default). Off: none of those features, and naga writes no buffer or image checks either
+    /// (`BoundsCheckPolicy::Unchecked`): an access out of bounds is undefined.
+    pub robust: bool,
+    /// naga's index checks (`Restrict`: indices into local arrays, vectors and matrices clamped).
+    /// The kernels' only run-time indexed local array is the recursion stack, at most
+    /// `max_depth` <= `MAX_STACK` deep (`Scene::validate`), and vector indices are computed
+    /// modulo their size, so `false` (`Unchecked`) is in bounds too.
+    pub index_checks: bool,
+    /// The tile (binding 4) as push constants instead of a host-visible uniform buffer written
+    /// before each dispatch: the module's `tile` moved to the immediate address space before
+    /// naga writes SPIR-V, and `vkCmdPushConstants` in each dispatch.
+    pub push_tile: bool,
+    /// Besides the structural check that always runs, check each SPIR-V module fully before the
+    /// driver sees it (`validate::full_check`: naga's SPIR-V front end and validator on the
+    /// words, and `spirv-val` where it is installed).
+    pub full_spirv_check: bool,
+    /// Per-dispatch timestamps and a compute-invocations query around every dispatch
+    /// (`VkContext::take_samples`), where the device supports them.
+    pub profile: bool,
+    /// Test hook: open the device as if it had no `shaderFloat64`.
+    #[doc(hidden)]
+    pub pretend_no_f64: bool,
+}
+
+impl Default for VkOptions {
+    fn default() -> Self {
+        VkOptions {
+            robust: true,
+            index_checks: true,
+            push_tile: false,
+            full_spirv_check: false,
+            profile: false,
+            pretend_no_f64: false,
+        }
+    }
+}
+
 /// Maps a failed call to its error (device loss named as such).
 pub(crate) fn fail(what: &'static str) -> impl Fn(vk::Result) -> VkError {
     move |result| match result {
@@ -54,6 +102,10 @@ pub(crate) struct Caps {
     pub zero_init_workgroup: bool,
     pub max_texture_dimension_2d: u32,
     pub max_texture_array_layers: u32,
+    /// The levers the device was opened with ([`VkOptions`]).
+    pub options: VkOptions,
+    /// Timestamps and pipeline statistics, where `options.profile` asked and the device has them.
+    pub queries: QuerySupport,
 }
 
 /// The instance, device and queue, shared (reference-counted) by everything made on them, so that
@@ -68,6 +120,8 @@ pub(crate) struct Shared {
     submit: Mutex<(vk::CommandBuffer, vk::Fence)>,
     memory: vk::PhysicalDeviceMemoryProperties,
     pub caps: Caps,
+    /// The query pools of `VkOptions::profile` and what they measured.
+    pub(crate) queries: Option<queries::Queries>,
 }
 
 impl Drop for Shared {
@@ -75,6 +129,9 @@ impl Drop for Shared {
         // SAFETY: everything made on the device holds this `Shared`, so all of it is gone.
         unsafe {
             let _ = self.device.device_wait_idle();
+            if let Some(q) = &self.queries {
+                q.destroy(&self.device);
+            }
             let (_, fence) = *self.submit.lock().unwrap_or_else(|e| e.into_inner());
             self.device.destroy_fence(fence, None);
             self.device.destroy_command_pool(self.pool, None);
@@ -91,6 +148,17 @@ impl Shared {
         what: &'static str,
         record: impl FnOnce(&ash::Device, vk::CommandBuffer),
     ) -> Result<(), VkError> {
+        self.submit_then(what, record, |_| Ok(()))
+    }
+
+    /// [`Shared::submit`], then `after` once the submission has completed, still under the
+    /// submit lock (so no other submission resets what it reads, such as the queries).
+    pub fn submit_then<T>(
+        &self,
+        what: &'static str,
+        record: impl FnOnce(&ash::Device, vk::CommandBuffer),
+        after: impl FnOnce(&ash::Device) -> Result<T, VkError>,
+    ) -> Result<T, VkError> {
         let guard = self.submit.lock().unwrap_or_else(|e| e.into_inner());
         let (cmd, fence) = *guard;
         let d = &self.device;
@@ -136,7 +204,8 @@ impl Shared {
                 .map_err(fail(what))?;
             let waited = d.wait_for_fences(&[fence], true, u64::MAX).map_err(fail(what));
             d.reset_fences(&[fence]).map_err(fail(what))?;
-            waited
+            waited?;
+            after(d)
         }
     }
 
@@ -320,6 +389,11 @@ impl VkContext {
     /// Opens the adapter `choice` names (the wgpu path's rules and messages) with one compute
     /// queue.
     pub fn new(choice: &AdapterChoice) -> Result<Self, VkError> {
+        Self::with_options(choice, VkOptions::default())
+    }
+
+    /// [`VkContext::new`] with the levers of `options`.
+    pub fn with_options(choice: &AdapterChoice, options: VkOptions) -> Result<Self, VkError> {
         super::instance::ensure_runtime_dir();
         // SAFETY: loading the system's Vulkan loader, as wgpu-hal does.
         let entry = unsafe { ash::Entry::load() }.map_err(|_| ContextError::NoVulkan)?;
@@ -341,7 +415,7 @@ impl VkContext {
             Err(e) => return Err(fail("vkCreateInstance")(e)),
         };
         // From here the instance must be destroyed on every error: `open` returns it back.
-        match Self::open(&instance, choice) {
+        match Self::open(&instance, choice, options) {
             Ok((physical, device, family, caps, info)) => {
                 Self::finish(entry, instance, physical, device, family, caps, info)
             }
@@ -357,6 +431,7 @@ impl VkContext {
     fn open(
         instance: &ash::Instance,
         choice: &AdapterChoice,
+        options: VkOptions,
     ) -> Result<(vk::PhysicalDevice, ash::Device, u32, Caps, VkAdapterInfo), VkError> {
         // SAFETY: queries on a live instance.
         unsafe {
@@ -430,11 +505,18 @@ impl VkContext {
                 Some((_, image2)) => image2,
                 None => v13.robust_image_access != 0,
             };
+            let robust = options.robust;
+            let queries = queries::QuerySupport::of(
+                &props.limits,
+                &instance.get_physical_device_queue_family_properties(pd)[family as usize],
+                core.pipeline_statistics_query != 0,
+                options.profile,
+            );
             let caps = Caps {
                 api_version: api,
-                f64: core.shader_float64 != 0,
-                robust_buffer_access2: rob2.is_some_and(|r| r.0),
-                robust_image_access,
+                f64: core.shader_float64 != 0 && !options.pretend_no_f64,
+                robust_buffer_access2: robust && rob2.is_some_and(|r| r.0),
+                robust_image_access: robust && robust_image_access,
                 zero_init_workgroup: api >= vk::API_VERSION_1_3
                     && v13.shader_zero_initialize_workgroup_memory != 0,
                 max_texture_dimension_2d: props
@@ -444,15 +526,18 @@ impl VkContext {
                     .min(props.limits.max_framebuffer_width)
                     .min(props.limits.max_framebuffer_height),
                 max_texture_array_layers: props.limits.max_image_array_layers,
+                options,
+                queries,
             };
             let enable_core = vk::PhysicalDeviceFeatures::default()
-                .robust_buffer_access(core.robust_buffer_access != 0)
-                .shader_float64(caps.f64);
+                .robust_buffer_access(robust && core.robust_buffer_access != 0)
+                .shader_float64(caps.f64)
+                .pipeline_statistics_query(queries.invocations);
             let mut enable_rob2 = vk::PhysicalDeviceRobustness2FeaturesEXT::default()
                 .robust_buffer_access2(caps.robust_buffer_access2)
-                .robust_image_access2(rob2.is_some_and(|r| r.1));
+                .robust_image_access2(robust && rob2.is_some_and(|r| r.1));
             let mut enable_v13 = vk::PhysicalDeviceVulkan13Features::default()
-                .robust_image_access(v13.robust_image_access != 0)
+                .robust_image_access(robust && v13.robust_image_access != 0)
                 .shader_zero_initialize_workgroup_memory(caps.zero_init_workgroup);
             let priorities = [1.0];
             let queues = [vk::DeviceQueueCreateInfo::default()
@@ -521,6 +606,16 @@ impl VkContext {
                     return Err(e);
                 }
             };
+            let queries = match queries::Queries::new(&device, caps.queries) {
+                Ok(q) => q,
+                Err(e) => {
+                    device.destroy_fence(fence, None);
+                    device.destroy_command_pool(pool, None);
+                    device.destroy_device(None);
+                    instance.destroy_instance(None);
+                    return Err(e);
+                }
+            };
             let shared = Arc::new(Shared {
                 _entry: entry,
                 instance,
@@ -530,9 +625,26 @@ impl VkContext {
                 submit: Mutex::new((cmd, fence)),
                 memory,
                 caps,
+                queries,
             });
             Ok(VkContext { shared, info })
         }
+    }
+
+    /// The options the device was opened with.
+    pub fn options(&self) -> VkOptions {
+        self.shared.caps.options
+    }
+
+    /// Which queries `VkOptions::profile` has on this device (all off without it).
+    pub fn query_support(&self) -> QuerySupport {
+        self.shared.caps.queries
+    }
+
+    /// What the queries measured of each dispatch since the last call, in order (empty without
+    /// `VkOptions::profile`).
+    pub fn take_samples(&self) -> Vec<DispatchSample> {
+        self.shared.queries.as_ref().map_or_else(Vec::new, |q| q.take())
     }
 
     /// Whether f64 shaders can run (`shaderFloat64`).
@@ -553,5 +665,27 @@ impl VkContext {
         // SAFETY: never used.
         unsafe { self.shared.device.destroy_pipeline(p, None) };
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every submit, wait, query read-back and pipeline creation maps its `vk::Result` through
+    /// `fail` (pipeline creation: the same match), so `VK_ERROR_DEVICE_LOST` is this message
+    /// wherever it comes back. Lavapipe cannot lose a device on demand, so the mapping is tested,
+    /// not the loss.
+    #[test]
+    fn device_loss_is_named_and_other_failures_are_calls() {
+        let lost = fail("a dispatch")(vk::Result::ERROR_DEVICE_LOST);
+        assert!(matches!(lost, VkError::DeviceLost { what: "a dispatch" }), "{lost:?}");
+        assert_eq!(
+            lost.to_string(),
+            "the Vulkan device was lost during a dispatch (VK_ERROR_DEVICE_LOST); its results are gone"
+        );
+        let oom = fail("vkCreateBuffer")(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY);
+        assert!(matches!(oom, VkError::Call { what: "vkCreateBuffer", .. }), "{oom:?}");
+        assert!(oom.to_string().starts_with("Vulkan call vkCreateBuffer failed: "), "{oom}");
     }
 }

@@ -9,7 +9,8 @@ use naga::back::spv;
 /// The SPIR-V writer options wgpu-hal 30 uses for a device with `caps` and irt's features
 /// (wgpu-hal/src/vulkan/adapter.rs, `naga_options`): the same SPIR-V version, capabilities,
 /// bounds-check policies (naga's checks off where the device's robustness covers them),
-/// workgroup zeroing and loop bounding.
+/// workgroup zeroing and loop bounding. `caps.options` can turn the checks off
+/// (`VkOptions::robust`, `VkOptions::index_checks`).
 pub(crate) fn options_for(caps: &Caps) -> spv::Options<'static> {
     use spv::Capability as C;
     let capabilities = [
@@ -30,6 +31,8 @@ pub(crate) fn options_for(caps: &Caps) -> spv::Options<'static> {
             naga::proc::BoundsCheckPolicy::Restrict
         }
     };
+    // Robustness off (`VkOptions::robust`): the device checks nothing, and neither does naga.
+    let off = !caps.options.robust;
     let v = caps.api_version;
     spv::Options {
         lang_version: match (vk::api_version_major(v), vk::api_version_minor(v)) {
@@ -41,9 +44,9 @@ pub(crate) fn options_for(caps: &Caps) -> spv::Options<'static> {
         flags: spv::WriterFlags::LABEL_VARYINGS | spv::WriterFlags::FORCE_POINT_SIZE,
         capabilities: Some(capabilities.iter().cloned().collect()),
         bounds_check_policies: naga::proc::BoundsCheckPolicies {
-            index: naga::proc::BoundsCheckPolicy::Restrict,
-            buffer: policy(caps.robust_buffer_access2),
-            image_load: policy(caps.robust_image_access),
+            index: policy(!caps.options.index_checks),
+            buffer: policy(off || caps.robust_buffer_access2),
+            image_load: policy(off || caps.robust_image_access),
             binding_array: naga::proc::BoundsCheckPolicy::Unchecked,
         },
         zero_initialize_workgroup_memory: if caps.zero_init_workgroup {
@@ -55,6 +58,31 @@ pub(crate) fn options_for(caps: &Caps) -> spv::Options<'static> {
         ray_query_initialization_tracking: true,
         ..spv::Options::default()
     }
+}
+
+/// The binding of the tile uniform (shaders/types.wgsl) that `VkOptions::push_tile` moves into
+/// push constants.
+pub const TILE_BINDING: u32 = 4;
+
+/// `module` with its tile uniform (`@group(0) @binding(4) var<uniform> tile`) moved to the
+/// immediate address space (push constants in SPIR-V), validated again: the same WGSL, one
+/// module transform, so the shaders keep one source. An error if the module has no such global.
+pub(crate) fn tile_as_push_constants(
+    mut module: naga::Module,
+) -> Result<(naga::Module, naga::valid::ModuleInfo), VkError> {
+    let tile = module.global_variables.iter_mut().find(|(_, g)| {
+        g.space == naga::AddressSpace::Uniform
+            && g.binding == Some(naga::ResourceBinding { group: 0, binding: TILE_BINDING })
+    });
+    let Some((_, g)) = tile else {
+        return Err(VkError::Shader(format!("the kernel has no uniform at binding {TILE_BINDING} to push")));
+    };
+    g.space = naga::AddressSpace::Immediate;
+    g.binding = None;
+    let info = crate::gpu::shaders::validator()
+        .validate(&module)
+        .map_err(|e| VkError::Shader(format!("the kernel with its tile in push constants: {e}")))?;
+    Ok((module, info))
 }
 
 /// The options of [`options_for`] for an open context (tests and tools).
