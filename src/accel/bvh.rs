@@ -251,7 +251,8 @@ fn build_range(prims: &mut [Prim], first: u32, depth: usize, split: Split, threa
             // result does not depend on the order the primitives came in).
             let axis = extent.max_position();
             let key = |p: &Prim| (p.centre[axis], p.r.0);
-            prims.select_nth_unstable_by(n / 2, |a, b| key(a).partial_cmp(&key(b)).expect("finite centroids"));
+            prims
+                .select_nth_unstable_by(n / 2, |a, b| key(a).partial_cmp(&key(b)).expect("finite centroids"));
             (axis, n / 2)
         }
     };
@@ -264,14 +265,21 @@ fn build_range(prims: &mut [Prim], first: u32, depth: usize, split: Split, threa
             (l, h.join().expect("BVH build thread"))
         })
     } else {
-        (build_range(left, first, depth + 1, split, 1), build_range(right, first + mid as u32, depth + 1, split, 1))
+        (
+            build_range(left, first, depth + 1, split, 1),
+            build_range(right, first + mid as u32, depth + 1, split, 1),
+        )
     };
     let right_at = 1 + l.len() as u32;
     let escape = right_at + r.len() as u32;
     shift(&mut l, 1);
     shift(&mut r, right_at);
     let mut nodes = Vec::with_capacity(escape as usize);
-    nodes.push(Node { lo: b.lo, hi: b.hi, kind: NodeKind::Inner { axis: axis as u8, right: right_at, escape } });
+    nodes.push(Node {
+        lo: b.lo,
+        hi: b.hi,
+        kind: NodeKind::Inner { axis: axis as u8, right: right_at, escape },
+    });
     nodes.append(&mut l);
     nodes.append(&mut r);
     nodes
@@ -330,8 +338,8 @@ fn sah_split(prims: &[Prim], b: &Aabb, c: &Aabb) -> Option<(usize, f64, usize)> 
             if nl == 0 || nr == 0 {
                 continue;
             }
-            let cost =
-                TRAVERSAL_COST + (acc.half_area() * nl as f64 + right_area[i + 1] * nr as f64) / area.max(1e-300);
+            let cost = TRAVERSAL_COST
+                + (acc.half_area() * nl as f64 + right_area[i + 1] * nr as f64) / area.max(1e-300);
             if best.is_none_or(|(_, c, _)| cost < c) {
                 best = Some((axis, cost, i));
             }
@@ -359,19 +367,17 @@ mod tests {
         let index = |r: PrimRef| bounds.iter().position(|b| b.0 == r).expect("a scene primitive");
         let mut next_ref = 0u32;
         // Walks subtree `i`, returning its node count.
-        fn walk(
-            b: &Bvh,
-            i: usize,
-            depth: usize,
-            f: &mut dyn FnMut(&Node, usize),
-        ) -> usize {
+        fn walk(b: &Bvh, i: usize, depth: usize, f: &mut dyn FnMut(&Node, usize)) -> usize {
             f(&b.nodes[i], depth);
             match b.nodes[i].kind {
                 NodeKind::Leaf { .. } => 1,
                 NodeKind::Inner { right, escape, .. } => {
                     let n = &b.nodes[i];
                     let (l, r) = (&b.nodes[i + 1], &b.nodes[right as usize]);
-                    assert!(contains(n, l.lo, l.hi) && contains(n, r.lo, r.hi), "node {i} holds its children");
+                    assert!(
+                        contains(n, l.lo, l.hi) && contains(n, r.lo, r.hi),
+                        "node {i} holds its children"
+                    );
                     let left = walk(b, i + 1, depth + 1, f);
                     assert_eq!(right as usize, i + 1 + left, "right child after the left subtree");
                     let right_n = walk(b, right as usize, depth + 1, f);
@@ -451,8 +457,16 @@ mod tests {
         }
         // A large floor of two triangles under everything.
         let floor = [
-            [DVec3::new(-200.0, -120.0, -200.0), DVec3::new(200.0, -120.0, -200.0), DVec3::new(200.0, -120.0, 200.0)],
-            [DVec3::new(-200.0, -120.0, -200.0), DVec3::new(200.0, -120.0, 200.0), DVec3::new(-200.0, -120.0, 200.0)],
+            [
+                DVec3::new(-200.0, -120.0, -200.0),
+                DVec3::new(200.0, -120.0, -200.0),
+                DVec3::new(200.0, -120.0, 200.0),
+            ],
+            [
+                DVec3::new(-200.0, -120.0, -200.0),
+                DVec3::new(200.0, -120.0, 200.0),
+                DVec3::new(-200.0, -120.0, 200.0),
+            ],
         ];
         let s = scene(spheres, floor.to_vec());
         let sah = Bvh::build_with(&s, Split::Sah, 2);

@@ -1,6 +1,159 @@
 //! How primitives are found: the flattened uniform grid with macro-cells, or a bounding-volume
-//! hierarchy beside it (chosen per scene: [`AccelChoice`]).
+//! hierarchy beside it, chosen per scene ([`AccelChoice`]).
 pub mod bvh;
 pub mod grid;
 pub use bvh::Bvh;
 pub use grid::{Grid, PrimKind, PrimRef};
+
+use crate::scene::Scene;
+use std::fmt;
+
+/// The accelerator a scene is traced with, as built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Accel {
+    Grid(Grid),
+    /// The BVH and whether the shader walks it without a stack (by its escape links).
+    Bvh(Bvh, BvhWalk),
+}
+
+/// How the shader walks a BVH (`shaders/bvh.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BvhWalk {
+    /// A stack of node indices, the child nearer along the split axis first.
+    #[default]
+    Stack,
+    /// No stack: the fixed depth-first order, a missed node's subtree skipped by its escape
+    /// link (what did not pay on lavapipe: docs/performance.md, "Grid vs BVH").
+    Stackless,
+}
+
+/// A borrowed [`Accel`] (what the packing reads): `&Grid`, `&Bvh` (walked with a stack) and
+/// `&Accel` all convert.
+#[derive(Clone, Copy, Debug)]
+pub enum AccelRef<'a> {
+    Grid(&'a Grid),
+    Bvh(&'a Bvh, BvhWalk),
+}
+
+impl<'a> From<&'a Grid> for AccelRef<'a> {
+    fn from(g: &'a Grid) -> Self {
+        AccelRef::Grid(g)
+    }
+}
+
+impl<'a> From<&'a Bvh> for AccelRef<'a> {
+    fn from(b: &'a Bvh) -> Self {
+        AccelRef::Bvh(b, BvhWalk::Stack)
+    }
+}
+
+impl<'a> From<&'a Accel> for AccelRef<'a> {
+    fn from(a: &'a Accel) -> Self {
+        match a {
+            Accel::Grid(g) => AccelRef::Grid(g),
+            Accel::Bvh(b, w) => AccelRef::Bvh(b, *w),
+        }
+    }
+}
+
+impl Accel {
+    /// Builds the accelerator `kind` for `scene` (valid); `progress(done, total)` as the grid
+    /// inserts primitives (the BVH reports nothing).
+    pub fn build(scene: &Scene, kind: AccelKind, progress: &(dyn Fn(usize, usize) + Sync)) -> Accel {
+        match kind {
+            AccelKind::Grid => Accel::Grid(Grid::build_with_progress(scene, progress)),
+            AccelKind::Bvh(walk) => Accel::Bvh(Bvh::build(scene), walk),
+        }
+    }
+
+    pub fn kind(&self) -> AccelKind {
+        match self {
+            Accel::Grid(_) => AccelKind::Grid,
+            Accel::Bvh(_, w) => AccelKind::Bvh(*w),
+        }
+    }
+
+    /// The grid, if this is one (the native peer walks irt's grid).
+    pub fn grid(&self) -> Option<&Grid> {
+        match self {
+            Accel::Grid(g) => Some(g),
+            Accel::Bvh(..) => None,
+        }
+    }
+
+    /// Primitive references stored (a grid lists a primitive in every cell it overlaps, a BVH
+    /// once).
+    pub fn refs(&self) -> usize {
+        match self {
+            Accel::Grid(g) => g.prim_refs.len(),
+            Accel::Bvh(b, _) => b.refs.len(),
+        }
+    }
+
+    /// A one-line summary for logs and `irt bench`.
+    pub fn summary(&self) -> String {
+        match self {
+            Accel::Grid(g) => g.stats().to_string(),
+            Accel::Bvh(b, w) => format!("{} ({w:?} walk)", b.stats()),
+        }
+    }
+}
+
+/// An accelerator as built: the grid or a BVH (and how it is walked).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AccelKind {
+    Grid,
+    Bvh(BvhWalk),
+}
+
+/// What `--accel` asks for: one of the two, or a choice per scene ([`AccelChoice::resolve`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum AccelChoice {
+    #[default]
+    Grid,
+    Bvh,
+    /// The BVH walked without a stack (for measuring; docs/performance.md).
+    BvhStackless,
+    Auto,
+}
+
+impl AccelChoice {
+    pub const NAMES: [(&'static str, AccelChoice); 4] = [
+        ("grid", AccelChoice::Grid),
+        ("bvh", AccelChoice::Bvh),
+        ("bvh-stackless", AccelChoice::BvhStackless),
+        ("auto", AccelChoice::Auto),
+    ];
+
+    /// The accelerator to build for `scene`.
+    pub fn resolve(self, scene: &Scene) -> AccelKind {
+        match self {
+            AccelChoice::Grid => AccelKind::Grid,
+            AccelChoice::Bvh => AccelKind::Bvh(BvhWalk::Stack),
+            AccelChoice::BvhStackless => AccelKind::Bvh(BvhWalk::Stackless),
+            AccelChoice::Auto => auto(scene),
+        }
+    }
+}
+
+/// `--accel auto`'s rule (docs/performance.md, "Grid vs BVH").
+pub fn auto(_scene: &Scene) -> AccelKind {
+    AccelKind::Grid
+}
+
+impl std::str::FromStr for AccelChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::NAMES.iter().find(|(n, _)| *n == s).map(|(_, c)| *c).ok_or_else(|| {
+            let names: Vec<&str> = Self::NAMES.iter().map(|(n, _)| *n).collect();
+            format!("unknown accelerator `{s}`: expected {}", names.join(", "))
+        })
+    }
+}
+
+impl fmt::Display for AccelChoice {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        let name = Self::NAMES.iter().find(|(_, c)| c == self).map(|(n, _)| *n).expect("named");
+        f.write_str(name)
+    }
+}

@@ -126,7 +126,7 @@ fn measure_ash(args: &BenchArgsOf, scene: &irt::scene::Scene, opts: RenderOption
         first_frame,
         frame,
         rays,
-        grid: renderer.grid.stats().to_string(),
+        grid: renderer.accel.summary(),
         device: ctx.info.name.clone(),
         driver_info: ctx.info.driver_info.clone(),
         cache_status: "none (the ash path has no pipeline cache yet)".into(),
@@ -234,7 +234,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .collect();
     let grid_build = median(builds);
     let f64 = scene_args.f64();
-    let opts = RenderOptions { uber_shader: args.uber, f64, ..Default::default() };
+    let opts = RenderOptions { uber_shader: args.uber, f64, accel: scene_args.accel, ..Default::default() };
     let measured = if args.backend == super::Backend::Ash {
         if !args.peer.is_empty() {
             bail!("--peer runs on the wgpu path: drop --backend ash");
@@ -262,16 +262,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
             bail!("the benchmark frame contains NaN/Inf values");
         }
         // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
-        let counting =
-            Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, f64, ..Default::default() })
-                .map_err(anyhow::Error::msg)?;
+        let counting = Renderer::new(&ctx, &scene, RenderOptions { count_rays: true, ..opts })
+            .map_err(anyhow::Error::msg)?;
         let rays = counting.render(&ctx, &mut |_, _| {}).rays;
         if !args.peer.is_empty() {
-            let peers = args
-                .peer
-                .iter()
-                .map(|&p| make_peer(p, &scene, &renderer.grid))
-                .collect::<Result<Vec<_>>>()?;
+            // The native peer walks irt's grid whichever accelerator the GPU traces.
+            let peer_grid = renderer.accel.grid().cloned().unwrap_or_else(|| irt::accel::Grid::build(&scene));
+            let peers =
+                args.peer.iter().map(|&p| make_peer(p, &scene, &peer_grid)).collect::<Result<Vec<_>>>()?;
             let name = scene_args.name_or("default");
             return peer_rounds(
                 &name,
@@ -308,7 +306,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             first_frame,
             frame,
             rays,
-            grid: renderer.grid.stats().to_string(),
+            grid: renderer.accel.summary(),
             device: ctx.info.name.clone(),
             driver_info: ctx.info.driver_info.clone(),
             cache_status: ctx.cache_status.clone(),

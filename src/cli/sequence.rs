@@ -37,7 +37,13 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
     }
     let ctx = super::open_device(&args.device)?;
     let mode = mode.unwrap_or(Mode::Conventional { schedule: Schedule::Plain, workers: 0 });
-    let settings = Settings { mode, f64: args.scene.f64(), max_samples: 1, ..Settings::default() };
+    let settings = Settings {
+        mode,
+        f64: args.scene.f64(),
+        accel: args.scene.accel,
+        max_samples: 1,
+        ..Settings::default()
+    };
     let mut session = Session::new(&ctx, scene, settings).map_err(anyhow::Error::msg)?;
     session.incremental = !args.full_rebuild;
     let bar = indicatif::ProgressBar::new(frames.len() as u64);

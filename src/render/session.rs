@@ -7,7 +7,7 @@ use super::order::{Dissolve, PixelOrder};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, Settings};
 use crate::accel::grid::Frame;
-use crate::accel::Grid;
+use crate::accel::{Accel, AccelKind, Bvh, Grid};
 use crate::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
 use crate::gpu::layout::{
     self, Params, Tile, FRAME_ACCUMULATE, FRAME_BLEND, FRAME_JITTER_PAIRS, FRAME_WRITE, LAVAPIPE_LOOP_LIMIT,
@@ -124,7 +124,8 @@ pub struct Session {
     settings: Settings,
     /// Positions were packed relative to this point (the camera's eye when uploaded).
     origin: DVec3,
-    pub grid: Grid,
+    /// The grid or BVH traced (`Settings::accel`); see [`Session::grid`].
+    pub accel: Accel,
     gpu_scene: GpuScene,
     dispatcher: Dispatcher,
     pub variant: Variant,
@@ -204,13 +205,10 @@ impl Session {
         settings.apply_to(&mut scene);
         let moving = Grid::moving_prims(&base);
         let frame = animation_frame(&base, &moving);
-        let grid = match &frame {
-            Some((f, ..)) => Grid::build_in(&scene, *f),
-            None => Grid::build(&scene),
-        };
+        let accel = first_accel(&scene, settings.accel.resolve(&scene), &frame);
         let origin = scene.camera.eye;
-        let packed = layout::pack_scene(&scene, &grid, origin);
-        let params = layout::params(&scene, &grid, &packed, origin);
+        let packed = layout::pack_scene(&scene, &accel, origin);
+        let params = layout::params(&scene, &accel, &packed, origin);
         let gpu_scene = GpuScene::upload_packed(ctx, packed, params)?;
         if settings.f64 && !ctx.device.features().contains(wgpu::Features::SHADER_F64) {
             return Err(format!(
@@ -229,7 +227,7 @@ impl Session {
             time: 0.0,
             settings,
             origin,
-            grid,
+            accel,
             gpu_scene,
             dispatcher,
             variant,
@@ -318,12 +316,12 @@ impl Session {
             || scene.meshes != self.scene.meshes;
         if moved {
             let t = Instant::now();
-            self.grid = self.regrid(&scene, motion);
+            self.accel = self.reaccel(&scene, motion);
             report.grid = Some(t.elapsed());
         }
         let t = Instant::now();
-        let packed = layout::pack_scene(&scene, &self.grid, self.origin);
-        let mut params = layout::params(&scene, &self.grid, &packed, self.origin);
+        let packed = layout::pack_scene(&scene, &self.accel, self.origin);
+        let mut params = layout::params(&scene, &self.accel, &packed, self.origin);
         params.eye_grid = self.gpu_scene.params.eye_grid;
         report.pack = t.elapsed();
         let t = Instant::now();
@@ -331,7 +329,7 @@ impl Session {
         report.reallocated = new_texture;
         let variant = Variant { f64: self.settings.f64, ..Variant::for_scene(&scene, false) };
         let layered = self.gpu_scene.layered;
-        if (Variant { layered, ..variant }) != self.variant {
+        if (Variant { layered, accel: self.variant.accel, ..variant }) != self.variant {
             let fresh = make_dispatcher(ctx, &self.gpu_scene, variant, self.capacity);
             fresh.copy_frame_from(ctx, &self.dispatcher);
             self.dispatcher = fresh;
@@ -713,7 +711,32 @@ impl Session {
     }
 }
 
+/// A session's first accelerator: a grid in the animation's frame (`Grid::update` then moves only
+/// what moves) or fitted to a still scene; a BVH fitted either way.
+fn first_accel(scene: &Scene, kind: AccelKind, frame: &Option<(Frame, DVec3, DVec3)>) -> Accel {
+    match (kind, frame) {
+        (AccelKind::Grid, Some((f, ..))) => Accel::Grid(Grid::build_in(scene, *f)),
+        (AccelKind::Grid, None) => Accel::Grid(Grid::build(scene)),
+        (AccelKind::Bvh(walk), _) => Accel::Bvh(Bvh::build(scene), walk),
+    }
+}
+
 impl Session {
+    /// The grid traced, if the session traces one.
+    pub fn grid(&self) -> Option<&Grid> {
+        self.accel.grid()
+    }
+
+    /// The accelerator for `scene` after its geometry changed: a grid as [`Session::regrid`]
+    /// says; a BVH is rebuilt whole (a refit of the moving primitives' boxes would be the
+    /// cheaper update, not done yet).
+    fn reaccel(&mut self, scene: &Scene, motion: bool) -> Accel {
+        match self.accel {
+            Accel::Grid(_) => Accel::Grid(self.regrid(scene, motion)),
+            Accel::Bvh(_, walk) => Accel::Bvh(Bvh::build(scene), walk),
+        }
+    }
+
     /// The grid of `scene`: the moving primitives re-inserted into the current grid when only
     /// they moved and the frame still holds them; else a build in the animation's frame (grown
     /// to hold the scene if it must) or, for a still scene, a fitted build.
@@ -729,8 +752,9 @@ impl Session {
             self.frame = Some((frame, lo, hi));
             return Grid::build_in(scene, frame);
         }
-        if motion && self.incremental && self.grid.frame() == frame {
-            self.grid.update(scene, &self.moving)
+        let current = self.accel.grid().expect("regrid is only called for a grid");
+        if motion && self.incremental && current.frame() == frame {
+            current.update(scene, &self.moving)
         } else {
             Grid::build_in(scene, frame)
         }

@@ -389,7 +389,7 @@ impl VkDispatcher {
         inputs: &[[f32; 4]],
     ) -> Result<Self, VkError> {
         let shared = &ctx.shared;
-        let variant = Variant { layered: scene.layered, ..variant };
+        let variant = Variant { layered: scene.layered, accel: layout::accel_code(&scene.params), ..variant };
         if variant.f64 && !shared.caps.f64 {
             return Err(VkError::Other(format!(
                 "{} has no f64 shader support (shaderFloat64): use --precision f32",
@@ -593,7 +593,7 @@ pub fn run_kernel(
 /// The headless band renderer on the ash path: the same preparation and bands as
 /// [`crate::gpu::Renderer`], run by [`VkKernel`].
 pub struct VkRenderer {
-    pub grid: Grid,
+    pub accel: crate::accel::Accel,
     pub scene: VkScene,
     dispatcher: VkDispatcher,
     bands: Bands,
@@ -614,13 +614,13 @@ impl VkRenderer {
         progress: SetupProgress,
     ) -> Result<Self, VkError> {
         let t1 = Instant::now();
-        let Prepared { grid, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
+        let Prepared { accel, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
         let scene = VkScene::upload_packed_with(ctx, packed, params, opts.max_scene_rows)?;
         let t2 = Instant::now();
         let dispatcher = VkDispatcher::new(ctx, &scene, Kernel::Render, variant, bands.out_len(), &[])?;
         let variant = dispatcher.variant();
         let timings = SetupTimings { grid_build, upload: t2 - t1 - grid_build, pipeline: t2.elapsed() };
-        Ok(VkRenderer { grid, scene, dispatcher, bands, variant, timings })
+        Ok(VkRenderer { accel, scene, dispatcher, bands, variant, timings })
     }
 
     /// Traces every eye ray in bands; `progress(rows_done, rows)` after each.
