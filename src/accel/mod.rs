@@ -19,15 +19,16 @@ pub enum Accel {
 /// How the shader walks a BVH (`shaders/bvh.wgsl`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BvhWalk {
-    /// A stack of node indices, the child nearer along the split axis first.
-    #[default]
-    Stack,
     /// No stack: the fixed depth-first order, a missed node's subtree skipped by its escape
-    /// link (what did not pay on lavapipe: docs/performance.md, "Grid vs BVH").
+    /// link. What pays on lavapipe (docs/performance.md, "Grid vs BVH").
+    #[default]
     Stackless,
+    /// A stack of node indices, the child nearer along the split axis first: fewer nodes per
+    /// ray, but on lavapipe the run-time-indexed stack costs more than that saves.
+    Stack,
 }
 
-/// A borrowed [`Accel`] (what the packing reads): `&Grid`, `&Bvh` (walked with a stack) and
+/// A borrowed [`Accel`] (what the packing reads): `&Grid`, `&Bvh` (walked the default way) and
 /// `&Accel` all convert.
 #[derive(Clone, Copy, Debug)]
 pub enum AccelRef<'a> {
@@ -43,7 +44,7 @@ impl<'a> From<&'a Grid> for AccelRef<'a> {
 
 impl<'a> From<&'a Bvh> for AccelRef<'a> {
     fn from(b: &'a Bvh) -> Self {
-        AccelRef::Bvh(b, BvhWalk::Stack)
+        AccelRef::Bvh(b, BvhWalk::default())
     }
 }
 
@@ -111,9 +112,10 @@ pub enum AccelKind {
 pub enum AccelChoice {
     #[default]
     Grid,
+    /// The BVH walked without a stack ([`BvhWalk::Stackless`]).
     Bvh,
-    /// The BVH walked without a stack (for measuring; docs/performance.md).
-    BvhStackless,
+    /// The BVH walked with a stack ([`BvhWalk::Stack`]; for measuring, docs/performance.md).
+    BvhStack,
     Auto,
 }
 
@@ -121,7 +123,7 @@ impl AccelChoice {
     pub const NAMES: [(&'static str, AccelChoice); 4] = [
         ("grid", AccelChoice::Grid),
         ("bvh", AccelChoice::Bvh),
-        ("bvh-stackless", AccelChoice::BvhStackless),
+        ("bvh-stack", AccelChoice::BvhStack),
         ("auto", AccelChoice::Auto),
     ];
 
@@ -129,8 +131,8 @@ impl AccelChoice {
     pub fn resolve(self, scene: &Scene) -> AccelKind {
         match self {
             AccelChoice::Grid => AccelKind::Grid,
-            AccelChoice::Bvh => AccelKind::Bvh(BvhWalk::Stack),
-            AccelChoice::BvhStackless => AccelKind::Bvh(BvhWalk::Stackless),
+            AccelChoice::Bvh => AccelKind::Bvh(BvhWalk::Stackless),
+            AccelChoice::BvhStack => AccelKind::Bvh(BvhWalk::Stack),
             AccelChoice::Auto => auto(scene),
         }
     }

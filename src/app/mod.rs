@@ -105,7 +105,7 @@ pub struct ViewArgs {
     /// Maximum ray depth (overrides the scene's; eye ray = 1).
     #[arg(long, value_name = "N")]
     pub max_depth: Option<u32>,
-    /// Accelerator: grid, bvh, bvh-stackless or auto (see `irt render --help`).
+    /// Accelerator: grid, bvh, bvh-stack or auto (see `irt render --help`).
     #[arg(long, value_name = "ACCEL", default_value_t = crate::accel::AccelChoice::default())]
     pub accel: crate::accel::AccelChoice,
     /// Refinement stops after this many samples per pixel (0: never); the window then waits.

@@ -49,6 +49,11 @@ pub struct BenchArgs {
     /// dispatch + submit + wait, median reported: the per-dispatch overhead of the device path.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub dispatch_overhead: u32,
+    /// Time these accelerators against each other instead (e.g. `--accels grid,bvh`): one
+    /// frame of each per round, rounds interleaved, medians; Mrays/s of each and its ratio to the
+    /// first's, the build times, and what `--accel auto` picks for the scene.
+    #[arg(long, value_name = "ACCELS", value_delimiter = ',')]
+    pub accels: Vec<irt::accel::AccelChoice>,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -224,6 +229,15 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let mut scene = load_scene(&scene_args)?;
     if args.workload == Workload::PrimaryShadow {
         scene = irt::peer::primary_shadow(&scene);
+    }
+    if !args.accels.is_empty() {
+        if args.backend == super::Backend::Ash || !args.peer.is_empty() {
+            bail!("--accels runs on the wgpu path without peers: drop --backend ash and --peer");
+        }
+        let ctx = open_device_with(&args.device, &cache)?;
+        let opts = RenderOptions { uber_shader: args.uber, f64: scene_args.f64(), ..Default::default() };
+        let name = scene_args.name_or("default");
+        return accel_rounds(&name, &scene, &ctx, opts, &args.accels, args.frames, args.markdown);
     }
     let builds: Vec<Duration> = (0..5)
         .map(|_| {
@@ -442,6 +456,93 @@ fn peer_rounds(
                 frames.max(1)
             );
         }
+    }
+    Ok(())
+}
+
+/// `irt bench --accels`: every accelerator of `accels` on `scene`, one frame of each per round
+/// (rounds interleaved, so load on the machine falls on all of them), medians of `frames` rounds.
+fn accel_rounds(
+    name: &str,
+    scene: &irt::scene::Scene,
+    ctx: &irt::gpu::GpuContext,
+    opts: RenderOptions,
+    accels: &[irt::accel::AccelChoice],
+    frames: u32,
+    markdown: bool,
+) -> Result<()> {
+    use irt::accel::{Accel, AccelChoice};
+    let mut renderers = Vec::new();
+    let mut rays = Vec::new();
+    let mut builds = Vec::new();
+    for &accel in accels {
+        let kind = accel.resolve(scene);
+        let times: Vec<Duration> = (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                std::hint::black_box(Accel::build(scene, kind, &|_, _| {}));
+                t.elapsed()
+            })
+            .collect();
+        builds.push(median(times));
+        let r = Renderer::new(ctx, scene, RenderOptions { accel, ..opts }).map_err(anyhow::Error::msg)?;
+        // The first frame compiles (lavapipe compiles at the first dispatch).
+        if r.render(ctx, &mut |_, _| {}).image.non_finite() > 0 {
+            bail!("the {accel} frame contains NaN/Inf values");
+        }
+        let counting = Renderer::new(ctx, scene, RenderOptions { accel, count_rays: true, ..opts })
+            .map_err(anyhow::Error::msg)?;
+        rays.push(counting.render(ctx, &mut |_, _| {}).rays.total());
+        renderers.push(r);
+    }
+    let mut times = vec![Vec::new(); renderers.len()];
+    for _ in 0..frames.max(1) {
+        for (r, t) in renderers.iter().zip(&mut times) {
+            let t0 = Instant::now();
+            r.render(ctx, &mut |_, _| {});
+            t.push(t0.elapsed());
+        }
+    }
+    let mrays: Vec<f64> =
+        times.into_iter().zip(&rays).map(|(t, &n)| n as f64 / median(t).as_secs_f64() / 1e6).collect();
+    let auto = match AccelChoice::Auto.resolve(scene) {
+        irt::accel::AccelKind::Grid => "grid",
+        irt::accel::AccelKind::Bvh(_) => "bvh",
+    };
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    if markdown {
+        let cells: Vec<String> = builds
+            .iter()
+            .map(|b| format!("{:.1}", b.as_secs_f64() * 1e3))
+            .chain(mrays.iter().map(|m| format!("{m:.2}")))
+            .chain(mrays[1..].iter().map(|m| format!("{:.2}", m / mrays[0])))
+            .collect();
+        println!(
+            "| {name} | {w}x{h} | {} | {} | {} | {auto} | {} |",
+            scene.primitive_count(),
+            rays[0],
+            cells.join(" | "),
+            ctx.info.name
+        );
+    } else {
+        println!("scene            {name} ({w}x{h}, {} primitives)", scene.primitive_count());
+        println!("device           {} ({})", ctx.info.name, ctx.info.driver_info);
+        for (i, (&accel, r)) in accels.iter().zip(&renderers).enumerate() {
+            println!(
+                "{:<16} {:.2} Mrays/s ({:.2}x {}), {} rays/frame, build {:.1} ms: {}",
+                accel.to_string(),
+                mrays[i],
+                mrays[i] / mrays[0],
+                accels[0],
+                rays[i],
+                builds[i].as_secs_f64() * 1e3,
+                r.accel.summary()
+            );
+        }
+        println!("auto picks       {auto}");
+    }
+    if rays.iter().any(|&r| r != rays[0]) {
+        log::warn!("the accelerators traced different ray counts {rays:?}: their images differ");
     }
     Ok(())
 }
