@@ -72,8 +72,13 @@ fn f64_bvh_matches_the_reference() {
     for name in ["mesh.toml", "cones.toml"] {
         let s = scene_file(name);
         for accel in [AccelChoice::Bvh, AccelChoice::BvhStack] {
-            let gpu = common::render_gpu_with(&ctx, &s, RenderOptions { accel, f64: true, ..Default::default() });
-            common::assert_matches_reference(&format!("bvh-f64-{accel}-{name}"), &gpu, &common::reference_image(&s));
+            let gpu =
+                common::render_gpu_with(&ctx, &s, RenderOptions { accel, f64: true, ..Default::default() });
+            common::assert_matches_reference(
+                &format!("bvh-f64-{accel}-{name}"),
+                &gpu,
+                &common::reference_image(&s),
+            );
         }
     }
 }
@@ -145,7 +150,11 @@ fn a_moving_scene_with_the_bvh_matches_the_reference_at_every_time() {
         let image = bvh.read_image(&ctx);
         let diff = irt::metrics::compare(&image, &grid.read_image(&ctx));
         assert!(diff.bad_pixels == 0.0, "at {t}: BVH and grid sessions differ: {diff}");
-        common::assert_matches_reference(&format!("bvh-session-t{t}"), &image, &common::reference_image(&scene.at(t)));
+        common::assert_matches_reference(
+            &format!("bvh-session-t{t}"),
+            &image,
+            &common::reference_image(&scene.at(t)),
+        );
     }
 }
 
@@ -157,4 +166,43 @@ fn accel_names_parse_and_bad_ones_are_errors() {
     }
     let err = "kd-tree".parse::<AccelChoice>().unwrap_err();
     assert!(err.contains("kd-tree") && err.contains("grid, bvh"), "{err}");
+}
+
+/// `--accel auto` (accel::auto) on scenes where one accelerator clearly won in
+/// docs/performance.md's "Grid vs BVH" table (BVH / grid below 0.9 or above 1.2 there): the
+/// grid on the evenly filled random spheres, the BVH on the teapot in a stadium, the small flake
+/// on a large floor, the tree, the tetrahedra, gears and the tiny scenes.
+#[test]
+fn auto_picks_the_accelerator_that_won_on_each_scene() {
+    use irt::accel::{AccelKind, BvhWalk};
+    let bvh = AccelKind::Bvh(BvhWalk::Stackless);
+    for (name, want) in [
+        ("accel/random_spheres.nff", AccelKind::Grid),
+        ("accel/stadium.nff", bvh),
+        ("spd/balls_s4.nff", bvh),
+        ("spd/tree_s3.nff", bvh),
+        ("spd/tetra_s4.nff", bvh),
+        ("spd/gears_s1.nff", bvh),
+        ("spd/sombrero_s1.nff", bvh),
+        ("textured.toml", bvh),
+        ("cones.toml", bvh),
+    ] {
+        assert_eq!(AccelChoice::Auto.resolve(&scene_file(name)), want, "{name}");
+    }
+    assert_eq!(AccelChoice::Auto.resolve(&irt::scene::default_scene()), bvh, "default");
+    assert_eq!(AccelChoice::default(), AccelChoice::Auto);
+}
+
+/// The renderer builds what auto picks, and keeps the grid auto looked at rather than build it
+/// twice.
+#[test]
+fn the_renderer_builds_what_auto_picks() {
+    let ctx = common::gpu();
+    for (name, grid) in [("accel/random_spheres.nff", true), ("spd/tetra_s4.nff", false)] {
+        let s = sized(scene_file(name), 32, 32);
+        let r = irt::gpu::Renderer::new(&ctx, &s, RenderOptions::default()).expect("renderer");
+        assert_eq!(r.accel.grid().is_some(), grid, "{name}");
+        let kernel_walks_bvh = r.variant.accel != irt::gpu::layout::ACCEL_GRID;
+        assert_eq!(kernel_walks_bvh, !grid, "{name}: the kernel walks what was packed");
+    }
 }

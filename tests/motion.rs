@@ -69,10 +69,12 @@ fn gpu_matches_the_reference_at_every_time() {
     }
 }
 
+/// A grid session: these tests are about the grid's in-place updates (tests/bvh.rs moves a BVH).
 fn plain_session(ctx: &irt::gpu::GpuContext, scene: &Scene) -> Session {
     let settings = Settings {
         mode: Mode::Conventional { schedule: Schedule::Plain, workers: 0 },
         max_samples: 1,
+        accel: irt::accel::AccelChoice::Grid,
         ..Settings::default()
     };
     Session::new(ctx, scene, settings).unwrap()
@@ -84,7 +86,8 @@ fn session_image(ctx: &irt::gpu::GpuContext, s: &mut Session) -> irt::image::Ima
 }
 
 fn fresh_image(ctx: &irt::gpu::GpuContext, still: &Scene) -> irt::image::Image {
-    Renderer::new(ctx, still, RenderOptions::default()).unwrap().render(ctx, &mut |_, _| {}).image
+    let opts = RenderOptions { accel: irt::accel::AccelChoice::Grid, ..Default::default() };
+    Renderer::new(ctx, still, opts).unwrap().render(ctx, &mut |_, _| {}).image
 }
 
 /// A session moved to time t re-inserts only the moving primitives into its grid; that draws

@@ -191,7 +191,7 @@ pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> P
     // An animated scene renders at time 0 here; `irt render --time` passes `scene.at(t)`.
     let scene = &*scene.posed(0.0);
     let t0 = Instant::now();
-    let accel = Accel::build(scene, opts.accel.resolve(scene), &|done, total| {
+    let accel = Accel::choose(scene, opts.accel, &|done, total| {
         progress(SetupStage::Grid, done as u64, total as u64)
     });
     let grid_build = t0.elapsed();

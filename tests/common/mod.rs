@@ -121,7 +121,11 @@ pub fn render_gpu(ctx: &irt::gpu::GpuContext, scene: &Scene) -> irt::image::Imag
 }
 
 /// [`render_gpu`] with `opts` (another accelerator, f64, ...).
-pub fn render_gpu_with(ctx: &irt::gpu::GpuContext, scene: &Scene, opts: irt::gpu::RenderOptions) -> irt::image::Image {
+pub fn render_gpu_with(
+    ctx: &irt::gpu::GpuContext,
+    scene: &Scene,
+    opts: irt::gpu::RenderOptions,
+) -> irt::image::Image {
     let r = irt::gpu::Renderer::new(ctx, scene, opts).expect("renderer");
     let frame = r.render(ctx, &mut |_, _| {});
     let limit = irt::gpu::layout::LAVAPIPE_LOOP_LIMIT;
