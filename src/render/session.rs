@@ -95,7 +95,7 @@ pub fn refinement_jitter(k: u32) -> [f32; 2] {
 pub struct UpdateReport {
     /// Moving the objects to the new time.
     pub pose: Duration,
-    /// Rebuilding the grid (`None`: no geometry changed, the grid was kept).
+    /// Rebuilding the grid or BVH (`None`: no geometry changed, it was kept).
     pub grid: Option<Duration>,
     /// Packing the scene texture.
     pub pack: Duration,
