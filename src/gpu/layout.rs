@@ -301,6 +301,7 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`; then the light buffer's cells (`scene::shell_cell`),
 ///   `[first, count, cones, meshes]` into the list (its spheres come first, its cones from
 ///   `cones` on, its meshes from `meshes` on), and the list: object indices, four per texel.
+///
 /// With a BVH (`accel`), its nodes ([`BvhNode`], [`bvh_nodes`]) and references (four per texel)
 /// take the place of the cells, references and macro bits.
 pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVec3) -> PackedScene {
