@@ -16,6 +16,6 @@ machine_header() {
 table_header() {
     machine_header "$1"
     echo
-    echo "| scene | size | primitives | grid build ms | $2 | frame ms | Mrays/s | device |"
+    echo "| scene | size | primitives | accelerator build ms | $2 | frame ms | Mrays/s | device |"
     echo "|---|---|---|---|---|---|---|---|"
 }
