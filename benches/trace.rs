@@ -4,7 +4,10 @@
 //! - `primitives`: fractal terrains of 10k, 100k and 1M triangles at 512²;
 //! - `resolution`: the default scene at 128² to 1024²;
 //! - `native_peer`: irt and `irt::peer::native` on the primary-shadow workload, same scene and
-//!   grid, same run, each side alone and both interleaved; the summary prints irt / native.
+//!   grid, same run, each side alone and both interleaved; the summary prints irt / native;
+//! - `accel`: the grid and the BVH (`--accel bvh`) on the default scene, SPD balls_s4 and
+//!   gears_s1, the teapot in a stadium and a 100k-triangle terrain, one frame of each per
+//!   iteration; the summary prints BVH / grid.
 //!
 //! Throughput is rays per second, the ray count from one counted frame. Thread scaling and cold
 //! vs warm start need fresh processes: `benches/process.rs`.
@@ -81,8 +84,12 @@ fn native_peer(c: &mut Criterion, ctx: &GpuContext) {
             continue;
         }
         let s = irt::peer::primary_shadow(&common::scene(scene, 512));
-        let t = common::traced(ctx, &s);
-        let peer = NativePeer::new(&s, &t.renderer.grid).expect("native peer");
+        // The peer walks irt's grid: so does irt here.
+        let grid_opts =
+            irt::gpu::RenderOptions { accel: irt::accel::AccelChoice::Grid, ..Default::default() };
+        let t = common::traced_with(ctx, &s, grid_opts);
+        let grid = t.renderer.accel.grid().expect("a grid renderer");
+        let peer = NativePeer::new(&s, grid).expect("native peer");
         let peer_rays = peer.render(threads).rays.total();
         bench_frames(&mut g, &format!("{name}/irt"), t.rays, t.primitives, || {
             t.renderer.render(ctx, &mut |_, _| {});
@@ -125,6 +132,49 @@ fn native_peer(c: &mut Criterion, ctx: &GpuContext) {
     g.finish();
 }
 
+/// Grid and BVH on the same scene in one iteration (one frame each), so the machine's load falls
+/// on both alike; criterion's number is the pair's time, the summary's ratio that of the medians.
+fn accel(c: &mut Criterion, ctx: &GpuContext) {
+    use irt::accel::AccelChoice;
+    let mut g = group(c, "accel");
+    let scenes = ["default", "spd/balls_s4.nff", "spd/gears_s1.nff", "accel/stadium.nff", "terrain_100k"];
+    for scene in cases(&scenes) {
+        let name = short(scene).trim_start_matches("accel/");
+        if !common::wanted(&format!("accel/{name}")) {
+            continue;
+        }
+        let s = if scene == "terrain_100k" {
+            common::terrain_scene(100_000, 512)
+        } else {
+            common::scene(scene, 512)
+        };
+        let opts = |accel| irt::gpu::RenderOptions { accel, ..Default::default() };
+        let grid = common::traced_with(ctx, &s, opts(AccelChoice::Grid));
+        let bvh = common::traced_with(ctx, &s, opts(AccelChoice::Bvh));
+        assert_eq!(grid.rays, bvh.rays, "{name}: the accelerators trace the same rays");
+        let (grid_id, bvh_id) = (format!("accel/{name}/grid"), format!("accel/{name}/bvh"));
+        g.throughput(criterion::Throughput::Elements(2 * grid.rays));
+        g.bench_function(format!("{name}/interleaved"), |b| {
+            b.iter_custom(|iters| {
+                let mut total = std::time::Duration::ZERO;
+                for _ in 0..iters {
+                    let start = std::time::Instant::now();
+                    grid.renderer.render(ctx, &mut |_, _| {});
+                    let mid = std::time::Instant::now();
+                    bvh.renderer.render(ctx, &mut |_, _| {});
+                    let (a, b) = (mid - start, mid.elapsed());
+                    common::record(&grid_id, grid.rays, grid.primitives, vec![a]);
+                    common::record(&bvh_id, bvh.rays, bvh.primitives, vec![b]);
+                    total += a + b;
+                }
+                total
+            })
+        });
+        common::ratio(&format!("BVH / grid ({name}, 512², interleaved)"), &bvh_id, &grid_id);
+    }
+    g.finish();
+}
+
 fn main() {
     let mut c = common::config().configure_from_args();
     let ctx = common::gpu();
@@ -133,6 +183,7 @@ fn main() {
     primitives(&mut c, &ctx);
     resolution(&mut c, &ctx);
     native_peer(&mut c, &ctx);
+    accel(&mut c, &ctx);
     c.final_summary();
     common::print_summary();
 }

@@ -3,7 +3,7 @@
 cd "$(dirname "$0")/.."
 # IRT_FEATURES: cargo features for the build (scripts/peer-table.sh sets embree when it can).
 cargo build --release --quiet ${IRT_FEATURES:+--features "$IRT_FEATURES"}
-irt=target/release/irt
+irt=${CARGO_TARGET_DIR:-target}/release/irt
 
 # machine_header SCRIPT: the machine, the date and the command, on one line
 machine_header() {
@@ -16,6 +16,6 @@ machine_header() {
 table_header() {
     machine_header "$1"
     echo
-    echo "| scene | size | primitives | grid build ms | $2 | frame ms | Mrays/s | device |"
+    echo "| scene | size | primitives | accelerator build ms | $2 | frame ms | Mrays/s | device |"
     echo "|---|---|---|---|---|---|---|---|"
 }

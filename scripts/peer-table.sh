@@ -5,6 +5,8 @@
 # the native Rust one and, when this irt was built with `--features embree` (`irt info` says so),
 # Embree 3; PEERS overrides the list (e.g. PEERS=native,embree,embree-fast). About a minute per
 # peer on 2 cores.
+# ACCEL (default grid, which the tables in docs/performance.md were taken with: the native peer
+# walks the same grid) sets irt's --accel; ACCEL=bvh compares irt's BVH with the peers.
 #   scripts/peer-table.sh [SCENE...]   (default: the default scene and the small SPD scenes)
 set -euo pipefail
 # Build with the Embree peer when libembree3 is installed (scripts/setup.sh --with-embree) and
@@ -43,7 +45,7 @@ echo "$sep|---|"
 for s in "${scenes[@]}"; do
     arg=()
     [ "$s" = default ] || arg=("$s")
-    "$irt" bench "${arg[@]}" --workload primary-shadow --peer "$PEERS" --frames "$frames" --markdown 2>/dev/null
+    "$irt" bench "${arg[@]}" --workload primary-shadow --accel "${ACCEL:-grid}" --peer "$PEERS" --frames "$frames" --markdown 2>/dev/null
 done
 echo
 echo "Load after: $(uptime | sed 's/.*load average/load average/')"

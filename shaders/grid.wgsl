@@ -86,13 +86,6 @@ fn macro_linear(c: vec3i) -> u32 {
     return m.x + params.macro_res.x * (m.y + params.macro_res.y * m.z);
 }
 
-struct Hit {
-    t: f32,
-    prim: u32,
-    b1: f32,
-    b2: f32,
-}
-
 // Nearest hit in (t_min, t_max) (`any_hit`: the first found, for shadow rays; `triangles_only`:
 // spheres and cones are passed by, for shell shadows, which decide those by their shells).
 // A hit is only final once it lies within the current cell's t-range; a hit further on is kept
@@ -137,12 +130,4 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangle
         }
     }
     return best;
-}
-
-fn trace_closest(o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> Hit {
-    return grid_walk(o, d, t_min, t_max, false, false);
-}
-
-fn occluded(o: vec3f, d: vec3f, t_max: f32) -> bool {
-    return grid_walk(o, d, 0.0, t_max, true, false).prim != NO_HIT;
 }

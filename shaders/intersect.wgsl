@@ -168,6 +168,14 @@ fn cone_normal(p: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32) -> vec3f {
     return normalize(u - ((r1 - r0) / h) * a);
 }
 
+// A ray's hit: distance, primitive reference (NO_HIT: none), barycentrics b1, b2 on triangles.
+struct Hit {
+    t: f32,
+    prim: u32,
+    b1: f32,
+    b2: f32,
+}
+
 // Primitive reference `r` (kind in the top bits): (t, b1, b2) or t = MISS.
 fn intersect_prim(r: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
     let i = prim_index(r);

@@ -263,7 +263,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         lo = max(lo, 0.0);
         hi = min(hi, dist - gap);
         if lo < hi {
-            let h = grid_walk(o, l, lo, hi, true, true);
+            let h = accel_walk(o, l, lo, hi, true, true);
             if h.prim != NO_HIT {
                 hit_tri = prim_index(h.prim);
             }

@@ -30,6 +30,14 @@ struct Params {
     lights: array<Light, MAX_LIGHTS>,
 }
 
+// A BVH node (two texels of the scene texture; src/gpu/layout.rs, BvhNode).
+struct BvhNode {
+    lo: vec3f,
+    a: u32,
+    hi: vec3f,
+    b: u32,
+}
+
 struct Tile {
     rect: vec4u,
     pass_range: vec4u,

@@ -1,7 +1,7 @@
 //! Every GPU struct declared in Rust (src/gpu/layout.rs) has exactly the layout naga gives the
 //! WGSL struct of the same name (shaders/types.wgsl): same member names in order, same offsets,
 //! same size. Both sides are declared once; this test is what ties them.
-use irt::gpu::layout::{GpuLight, Params, Tile};
+use irt::gpu::layout::{BvhNode, GpuLight, Params, Tile};
 use irt::gpu::shaders::{compose, validate, Kernel, Variant};
 use std::mem::{offset_of, size_of};
 
@@ -38,6 +38,9 @@ fn rust_structs_match_wgsl() {
     let (module, _) = validate(&compose(Kernel::Render, Variant::FULL)).expect("shader validates");
     check(&module, "Light", rust_layout!(GpuLight; position_radius, color));
     check(&module, "Tile", rust_layout!(Tile; rect, pass_range, work, sample, jitter));
+    check(&module, "BvhNode", rust_layout!(BvhNode; lo, a, hi, b));
+    // The packing writes a node as two whole texels.
+    assert_eq!(size_of::<BvhNode>(), 16 * irt::gpu::layout::BVH_NODE_TEXELS as usize);
     check(
         &module,
         "Params",

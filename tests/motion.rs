@@ -69,10 +69,12 @@ fn gpu_matches_the_reference_at_every_time() {
     }
 }
 
+/// A grid session: these tests are about the grid's in-place updates (tests/bvh.rs moves a BVH).
 fn plain_session(ctx: &irt::gpu::GpuContext, scene: &Scene) -> Session {
     let settings = Settings {
         mode: Mode::Conventional { schedule: Schedule::Plain, workers: 0 },
         max_samples: 1,
+        accel: irt::accel::AccelChoice::Grid,
         ..Settings::default()
     };
     Session::new(ctx, scene, settings).unwrap()
@@ -84,7 +86,8 @@ fn session_image(ctx: &irt::gpu::GpuContext, s: &mut Session) -> irt::image::Ima
 }
 
 fn fresh_image(ctx: &irt::gpu::GpuContext, still: &Scene) -> irt::image::Image {
-    Renderer::new(ctx, still, RenderOptions::default()).unwrap().render(ctx, &mut |_, _| {}).image
+    let opts = RenderOptions { accel: irt::accel::AccelChoice::Grid, ..Default::default() };
+    Renderer::new(ctx, still, opts).unwrap().render(ctx, &mut |_, _| {}).image
 }
 
 /// A session moved to time t re-inserts only the moving primitives into its grid; that draws
@@ -103,7 +106,7 @@ fn updates_in_place_equal_full_rebuilds_bit_for_bit() {
         let r = s.set_time(&ctx, t).unwrap();
         assert!(r.grid.is_some(), "geometry moved: the grid follows");
         full.set_time(&ctx, t).unwrap();
-        assert!(s.grid == full.grid, "at {t}: the updated grid is the rebuilt one");
+        assert!(s.accel == full.accel, "at {t}: the updated grid is the rebuilt one");
         let image = session_image(&ctx, &mut s);
         assert_eq!(image, session_image(&ctx, &mut full), "at {t}");
         assert_ne!(image, first, "at {t} something moved");
@@ -158,10 +161,10 @@ fn a_growing_scene_gets_a_new_texture() {
     scene.motions.push(Animated { target, motion: Motion { stages: about_centre } });
     scene.validate().unwrap();
     let mut s = plain_session(&ctx, &scene);
-    let refs_before = s.grid.prim_refs.len();
+    let refs_before = s.grid().expect("a grid session").prim_refs.len();
     // (The swollen ball stays inside the field's box, so the cells keep their size.)
     let r = s.set_time(&ctx, 1.0).unwrap();
-    println!("references {refs_before} → {}", s.grid.prim_refs.len());
+    println!("references {refs_before} → {}", s.grid().expect("a grid session").prim_refs.len());
     assert!(r.reallocated, "the texture was replaced");
     let mut full = plain_session(&ctx, &scene);
     full.incremental = false;

@@ -135,11 +135,16 @@ pub struct Traced {
 }
 
 pub fn traced(ctx: &GpuContext, scene: &Scene) -> Traced {
-    let renderer = Renderer::new(ctx, scene, RenderOptions::default()).expect("renderer");
+    traced_with(ctx, scene, RenderOptions::default())
+}
+
+/// [`traced`] with `opts` (another accelerator).
+pub fn traced_with(ctx: &GpuContext, scene: &Scene, opts: RenderOptions) -> Traced {
+    let renderer = Renderer::new(ctx, scene, opts).expect("renderer");
     let first = renderer.render(ctx, &mut |_, _| {});
     assert_eq!(first.image.non_finite(), 0, "the bench frame has NaN/Inf values");
-    let counting = Renderer::new(ctx, scene, RenderOptions { count_rays: true, ..Default::default() })
-        .expect("counting renderer");
+    let counting =
+        Renderer::new(ctx, scene, RenderOptions { count_rays: true, ..opts }).expect("counting renderer");
     let rays = counting.render(ctx, &mut |_, _| {}).rays.total();
     Traced { renderer, rays, primitives: scene.primitive_count() }
 }

@@ -476,6 +476,17 @@ impl Grid {
         merged
     }
 
+    /// Calls `f(reference, lo, hi)` with the bounds of every primitive of `scene` in index order
+    /// (spheres, triangles, cones): the boxes the grid inserts by, which the BVH
+    /// (`accel::bvh`) is built over too.
+    pub fn for_each_bound(scene: &Scene, mut f: impl FnMut(PrimRef, DVec3, DVec3)) {
+        let prims = Prims::new(scene);
+        prims.for_each(0..prims.len(), |r, shape| {
+            let b = shape.bounds();
+            f(r, b.lo, b.hi)
+        });
+    }
+
     /// The bounds of primitives `ranges` of `scene` (indices as in [`Grid::update`]); `None`
     /// when there are none.
     pub fn bounds_of(scene: &Scene, ranges: &[std::ops::Range<usize>]) -> Option<(DVec3, DVec3)> {
@@ -701,24 +712,24 @@ fn resolution(extent: DVec3, n: usize) -> [u32; 3] {
 }
 
 #[cfg(test)]
-mod tests {
+pub(in crate::accel) mod tests {
     use super::*;
     use crate::scene::{Ambient, Camera, Cone, Material, MaterialKind, Mesh, Sphere, TraceSettings};
 
-    struct Rng(u64);
+    pub(in crate::accel) struct Rng(pub(in crate::accel) u64);
     impl Rng {
-        fn f(&mut self) -> f64 {
+        pub(in crate::accel) fn f(&mut self) -> f64 {
             self.0 ^= self.0 << 13;
             self.0 ^= self.0 >> 7;
             self.0 ^= self.0 << 17;
             (self.0 >> 11) as f64 / (1u64 << 53) as f64
         }
-        fn vec(&mut self, lo: f64, hi: f64) -> DVec3 {
+        pub(in crate::accel) fn vec(&mut self, lo: f64, hi: f64) -> DVec3 {
             DVec3::new(self.f(), self.f(), self.f()) * (hi - lo) + lo
         }
     }
 
-    fn scene(spheres: Vec<Sphere>, tris: Vec<[DVec3; 3]>) -> Scene {
+    pub(in crate::accel) fn scene(spheres: Vec<Sphere>, tris: Vec<[DVec3; 3]>) -> Scene {
         Scene {
             camera: Camera {
                 eye: DVec3::Z,
@@ -797,7 +808,7 @@ mod tests {
         assert!(updated.update(&s, &moving) == grid);
     }
 
-    fn random_scene(seed: u64, n: usize, extent: f64, offset: DVec3) -> Scene {
+    pub(in crate::accel) fn random_scene(seed: u64, n: usize, extent: f64, offset: DVec3) -> Scene {
         let mut rng = Rng(seed.wrapping_mul(0x9E3779B97F4A7C15) | 1);
         let (mut spheres, mut tris, mut cones) = (vec![], vec![], vec![]);
         for i in 0..n {

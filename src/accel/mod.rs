@@ -1,3 +1,220 @@
-//! How primitives are found: the flattened uniform grid with macro-cells.
+//! How primitives are found: the flattened uniform grid with macro-cells, or a bounding-volume
+//! hierarchy beside it, chosen per scene ([`AccelChoice`]).
+pub mod bvh;
 pub mod grid;
+pub use bvh::Bvh;
 pub use grid::{Grid, PrimKind, PrimRef};
+
+use crate::scene::Scene;
+use std::fmt;
+
+/// The accelerator a scene is traced with, as built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Accel {
+    Grid(Grid),
+    /// The BVH and whether the shader walks it without a stack (by its escape links).
+    Bvh(Bvh, BvhWalk),
+}
+
+/// How the shader walks a BVH (`shaders/bvh.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BvhWalk {
+    /// No stack: the fixed depth-first order, a missed node's subtree skipped by its escape
+    /// link. What pays on lavapipe (docs/performance.md, "Grid vs BVH").
+    #[default]
+    Stackless,
+    /// A stack of node indices, the child nearer along the split axis first: fewer nodes per
+    /// ray, but on lavapipe the run-time-indexed stack costs more than that saves.
+    Stack,
+}
+
+/// A borrowed [`Accel`] (what the packing reads): `&Grid`, `&Bvh` (walked the default way) and
+/// `&Accel` all convert.
+#[derive(Clone, Copy, Debug)]
+pub enum AccelRef<'a> {
+    Grid(&'a Grid),
+    Bvh(&'a Bvh, BvhWalk),
+}
+
+impl<'a> From<&'a Grid> for AccelRef<'a> {
+    fn from(g: &'a Grid) -> Self {
+        AccelRef::Grid(g)
+    }
+}
+
+impl<'a> From<&'a Bvh> for AccelRef<'a> {
+    fn from(b: &'a Bvh) -> Self {
+        AccelRef::Bvh(b, BvhWalk::default())
+    }
+}
+
+impl<'a> From<&'a Accel> for AccelRef<'a> {
+    fn from(a: &'a Accel) -> Self {
+        match a {
+            Accel::Grid(g) => AccelRef::Grid(g),
+            Accel::Bvh(b, w) => AccelRef::Bvh(b, *w),
+        }
+    }
+}
+
+impl Accel {
+    /// Builds the accelerator `kind` for `scene` (valid); `progress(done, total)` as the grid
+    /// inserts primitives (the BVH reports nothing).
+    pub fn build(scene: &Scene, kind: AccelKind, progress: &(dyn Fn(usize, usize) + Sync)) -> Accel {
+        match kind {
+            AccelKind::Grid => Accel::Grid(Grid::build_with_progress(scene, progress)),
+            AccelKind::Bvh(walk) => Accel::Bvh(Bvh::build(scene), walk),
+        }
+    }
+
+    /// Builds what `choice` asks for; `auto` keeps the grid it decided by when that is the pick.
+    pub fn choose(scene: &Scene, choice: AccelChoice, progress: &(dyn Fn(usize, usize) + Sync)) -> Accel {
+        if choice != AccelChoice::Auto {
+            return Self::build(scene, choice.resolve(scene), progress);
+        }
+        let n = scene.primitive_count();
+        let grid = (AUTO_BVH_BELOW..=AUTO_GRID_ABOVE)
+            .contains(&n)
+            .then(|| Grid::build_with_progress(scene, progress));
+        match auto_with(scene, grid) {
+            (AccelKind::Grid, Some(g)) => Accel::Grid(g),
+            (kind, _) => Self::build(scene, kind, progress),
+        }
+    }
+
+    pub fn kind(&self) -> AccelKind {
+        match self {
+            Accel::Grid(_) => AccelKind::Grid,
+            Accel::Bvh(_, w) => AccelKind::Bvh(*w),
+        }
+    }
+
+    /// The grid, if this is one (the native peer walks irt's grid).
+    pub fn grid(&self) -> Option<&Grid> {
+        match self {
+            Accel::Grid(g) => Some(g),
+            Accel::Bvh(..) => None,
+        }
+    }
+
+    /// Primitive references stored (a grid lists a primitive in every cell it overlaps, a BVH
+    /// once).
+    pub fn refs(&self) -> usize {
+        match self {
+            Accel::Grid(g) => g.prim_refs.len(),
+            Accel::Bvh(b, _) => b.refs.len(),
+        }
+    }
+
+    /// A one-line summary for logs and `irt bench`.
+    pub fn summary(&self) -> String {
+        match self {
+            Accel::Grid(g) => g.stats().to_string(),
+            Accel::Bvh(b, w) => format!("{} ({w:?} walk)", b.stats()),
+        }
+    }
+}
+
+/// An accelerator as built: the grid or a BVH (and how it is walked).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AccelKind {
+    Grid,
+    Bvh(BvhWalk),
+}
+
+/// What `--accel` asks for: one of the two, or a choice per scene ([`AccelChoice::resolve`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum AccelChoice {
+    Grid,
+    /// The BVH walked without a stack ([`BvhWalk::Stackless`]).
+    Bvh,
+    /// The BVH walked with a stack ([`BvhWalk::Stack`]; for measuring, docs/performance.md).
+    BvhStack,
+    /// The default: it picks the BVH on 16 of the 18 scenes of docs/performance.md's table, where
+    /// the BVH won on 16 ([`auto`]).
+    #[default]
+    Auto,
+}
+
+impl AccelChoice {
+    pub const NAMES: [(&'static str, AccelChoice); 4] = [
+        ("grid", AccelChoice::Grid),
+        ("bvh", AccelChoice::Bvh),
+        ("bvh-stack", AccelChoice::BvhStack),
+        ("auto", AccelChoice::Auto),
+    ];
+
+    /// The accelerator to build for `scene`.
+    pub fn resolve(self, scene: &Scene) -> AccelKind {
+        match self {
+            AccelChoice::Grid => AccelKind::Grid,
+            AccelChoice::Bvh => AccelKind::Bvh(BvhWalk::Stackless),
+            AccelChoice::BvhStack => AccelKind::Bvh(BvhWalk::Stack),
+            AccelChoice::Auto => auto(scene),
+        }
+    }
+}
+
+/// Above this many primitives `--accel auto` keeps the grid: a BVH build holds about 80 bytes
+/// per primitive at once and runs O(n log n) on the CPU, where the grid's holds a few and is
+/// linear (docs/performance.md, "Grid vs BVH", measured at 1M triangles).
+pub const AUTO_GRID_ABOVE: usize = 1 << 21;
+/// Below this many primitives `--accel auto` takes the BVH: a tree of a few dozen nodes beats
+/// the grid on every such scene measured, even evenly filled ones.
+pub const AUTO_BVH_BELOW: usize = 64;
+/// The grid is "evenly filled" when at least this share of its macro-cells is occupied …
+pub const AUTO_MACRO_OCCUPIED: f64 = 0.9;
+/// … and no cell lists more than this many primitives.
+pub const AUTO_MAX_REFS: u32 = 8;
+
+/// `--accel auto`'s rule (docs/performance.md, "Grid vs BVH"): the grid where the scene fills
+/// its box evenly, with neither empty space for the DDA to step through (almost every macro-cell
+/// occupied) nor crowded cells (few references in any cell): the case a uniform grid is made
+/// for, and where it beat the BVH on lavapipe. Else the BVH. Very large scenes keep the grid
+/// ([`AUTO_GRID_ABOVE`]); tiny ones take the BVH ([`AUTO_BVH_BELOW`]). The rule reads the
+/// statistics of the scene's grid, so it builds one (pass it on: [`Accel::choose`]).
+pub fn auto(scene: &Scene) -> AccelKind {
+    auto_with(scene, None).0
+}
+
+/// [`auto`], reusing or returning the grid it looked at.
+fn auto_with(scene: &Scene, grid: Option<Grid>) -> (AccelKind, Option<Grid>) {
+    let n = scene.primitive_count();
+    if n > AUTO_GRID_ABOVE {
+        return (AccelKind::Grid, grid);
+    }
+    if n < AUTO_BVH_BELOW {
+        return (AccelKind::Bvh(BvhWalk::default()), grid);
+    }
+    let grid = grid.unwrap_or_else(|| Grid::build(scene));
+    (auto_rule(&grid.stats()), Some(grid))
+}
+
+/// The part of [`auto`]'s rule that reads the grid.
+pub fn auto_rule(st: &grid::GridStats) -> AccelKind {
+    let macros = st.macro_res.iter().map(|&m| m as f64).product::<f64>();
+    let even =
+        st.macro_occupied as f64 >= AUTO_MACRO_OCCUPIED * macros && st.max_refs_per_cell <= AUTO_MAX_REFS;
+    if even {
+        AccelKind::Grid
+    } else {
+        AccelKind::Bvh(BvhWalk::default())
+    }
+}
+
+impl std::str::FromStr for AccelChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::NAMES.iter().find(|(n, _)| *n == s).map(|(_, c)| *c).ok_or_else(|| {
+            let names: Vec<&str> = Self::NAMES.iter().map(|(n, _)| *n).collect();
+            format!("unknown accelerator `{s}`: expected {}", names.join(", "))
+        })
+    }
+}
+
+impl fmt::Display for AccelChoice {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        let name = Self::NAMES.iter().find(|(_, c)| c == self).map(|(n, _)| *n).expect("named");
+        f.write_str(name)
+    }
+}

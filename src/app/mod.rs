@@ -105,6 +105,9 @@ pub struct ViewArgs {
     /// Maximum ray depth (overrides the scene's; eye ray = 1).
     #[arg(long, value_name = "N")]
     pub max_depth: Option<u32>,
+    /// Accelerator: grid, bvh, bvh-stack or auto (see `irt render --help`).
+    #[arg(long, value_name = "ACCEL", default_value_t = crate::accel::AccelChoice::default())]
+    pub accel: crate::accel::AccelChoice,
     /// Refinement stops after this many samples per pixel (0: never); the window then waits.
     #[arg(long, value_name = "N", default_value_t = 64)]
     pub max_samples: u32,
@@ -191,6 +194,7 @@ impl ViewArgs {
             shadows: self.shadows,
             max_depth: self.max_depth,
             max_samples: self.max_samples,
+            accel: self.accel,
             ..Settings::default()
         }
     }

@@ -1,4 +1,4 @@
-//! `irt bench`: grid build time, time to first frame, steady frame time and Mrays/s.
+//! `irt bench`: accelerator build time, time to first frame, steady frame time and Mrays/s.
 
 use super::{load_scene, open_device_with, DeviceArgs, SceneArgs};
 use anyhow::{bail, Result};
@@ -40,6 +40,11 @@ pub struct BenchArgs {
     /// peers: `--peer native,embree`.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub peer: Vec<Peer>,
+    /// Time these accelerators against each other instead (e.g. `--accels grid,bvh`): one
+    /// frame of each per round, rounds interleaved, medians; Mrays/s of each and its ratio to the
+    /// first's, the build times, and what `--accel auto` picks for the scene.
+    #[arg(long, value_name = "ACCELS", value_delimiter = ',')]
+    pub accels: Vec<irt::accel::AccelChoice>,
     /// Threads for each peer (default: all cores).
     #[arg(long)]
     pub peer_threads: Option<usize>,
@@ -230,16 +235,39 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.workload == Workload::PrimaryShadow {
         scene = irt::peer::primary_shadow(&scene);
     }
+    if !args.accels.is_empty() {
+        if !args.peer.is_empty() {
+            bail!("--accels times irt's accelerators against each other: drop --peer");
+        }
+        let opts = RenderOptions { uber_shader: args.uber, f64: scene_args.f64(), ..Default::default() };
+        let name = scene_args.name_or("default");
+        let (accels, frames, markdown) = (&args.accels, args.frames, args.markdown);
+        return match args.backend {
+            super::Backend::Wgpu => accel_rounds(
+                &name,
+                &scene,
+                &open_device_with(&args.device, &cache)?,
+                opts,
+                accels,
+                frames,
+                markdown,
+            ),
+            super::Backend::Ash => {
+                let ctx = super::open_vk_device(&args.device, args.ash.options())?;
+                accel_rounds(&name, &scene, &ctx, opts, accels, frames, markdown)
+            }
+        };
+    }
     let builds: Vec<Duration> = (0..5)
         .map(|_| {
             let t = Instant::now();
-            std::hint::black_box(irt::accel::Grid::build(&scene));
+            std::hint::black_box(irt::accel::Accel::choose(&scene, scene_args.accel, &|_, _| {}));
             t.elapsed()
         })
         .collect();
     let grid_build = median(builds);
     let f64 = scene_args.f64();
-    let opts = RenderOptions { uber_shader: args.uber, f64, ..Default::default() };
+    let opts = RenderOptions { uber_shader: args.uber, f64, accel: scene_args.accel, ..Default::default() };
     if args.backend != super::Backend::Ash && args.ash.any() {
         bail!(
             "--robust, --push-tile, --profile and --spirv-val are levers of the ash path: add --backend ash"
@@ -307,8 +335,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     } else {
         println!("scene            {name} ({w}x{h}, {} primitives)", scene.primitive_count());
         println!("device           {device} ({driver_info}), {:?} backend", args.backend);
-        println!("grid             {stats}");
-        println!("grid build       {:.2} ms (median of 5)", grid_build.as_secs_f64() * 1e3);
+        println!("accelerator      {stats}");
+        println!(
+            "build            {:.2} ms (median of 5; --accel {})",
+            grid_build.as_secs_f64() * 1e3,
+            scene_args.accel
+        );
         println!("device open      {:.1} ms (instance, adapter choice, device)", open.as_secs_f64() * 1e3);
         println!(
             "first frame      {:.0} ms (pipeline creation + first dispatch; Mesa shader cache {})",
@@ -387,11 +419,10 @@ impl Job<'_> {
         let rays = counting.try_render(ctx, &mut |_, _| {})?.rays;
         drop(counting);
         if !self.peers.is_empty() {
-            let peers = self
-                .peers
-                .iter()
-                .map(|&p| make_peer(p, scene, &renderer.grid))
-                .collect::<Result<Vec<_>>>()?;
+            // The native peer walks irt's grid whichever accelerator the device traces.
+            let peer_grid = renderer.accel.grid().cloned().unwrap_or_else(|| irt::accel::Grid::build(scene));
+            let peers =
+                self.peers.iter().map(|&p| make_peer(p, scene, &peer_grid)).collect::<Result<Vec<_>>>()?;
             peer_rounds(
                 &self.name,
                 scene,
@@ -429,7 +460,7 @@ impl Job<'_> {
             first_frame,
             frame,
             rays,
-            grid: renderer.grid.stats().to_string(),
+            grid: renderer.accel.summary(),
             device: ctx.adapter_name().to_string(),
             driver_info: ctx.adapter_driver().to_string(),
             cache_status: cache_status.to_string(),
@@ -527,6 +558,93 @@ fn peer_rounds<D: Device>(
                 frames.max(1)
             );
         }
+    }
+    Ok(())
+}
+
+/// `irt bench --accels`: every accelerator of `accels` on `scene`, one frame of each per round
+/// (rounds interleaved, so load on the machine falls on all of them), medians of `frames` rounds.
+fn accel_rounds<D: Device>(
+    name: &str,
+    scene: &irt::scene::Scene,
+    ctx: &D,
+    opts: RenderOptions,
+    accels: &[irt::accel::AccelChoice],
+    frames: u32,
+    markdown: bool,
+) -> Result<()> {
+    use irt::accel::{Accel, AccelChoice};
+    let mut renderers = Vec::new();
+    let mut rays = Vec::new();
+    let mut builds = Vec::new();
+    for &accel in accels {
+        let kind = accel.resolve(scene);
+        let times: Vec<Duration> = (0..3)
+            .map(|_| {
+                let t = Instant::now();
+                std::hint::black_box(Accel::build(scene, kind, &|_, _| {}));
+                t.elapsed()
+            })
+            .collect();
+        builds.push(median(times));
+        let r = Renderer::new(ctx, scene, RenderOptions { accel, ..opts }).map_err(anyhow::Error::msg)?;
+        // The first frame compiles (lavapipe compiles at the first dispatch).
+        if r.try_render(ctx, &mut |_, _| {})?.image.non_finite() > 0 {
+            bail!("the {accel} frame contains NaN/Inf values");
+        }
+        let counting = Renderer::new(ctx, scene, RenderOptions { accel, count_rays: true, ..opts })
+            .map_err(anyhow::Error::msg)?;
+        rays.push(counting.try_render(ctx, &mut |_, _| {})?.rays.total());
+        renderers.push(r);
+    }
+    let mut times = vec![Vec::new(); renderers.len()];
+    for _ in 0..frames.max(1) {
+        for (r, t) in renderers.iter().zip(&mut times) {
+            let t0 = Instant::now();
+            r.try_render(ctx, &mut |_, _| {})?;
+            t.push(t0.elapsed());
+        }
+    }
+    let mrays: Vec<f64> =
+        times.into_iter().zip(&rays).map(|(t, &n)| n as f64 / median(t).as_secs_f64() / 1e6).collect();
+    let auto = match AccelChoice::Auto.resolve(scene) {
+        irt::accel::AccelKind::Grid => "grid",
+        irt::accel::AccelKind::Bvh(_) => "bvh",
+    };
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    if markdown {
+        let cells: Vec<String> = builds
+            .iter()
+            .map(|b| format!("{:.1}", b.as_secs_f64() * 1e3))
+            .chain(mrays.iter().map(|m| format!("{m:.2}")))
+            .chain(mrays[1..].iter().map(|m| format!("{:.2}", m / mrays[0])))
+            .collect();
+        println!(
+            "| {name} | {w}x{h} | {} | {} | {} | {auto} | {} |",
+            scene.primitive_count(),
+            rays[0],
+            cells.join(" | "),
+            ctx.adapter_name()
+        );
+    } else {
+        println!("scene            {name} ({w}x{h}, {} primitives)", scene.primitive_count());
+        println!("device           {} ({})", ctx.adapter_name(), ctx.adapter_driver());
+        for (i, (&accel, r)) in accels.iter().zip(&renderers).enumerate() {
+            println!(
+                "{:<16} {:.2} Mrays/s ({:.2}x {}), {} rays/frame, build {:.1} ms: {}",
+                accel.to_string(),
+                mrays[i],
+                mrays[i] / mrays[0],
+                accels[0],
+                rays[i],
+                builds[i].as_secs_f64() * 1e3,
+                r.accel.summary()
+            );
+        }
+        println!("auto picks       {auto}");
+    }
+    if rays.iter().any(|&r| r != rays[0]) {
+        log::warn!("the accelerators traced different ray counts {rays:?}: their images differ");
     }
     Ok(())
 }

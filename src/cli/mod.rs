@@ -163,6 +163,11 @@ pub struct SceneArgs {
     /// device's SHADER_F64; lavapipe has it). See docs/stability.md.
     #[arg(long, value_name = "BITS", default_value = "f32", value_parser = ["f32", "f64"])]
     pub precision: String,
+    /// Accelerator: grid (the paper's uniform grid with macro-cells), bvh (a binned-SAH BVH
+    /// walked without a stack, by escape links), bvh-stack (the same BVH walked with a stack,
+    /// near child first; for measuring), or auto (chosen per scene; the rule is in docs/performance.md, "Grid vs BVH").
+    #[arg(long, value_name = "ACCEL", default_value_t = irt::accel::AccelChoice::default())]
+    pub accel: irt::accel::AccelChoice,
 }
 
 impl SceneArgs {

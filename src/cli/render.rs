@@ -84,7 +84,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         if args.stats {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
-        let settings = Settings { mode, f64: args.scene.f64(), max_samples: 1, ..Settings::default() };
+        let settings = Settings {
+            mode,
+            f64: args.scene.f64(),
+            accel: args.scene.accel,
+            max_samples: 1,
+            ..Settings::default()
+        };
         return match args.backend {
             super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
             super::Backend::Ash => one_pass(
@@ -128,10 +134,10 @@ fn bands<D: Device>(
     super::report(
         scene.primitive_count(),
         format!(
-            "set up in {:.2} s: grid {:.2} s ({} references), packing and upload {:.2} s ({} MiB on the device)",
+            "set up in {:.2} s: accelerator {:.2} s ({} references), packing and upload {:.2} s ({} MiB on the device)",
             (t.grid_build + t.upload + t.pipeline).as_secs_f64(),
             t.grid_build.as_secs_f64(),
-            renderer.grid.prim_refs.len(),
+            renderer.accel.refs(),
             t.upload.as_secs_f64(),
             D::scene_bytes(&renderer.gpu_scene) >> 20
         ),
@@ -172,6 +178,7 @@ fn options(args: &RenderArgs) -> RenderOptions {
         count_rays: args.stats,
         corner_rays: args.spd_rules,
         f64: args.scene.f64(),
+        accel: args.scene.accel,
         ..Default::default()
     }
 }

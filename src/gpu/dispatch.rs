@@ -385,7 +385,7 @@ impl Dispatcher {
         modes: ModeBuffers,
     ) -> Self {
         let device = &ctx.device;
-        let variant = Variant { layered: scene.layered, ..variant };
+        let variant = Variant { layered: scene.layered, accel: layout::accel_code(&scene.params), ..variant };
         let src = shaders::compose(kernel, variant);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(entry),

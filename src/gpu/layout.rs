@@ -6,7 +6,8 @@
 //! (vec4<u32>), so each traversal step costs as few load instructions as possible; floats are
 //! stored as their bits and `bitcast` back in the shader.
 
-use crate::accel::{Grid, PrimKind, PrimRef};
+use crate::accel::bvh::NodeKind;
+use crate::accel::{AccelRef, Bvh, BvhWalk, PrimKind, PrimRef};
 use crate::scene::{
     bundle_samples, light_shells, Filter, MaterialKind, Scene, ShadowMode, ShellShape, Wrap, MAX_LIGHTS,
 };
@@ -43,6 +44,23 @@ pub const PIXELS_PER_TEXEL: u32 = 4;
 pub const CELLS_PER_TEXEL: u32 = 2;
 pub const REFS_PER_TEXEL: u32 = 4;
 pub const MACRO_BITS_PER_TEXEL: u32 = 128;
+/// BVH nodes: one [`BvhNode`] (two texels) each.
+pub const BVH_NODE_TEXELS: u32 = 2;
+/// `BvhNode::b` of an inner node has this bit set; the split axis is in the bits from
+/// [`BVH_AXIS_SHIFT`], the right child's index below them.
+pub const BVH_INNER: u32 = 1 << 31;
+pub const BVH_AXIS_SHIFT: u32 = 29;
+pub const BVH_CHILD_MASK: u32 = (1 << BVH_AXIS_SHIFT) - 1;
+/// `Params::macro_res[3]`: the accelerator packed (the dispatcher compiles its traversal).
+pub const ACCEL_GRID: u32 = 0;
+pub const ACCEL_BVH: u32 = 1;
+pub const ACCEL_BVH_STACKLESS: u32 = 2;
+/// A BVH box is grown by this many f32 ulps of its largest coordinate (and [`BVH_MARGIN_REL`] of
+/// its extent) beyond the outward rounding: room for the rounding of the primitives' own f32
+/// records and of the intersection tests, which may report a hit a little outside the exact
+/// shape.
+const BVH_MARGIN_ULPS: f64 = 8.0;
+const BVH_MARGIN_REL: f64 = 1e-5;
 /// Marks a triangle without vertex normals.
 pub const NO_NORMALS: u32 = u32::MAX;
 /// Marks a triangle without texture coordinates.
@@ -91,6 +109,19 @@ pub struct GpuLight {
     pub color: [f32; 4],
 }
 
+/// A BVH node as the shader reads it (two texels). Mirrors `struct BvhNode` in
+/// `shaders/types.wgsl`. Inner node `i`: `a` is its escape (the first node after its subtree),
+/// `b` = [`BVH_INNER`] | axis << [`BVH_AXIS_SHIFT`] | right child (the left is `i + 1`).
+/// Leaf: `a` is its first primitive reference, `b` how many (its next node is `i + 1`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub lo: [f32; 3],
+    pub a: u32,
+    pub hi: [f32; 3],
+    pub b: u32,
+}
+
 /// Everything constant over a frame. Mirrors `struct Params` in `shaders/types.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -110,7 +141,9 @@ pub struct Params {
     pub grid_inv_cell: [f32; 4],
     /// xyz cells per axis, w fine cells per macro-cell side.
     pub grid_res: [u32; 4],
-    /// xyz macro-cells per axis.
+    /// xyz macro-cells per axis; w the accelerator ([`ACCEL_GRID`], [`ACCEL_BVH`],
+    /// [`ACCEL_BVH_STACKLESS`]). With a BVH, `grid_min`/`grid_max` are its root box and the
+    /// other grid fields 0.
     pub macro_res: [u32; 4],
     /// First texel of the sphere, triangle, vertex-normal and material records.
     pub prim_base: [u32; 4],
@@ -118,7 +151,7 @@ pub struct Params {
     /// pixels.
     pub aux_base: [u32; 4],
     /// First texel of the cell ranges, primitive references, macro-cell bits and shadow-bundle
-    /// points.
+    /// points; with a BVH: of its nodes, its references, the node count, the bundle points.
     pub grid_base: [u32; 4],
     /// width, height, max_depth, light count.
     pub image: [u32; 4],
@@ -268,7 +301,11 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`; then the light buffer's cells (`scene::shell_cell`),
 ///   `[first, count, cones, meshes]` into the list (its spheres come first, its cones from
 ///   `cones` on, its meshes from `meshes` on), and the list: object indices, four per texel.
-pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
+///
+/// With a BVH (`accel`), its nodes ([`BvhNode`], [`bvh_nodes`]) and references (four per texel)
+/// take the place of the cells, references and macro bits.
+pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVec3) -> PackedScene {
+    let accel = accel.into();
     // Sized exactly up front (the shell sections reserve their own): a large mesh's texels are
     // most of the host's memory, and a growing Vec would double them for a moment.
     let with = |has: fn(&crate::scene::Mesh) -> bool| -> usize {
@@ -276,7 +313,16 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
     };
     let (normal_tris, uv_tris) = (with(|m| m.normals.is_some()), with(|m| m.uvs.is_some()));
     let pixels = scene.textures.iter().map(|t| t.texels.len()).sum::<usize>();
-    let cells = grid.cell_start.len() - 1;
+    let accel_texels = match accel {
+        AccelRef::Grid(grid) => {
+            (grid.cell_start.len() - 1).div_ceil(CELLS_PER_TEXEL as usize)
+                + grid.prim_refs.len().div_ceil(REFS_PER_TEXEL as usize)
+                + grid.macro_bits.len().div_ceil(4)
+        }
+        AccelRef::Bvh(bvh, _) => {
+            BVH_NODE_TEXELS as usize * bvh.nodes.len() + bvh.refs.len().div_ceil(REFS_PER_TEXEL as usize)
+        }
+    };
     let bundle = match scene.trace.shadows {
         ShadowMode::Bundle { samples, .. } => samples as usize,
         _ => 0,
@@ -289,9 +335,7 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         + UV_TEXELS as usize * uv_tris
         + scene.textures.len()
         + pixels.div_ceil(PIXELS_PER_TEXEL as usize)
-        + cells.div_ceil(CELLS_PER_TEXEL as usize)
-        + grid.prim_refs.len().div_ceil(REFS_PER_TEXEL as usize)
-        + grid.macro_bits.len().div_ceil(4)
+        + accel_texels
         + bundle.div_ceil(2);
     let mut t: Vec<[u32; 4]> = Vec::with_capacity(capacity);
     let sphere_base = 0u32;
@@ -364,29 +408,52 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         texel[..chunk.len()].copy_from_slice(chunk);
         t.push(texel);
     }
-    let cell_base = t.len() as u32;
-    for first in (0..cells).step_by(CELLS_PER_TEXEL as usize) {
-        let mut texel = [0u32; 4];
-        for (k, c) in (first..cells.min(first + CELLS_PER_TEXEL as usize)).enumerate() {
-            texel[2 * k] = grid.cell_start[c];
-            texel[2 * k + 1] = grid.cell_start[c + 1] - grid.cell_start[c];
+    let accel_base = match accel {
+        AccelRef::Grid(grid) => {
+            let cells = grid.cell_start.len() - 1;
+            let cell_base = t.len() as u32;
+            for first in (0..cells).step_by(CELLS_PER_TEXEL as usize) {
+                let mut texel = [0u32; 4];
+                for (k, c) in (first..cells.min(first + CELLS_PER_TEXEL as usize)).enumerate() {
+                    texel[2 * k] = grid.cell_start[c];
+                    texel[2 * k + 1] = grid.cell_start[c + 1] - grid.cell_start[c];
+                }
+                t.push(texel);
+            }
+            let ref_base = t.len() as u32;
+            for chunk in grid.prim_refs.chunks(REFS_PER_TEXEL as usize) {
+                let mut texel = [0u32; 4];
+                for (k, r) in chunk.iter().enumerate() {
+                    texel[k] = r.0;
+                }
+                t.push(texel);
+            }
+            let macro_base = t.len() as u32;
+            for chunk in grid.macro_bits.chunks(4) {
+                let mut texel = [0u32; 4];
+                texel[..chunk.len()].copy_from_slice(chunk);
+                t.push(texel);
+            }
+            [cell_base, ref_base, macro_base]
         }
-        t.push(texel);
-    }
-    let ref_base = t.len() as u32;
-    for chunk in grid.prim_refs.chunks(REFS_PER_TEXEL as usize) {
-        let mut texel = [0u32; 4];
-        for (k, r) in chunk.iter().enumerate() {
-            texel[k] = r.0;
+        AccelRef::Bvh(bvh, _) => {
+            let node_base = t.len() as u32;
+            for n in bvh_nodes(bvh, origin) {
+                let [a, b]: [[u32; 4]; 2] = bytemuck::cast(n);
+                t.push(a);
+                t.push(b);
+            }
+            let ref_base = t.len() as u32;
+            for chunk in bvh.refs.chunks(REFS_PER_TEXEL as usize) {
+                let mut texel = [0u32; 4];
+                for (k, r) in chunk.iter().enumerate() {
+                    texel[k] = r.0;
+                }
+                t.push(texel);
+            }
+            [node_base, ref_base, bvh.nodes.len() as u32]
         }
-        t.push(texel);
-    }
-    let macro_base = t.len() as u32;
-    for chunk in grid.macro_bits.chunks(4) {
-        let mut texel = [0u32; 4];
-        texel[..chunk.len()].copy_from_slice(chunk);
-        t.push(texel);
-    }
+    };
     let bundle_base = t.len() as u32;
     if let ShadowMode::Bundle { samples, .. } = scene.trace.shadows {
         for pair in bundle_samples(samples).chunks(2) {
@@ -449,14 +516,19 @@ pub fn pack_scene(scene: &Scene, grid: &Grid, origin: DVec3) -> PackedScene {
         texels: t,
         prim_base: [sphere_base, triangle_base, normal_base, material_base],
         aux_base: [cone_base, uv_base, texture_base, pixel_base],
-        grid_base: [cell_base, ref_base, macro_base, bundle_base],
+        grid_base: [accel_base[0], accel_base[1], accel_base[2], bundle_base],
         shell_sections,
     }
 }
 
 /// The frame constants for `scene` drawn with `grid` laid out as in `packed`, positions relative
 /// to `origin` as in [`pack_scene`].
-pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -> Params {
+pub fn params<'a>(
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    packed: &PackedScene,
+    origin: DVec3,
+) -> Params {
     let cam = &scene.camera;
     let mut lights = [GpuLight::default(); MAX_LIGHTS];
     for (i, (g, l)) in lights.iter_mut().zip(&scene.lights).enumerate() {
@@ -464,7 +536,6 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -
         let section = packed.shell_sections.get(i).copied().unwrap_or(0);
         g.color = v4(l.color, f32::from_bits(section));
     }
-    let res = grid.res;
     let mut p = Params {
         eye: [0.0; 4],
         cam_u: [0.0; 4],
@@ -474,12 +545,12 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -
         ambient_ground: v4(scene.ambient.ground, 0.0),
         ambient_up: v4(scene.ambient.up.normalize(), 0.0),
         background: v4(scene.background, 0.0),
-        grid_min: v4(grid.min - origin, 0.0),
-        grid_max: v4(grid.max - origin, 0.0),
-        grid_cell: v4(grid.cell_size, 0.0),
-        grid_inv_cell: v4(grid.cell_size.recip(), 0.0),
-        grid_res: [res[0], res[1], res[2], grid.macro_factor],
-        macro_res: [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], 0],
+        grid_min: [0.0; 4],
+        grid_max: [0.0; 4],
+        grid_cell: [0.0; 4],
+        grid_inv_cell: [0.0; 4],
+        grid_res: [0; 4],
+        macro_res: [0; 4],
         prim_base: packed.prim_base,
         aux_base: packed.aux_base,
         grid_base: packed.grid_base,
@@ -493,8 +564,71 @@ pub fn params(scene: &Scene, grid: &Grid, packed: &PackedScene, origin: DVec3) -
         },
         lights,
     };
+    match accel.into() {
+        AccelRef::Grid(grid) => {
+            let res = grid.res;
+            p.grid_min = v4(grid.min - origin, 0.0);
+            p.grid_max = v4(grid.max - origin, 0.0);
+            p.grid_cell = v4(grid.cell_size, 0.0);
+            p.grid_inv_cell = v4(grid.cell_size.recip(), 0.0);
+            p.grid_res = [res[0], res[1], res[2], grid.macro_factor];
+            p.macro_res = [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], ACCEL_GRID];
+        }
+        AccelRef::Bvh(bvh, walk) => {
+            p.grid_min = v4(bvh.nodes[0].lo - origin, 0.0);
+            p.grid_max = v4(bvh.nodes[0].hi - origin, 0.0);
+            p.macro_res[3] = match walk {
+                BvhWalk::Stack => ACCEL_BVH,
+                BvhWalk::Stackless => ACCEL_BVH_STACKLESS,
+            };
+        }
+    }
     set_camera(&mut p, cam, origin);
     p
+}
+
+/// The device's nodes of `bvh`, boxes relative to `origin`: each rounded outward to f32 and
+/// grown by a margin (`BVH_MARGIN_ULPS`, `BVH_MARGIN_REL`), so that a ray the f32 slab test
+/// misses misses the box in exact arithmetic too, with room for the primitives' own rounding.
+pub fn bvh_nodes(bvh: &Bvh, origin: DVec3) -> Vec<BvhNode> {
+    let down = |v: f64| {
+        let f = v as f32;
+        if (f as f64) > v {
+            f.next_down()
+        } else {
+            f
+        }
+    };
+    let up = |v: f64| {
+        let f = v as f32;
+        if (f as f64) < v {
+            f.next_up()
+        } else {
+            f
+        }
+    };
+    bvh.nodes
+        .iter()
+        .map(|n| {
+            let (lo, hi) = (n.lo - origin, n.hi - origin);
+            let magnitude = lo.abs().max(hi.abs()).max_element();
+            let margin =
+                BVH_MARGIN_ULPS * f32::EPSILON as f64 * magnitude + BVH_MARGIN_REL * (hi - lo).max_element();
+            let (lo, hi) = (lo - margin, hi + margin);
+            let (a, b) = match n.kind {
+                NodeKind::Inner { axis, right, escape } => {
+                    (escape, BVH_INNER | (axis as u32) << BVH_AXIS_SHIFT | right)
+                }
+                NodeKind::Leaf { first, count } => (first, count),
+            };
+            BvhNode { lo: [down(lo.x), down(lo.y), down(lo.z)], a, hi: [up(hi.x), up(hi.y), up(hi.z)], b }
+        })
+        .collect()
+}
+
+/// The accelerator packed into `params` (`Params::macro_res[3]`).
+pub fn accel_code(params: &Params) -> u32 {
+    params.macro_res[3]
 }
 
 /// Points `p` at `cam` (eye, frame, image size; positions relative to `origin` as the scene
@@ -558,6 +692,14 @@ pub fn wgsl_constants() -> String {
     s += &c("ORDER_TABLE", ORDER_TABLE);
     s += &c("ORDER_DISSOLVE", ORDER_DISSOLVE);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
+    s += &c("BVH_NODE_TEXELS", BVH_NODE_TEXELS);
+    s += &c("BVH_INNER", BVH_INNER);
+    s += &c("BVH_AXIS_SHIFT", BVH_AXIS_SHIFT);
+    s += &c("BVH_CHILD_MASK", BVH_CHILD_MASK);
+    s += &c("BVH_STACK", crate::accel::bvh::MAX_DEPTH as u32);
+    s += &c("ACCEL_GRID", ACCEL_GRID);
+    s += &c("ACCEL_BVH", ACCEL_BVH);
+    s += &c("ACCEL_BVH_STACKLESS", ACCEL_BVH_STACKLESS);
     s += &c("PRIM_INDEX_BITS", PrimRef::INDEX_BITS);
     s += &c("PRIM_KIND_SHIFT", PrimRef::KIND_SHIFT);
     s += &c("PRIM_SPHERE", PrimKind::Sphere as u32);
@@ -592,8 +734,11 @@ mod tests {
         bundle.trace.shadows = ShadowMode::Bundle { samples: 7, rotate: true };
         scenes.push(bundle);
         for scene in &scenes {
-            let grid = Grid::build(scene);
+            let grid = crate::accel::Grid::build(scene);
             let packed = pack_scene(scene, &grid, scene.camera.eye);
+            assert_eq!(packed.texels.capacity(), packed.texels.len());
+            let bvh = Bvh::build(scene);
+            let packed = pack_scene(scene, &bvh, scene.camera.eye);
             assert_eq!(packed.texels.capacity(), packed.texels.len());
         }
     }

@@ -5,7 +5,7 @@ use super::dispatch::{ModeBuffers, RayCounts};
 use super::layout::{self, PackedScene, Params, Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
 use super::shaders::{Kernel, Variant};
 use super::GpuContext;
-use crate::accel::Grid;
+use crate::accel::{Accel, AccelChoice};
 use crate::image::Image;
 use crate::scene::{Scene, ShadowMode};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -30,6 +30,8 @@ pub struct RenderOptions {
     /// texture side (tests trace the layered path with small scenes; 0: always layered);
     /// `None`: the device's.
     pub max_scene_rows: Option<u32>,
+    /// The accelerator: the grid, a BVH, or chosen per scene (`--accel`).
+    pub accel: AccelChoice,
 }
 
 /// How long each stage of setting up took.
@@ -60,7 +62,7 @@ pub fn passes(scene: &Scene) -> Vec<[u32; 4]> {
 /// The headless band renderer on a device path (wgpu's [`GpuContext`] by default, or ash's
 /// `vk::VkContext`): one scene, one compiled kernel, the bands of [`Bands::recording`].
 pub struct Renderer<D: Device = GpuContext> {
-    pub grid: Grid,
+    pub accel: Accel,
     pub gpu_scene: D::Scene,
     dispatcher: D::Kernel,
     bands: Bands,
@@ -177,7 +179,7 @@ impl Bands {
 /// A scene made ready for the band renderer on any backend: its grid, packed texture and frame
 /// constants, the variant to compile and the bands to trace.
 pub struct Prepared {
-    pub grid: Grid,
+    pub accel: Accel,
     pub packed: PackedScene,
     pub params: Params,
     pub variant: Variant,
@@ -185,21 +187,21 @@ pub struct Prepared {
     pub grid_build: Duration,
 }
 
-/// Builds the grid (reporting it), packs the scene relative to the eye and picks the variant:
+/// Builds the accelerator `opts.accel` resolves to (reporting a grid's progress), packs the scene relative to the eye and picks the variant:
 /// everything of a band renderer's setup that no device is needed for.
 pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> Prepared {
     // An animated scene renders at time 0 here; `irt render --time` passes `scene.at(t)`.
     let scene = &*scene.posed(0.0);
     let t0 = Instant::now();
-    let grid = Grid::build_with_progress(scene, &|done, total| {
+    let accel = Accel::choose(scene, opts.accel, &|done, total| {
         progress(SetupStage::Grid, done as u64, total as u64)
     });
     let grid_build = t0.elapsed();
     progress(SetupStage::Upload, 0, 1);
     let (width, height) = (scene.camera.width, scene.camera.height);
     // Positions relative to the eye: f32 precision follows distance from the viewer.
-    let packed = layout::pack_scene(scene, &grid, scene.camera.eye);
-    let mut params = layout::params(scene, &grid, &packed, scene.camera.eye);
+    let packed = layout::pack_scene(scene, &accel, scene.camera.eye);
+    let mut params = layout::params(scene, &accel, &packed, scene.camera.eye);
     params.eye_grid = layout::eye_grid(width, height, opts.corner_rays);
     let grid_size = [params.eye_grid[0], params.eye_grid[1]];
     let variant = if opts.uber_shader {
@@ -208,7 +210,7 @@ pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> P
         Variant { f64: opts.f64, ..Variant::for_scene(scene, opts.count_rays) }
     };
     let bands = Bands { width, height, grid_size, passes: passes(scene) };
-    Prepared { grid, packed, params, variant, bands, grid_build }
+    Prepared { accel, packed, params, variant, bands, grid_build }
 }
 
 impl<D: Device> Renderer<D> {
@@ -224,7 +226,7 @@ impl<D: Device> Renderer<D> {
         progress: SetupProgress,
     ) -> Result<Self, String> {
         let t1 = Instant::now();
-        let Prepared { grid, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
+        let Prepared { accel, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
         let gpu_scene = ctx.upload(packed, params, opts.max_scene_rows)?;
         let t2 = Instant::now();
         let dispatcher =
@@ -232,7 +234,7 @@ impl<D: Device> Renderer<D> {
         let variant = D::variant(&dispatcher);
         let timings = SetupTimings { grid_build, upload: t2 - t1 - grid_build, pipeline: t2.elapsed() };
         Ok(Renderer {
-            grid,
+            accel,
             gpu_scene,
             dispatcher,
             bands,

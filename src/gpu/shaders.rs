@@ -4,13 +4,20 @@
 use super::layout;
 use crate::scene::ShadowMode;
 
-/// Shared modules, in dependency order.
-const MODULES: [(&str, &str); 7] = [
+/// Shared modules before the accelerator's, in dependency order.
+const MODULES: [(&str, &str); 4] = [
     ("types.wgsl", include_str!("../../shaders/types.wgsl")),
     ("scene.wgsl", include_str!("../../shaders/scene.wgsl")),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
     ("intersect.wgsl", include_str!("../../shaders/intersect.wgsl")),
-    ("grid.wgsl", include_str!("../../shaders/grid.wgsl")),
+];
+/// The accelerators' walks: a variant compiles the one its scene was packed with
+/// (`Variant::accel`; the test kernels always have the grid's, whose DDA they step).
+const GRID: (&str, &str) = ("grid.wgsl", include_str!("../../shaders/grid.wgsl"));
+const BVH: (&str, &str) = ("bvh.wgsl", include_str!("../../shaders/bvh.wgsl"));
+/// Shared modules after the accelerator's.
+const SHADING: [(&str, &str); 3] = [
+    ("accel.wgsl", include_str!("../../shaders/accel.wgsl")),
     ("shading.wgsl", include_str!("../../shaders/shading.wgsl")),
     ("shadows.wgsl", include_str!("../../shaders/shadows.wgsl")),
 ];
@@ -58,6 +65,10 @@ pub struct Variant {
     /// large to test triangle by triangle (`scene::shells_walk_grid`). Off, the walk is compiled
     /// out; its result is only ever used for such meshes, so the image is the same either way.
     pub shell_walk: bool,
+    /// The accelerator and its walk (`layout::ACCEL_GRID`, `ACCEL_BVH`, `ACCEL_BVH_STACKLESS`).
+    /// Set by the dispatcher from the uploaded scene (`layout::accel_code`), like `layered`: the
+    /// kernel walks what was packed.
+    pub accel: u32,
 }
 
 /// Every material kind.
@@ -79,6 +90,7 @@ impl Variant {
         textures: true,
         layered: false,
         shell_walk: true,
+        accel: layout::ACCEL_GRID,
     };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
@@ -94,6 +106,7 @@ impl Variant {
             layered: false,
             shell_walk: matches!(scene.trace.shadows, ShadowMode::Shell { .. })
                 && crate::scene::shells_walk_grid(scene),
+            accel: layout::ACCEL_GRID,
         }
     }
 
@@ -115,13 +128,26 @@ impl Variant {
                     textures: bits & 2 != 0,
                     layered: bits & 1 != 0,
                     shell_walk: bits & 6 == 6,
+                    accel: layout::ACCEL_GRID,
                 });
+                // The BVH walks with every primitive/shadow combination too.
+                let last = *v.last().expect("pushed");
+                v.push(Variant { accel: layout::ACCEL_BVH, ..last });
             }
         }
         v.extend((0..ALL_MATERIALS).map(|materials| Variant { materials, ..Variant::FULL }));
         v.extend([false, true].map(|count_rays| Variant { f64: true, count_rays, ..Variant::FULL }));
         v.push(Variant { textures: false, ..Variant::FULL });
         v.push(Variant { shell_walk: false, ..Variant::FULL });
+        for accel in [layout::ACCEL_BVH, layout::ACCEL_BVH_STACKLESS] {
+            v.push(Variant { accel, ..Variant::FULL });
+            v.extend([false, true].map(|count_rays| Variant {
+                f64: true,
+                count_rays,
+                accel,
+                ..Variant::FULL
+            }));
+        }
         v
     }
 
@@ -137,6 +163,15 @@ impl Variant {
         s += &b("SHELL_WALK", self.shell_walk);
         s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);
         s += &format!("const MATERIAL_KINDS: u32 = {}u;\n", self.materials);
+        let walk = match self.accel {
+            layout::ACCEL_BVH => "bvh_walk_stack",
+            layout::ACCEL_BVH_STACKLESS => "bvh_walk_stackless",
+            _ => "grid_walk",
+        };
+        s += &format!(
+            "fn accel_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangles_only: bool) -> Hit {{\n\
+             \x20   return {walk}(o, d, t_min, t_max, any_hit, triangles_only);\n}}\n"
+        );
         let real = if self.f64 { "f64" } else { "f32" };
         s += &format!("alias real = {real};\nalias vec3r = vec3<{real}>;\n");
         s += if self.layered {
@@ -161,7 +196,9 @@ pub fn compose(kernel: Kernel, variant: Variant) -> String {
         Kernel::Modes => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
         Kernel::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
     };
-    for (name, text) in MODULES.iter().chain(entries) {
+    let bvh = variant.accel != layout::ACCEL_GRID;
+    let accel = [(!bvh || kernel == Kernel::Tests).then_some(GRID), bvh.then_some(BVH)];
+    for (name, text) in MODULES.iter().chain(accel.iter().flatten()).chain(&SHADING).chain(entries) {
         src += &format!("\n// ---- {name} ----\n");
         src += text;
     }

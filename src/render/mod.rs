@@ -110,6 +110,8 @@ pub struct Settings {
     pub max_samples: u32,
     /// Conventional: waves per frame (the frame can be cancelled between waves).
     pub waves: u32,
+    /// The accelerator (`--accel`): the grid, a BVH, or chosen per scene.
+    pub accel: crate::accel::AccelChoice,
 }
 
 impl Default for Settings {
@@ -122,6 +124,7 @@ impl Default for Settings {
             f64: false,
             max_samples: 64,
             waves: 4,
+            accel: Default::default(),
         }
     }
 }

@@ -12,7 +12,7 @@ use super::order::{Dissolve, PixelOrder};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, Settings};
 use crate::accel::grid::Frame;
-use crate::accel::Grid;
+use crate::accel::{Accel, AccelKind, Bvh, Grid};
 use crate::gpu::backend::{infallible, Command, ComputeBackend, Device, Dispatch, Recording};
 use crate::gpu::dispatch::ModeBuffers;
 use crate::gpu::layout::{
@@ -101,7 +101,7 @@ pub fn refinement_jitter(k: u32) -> [f32; 2] {
 pub struct UpdateReport {
     /// Moving the objects to the new time.
     pub pose: Duration,
-    /// Rebuilding the grid (`None`: no geometry changed, the grid was kept).
+    /// Rebuilding the grid or BVH (`None`: no geometry changed, it was kept).
     pub grid: Option<Duration>,
     /// Packing the scene texture.
     pub pack: Duration,
@@ -130,7 +130,8 @@ pub struct Session<D: Device = GpuContext> {
     settings: Settings,
     /// Positions were packed relative to this point (the camera's eye when uploaded).
     origin: DVec3,
-    pub grid: Grid,
+    /// The grid or BVH traced (`Settings::accel`); see [`Session::grid`].
+    pub accel: Accel,
     gpu_scene: D::Scene,
     dispatcher: D::Kernel,
     pub variant: Variant,
@@ -210,13 +211,10 @@ impl<D: Device> Session<D> {
         settings.apply_to(&mut scene);
         let moving = Grid::moving_prims(&base);
         let frame = animation_frame(&base, &moving);
-        let grid = match &frame {
-            Some((f, ..)) => Grid::build_in(&scene, *f),
-            None => Grid::build(&scene),
-        };
+        let accel = first_accel(&scene, settings.accel.resolve(&scene), &frame);
         let origin = scene.camera.eye;
-        let packed = layout::pack_scene(&scene, &grid, origin);
-        let params = layout::params(&scene, &grid, &packed, origin);
+        let packed = layout::pack_scene(&scene, &accel, origin);
+        let params = layout::params(&scene, &accel, &packed, origin);
         let gpu_scene = ctx.upload(packed, params, None)?;
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
@@ -229,7 +227,7 @@ impl<D: Device> Session<D> {
             time: 0.0,
             settings,
             origin,
-            grid,
+            accel,
             gpu_scene,
             dispatcher,
             variant,
@@ -318,12 +316,12 @@ impl<D: Device> Session<D> {
             || scene.meshes != self.scene.meshes;
         if moved {
             let t = Instant::now();
-            self.grid = self.regrid(&scene, motion);
+            self.accel = self.reaccel(&scene, motion);
             report.grid = Some(t.elapsed());
         }
         let t = Instant::now();
-        let packed = layout::pack_scene(&scene, &self.grid, self.origin);
-        let mut params = layout::params(&scene, &self.grid, &packed, self.origin);
+        let packed = layout::pack_scene(&scene, &self.accel, self.origin);
+        let mut params = layout::params(&scene, &self.accel, &packed, self.origin);
         params.eye_grid = D::params(&self.gpu_scene).eye_grid;
         report.pack = t.elapsed();
         let t = Instant::now();
@@ -331,7 +329,7 @@ impl<D: Device> Session<D> {
         report.reallocated = new_texture;
         let variant = Variant { f64: self.settings.f64, ..Variant::for_scene(&scene, false) };
         let layered = D::layered(&self.gpu_scene);
-        if (Variant { layered, ..variant }) != self.variant {
+        if (Variant { layered, accel: self.variant.accel, ..variant }) != self.variant {
             let fresh = make_dispatcher(ctx, &self.gpu_scene, variant, self.capacity)?;
             ctx.copy_frame(&fresh, &self.dispatcher)?;
             self.dispatcher = fresh;
@@ -768,7 +766,32 @@ impl Session<GpuContext> {
     }
 }
 
+/// A session's first accelerator: a grid in the animation's frame (`Grid::update` then moves only
+/// what moves) or fitted to a still scene; a BVH fitted either way.
+fn first_accel(scene: &Scene, kind: AccelKind, frame: &Option<(Frame, DVec3, DVec3)>) -> Accel {
+    match (kind, frame) {
+        (AccelKind::Grid, Some((f, ..))) => Accel::Grid(Grid::build_in(scene, *f)),
+        (AccelKind::Grid, None) => Accel::Grid(Grid::build(scene)),
+        (AccelKind::Bvh(walk), _) => Accel::Bvh(Bvh::build(scene), walk),
+    }
+}
+
 impl<D: Device> Session<D> {
+    /// The grid traced, if the session traces one.
+    pub fn grid(&self) -> Option<&Grid> {
+        self.accel.grid()
+    }
+
+    /// The accelerator for `scene` after its geometry changed: a grid as [`Session::regrid`]
+    /// says; a BVH is rebuilt whole (a refit of the moving primitives' boxes would be the
+    /// cheaper update, not done yet).
+    fn reaccel(&mut self, scene: &Scene, motion: bool) -> Accel {
+        match self.accel {
+            Accel::Grid(_) => Accel::Grid(self.regrid(scene, motion)),
+            Accel::Bvh(_, walk) => Accel::Bvh(Bvh::build(scene), walk),
+        }
+    }
+
     /// The grid of `scene`: the moving primitives re-inserted into the current grid when only
     /// they moved and the frame still holds them; else a build in the animation's frame (grown
     /// to hold the scene if it must) or, for a still scene, a fitted build.
@@ -784,8 +807,9 @@ impl<D: Device> Session<D> {
             self.frame = Some((frame, lo, hi));
             return Grid::build_in(scene, frame);
         }
-        if motion && self.incremental && self.grid.frame() == frame {
-            self.grid.update(scene, &self.moving)
+        let current = self.accel.grid().expect("regrid is only called for a grid");
+        if motion && self.incremental && current.frame() == frame {
+            current.update(scene, &self.moving)
         } else {
             Grid::build_in(scene, frame)
         }

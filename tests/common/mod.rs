@@ -117,7 +117,16 @@ pub fn plane_barycentrics(o: DVec3, d: DVec3, t: [DVec3; 3]) -> (f64, f64) {
 /// also checks that no pixel came near lavapipe's loop-iteration limit (a quarter of it: the
 /// count is per pixel, the limit per group of SIMD lanes), past which its results are wrong.
 pub fn render_gpu(ctx: &irt::gpu::GpuContext, scene: &Scene) -> irt::image::Image {
-    let r = irt::gpu::Renderer::new(ctx, scene, irt::gpu::RenderOptions::default()).expect("renderer");
+    render_gpu_with(ctx, scene, irt::gpu::RenderOptions::default())
+}
+
+/// [`render_gpu`] with `opts` (another accelerator, f64, ...).
+pub fn render_gpu_with(
+    ctx: &irt::gpu::GpuContext,
+    scene: &Scene,
+    opts: irt::gpu::RenderOptions,
+) -> irt::image::Image {
+    let r = irt::gpu::Renderer::new(ctx, scene, opts).expect("renderer");
     let frame = r.render(ctx, &mut |_, _| {});
     let limit = irt::gpu::layout::LAVAPIPE_LOOP_LIMIT;
     assert!(

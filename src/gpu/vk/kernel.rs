@@ -483,7 +483,7 @@ impl VkDispatcher {
         modes: ModeBuffers,
     ) -> Result<Self, VkError> {
         let shared = &ctx.shared;
-        let variant = Variant { layered: scene.layered, ..variant };
+        let variant = Variant { layered: scene.layered, accel: layout::accel_code(&scene.params), ..variant };
         if variant.f64 && !shared.caps.f64 {
             return Err(VkError::Other(crate::gpu::context::no_f64_message(&ctx.info.name)));
         }

@@ -1,0 +1,121 @@
+// BVH traversal (src/accel/bvh.rs builds the tree, src/gpu/layout.rs packs it: `BvhNode`).
+// Nodes are depth-first, the left child next to its parent; an inner node's `a` is its escape
+// (the first node after its subtree), `b` its axis and right child; a leaf's `a` is its first
+// primitive reference, `b` their count. Both walks test one node's box per loop iteration, so a
+// lavapipe iteration (which every lane pays for, taken branch or not) is one box test plus the
+// masked leaf loop.
+
+fn load_bvh_node(i: u32) -> BvhNode {
+    let at = params.grid_base.x + i * BVH_NODE_TEXELS;
+    let a = texel(at);
+    let b = texel(at + 1u);
+    return BvhNode(bitcast<vec3f>(a.xyz), a.w, bitcast<vec3f>(b.xyz), b.w);
+}
+
+// Whether o + t d meets the node's box for some t in [t_min, t_max] (slab test in `real`). The
+// box's far distance is grown by 1 + 2γ₃ (Ize, "Robust BVH ray traversal", JCGT 2013), so the
+// test's own rounding never loses a box; the packing grew the boxes for everything else.
+fn bvh_box(n: BvhNode, o: vec3r, inv_d: vec3r, t_min: real, t_max: real) -> bool {
+    let t0 = (vec3r(n.lo) - o) * inv_d;
+    let t1 = (vec3r(n.hi) - o) * inv_d;
+    let lo = min(t0, t1);
+    let hi = max(t0, t1);
+    let near = max(max(lo.x, lo.y), max(lo.z, t_min));
+    let far = min(min(hi.x, hi.y), hi.z) * real(1.0000004);
+    return near <= min(far, t_max);
+}
+
+// 1 / d per axis, a zero (or tiny) component replaced by 1 / 1e-30 of the same sign: the slabs
+// of that axis then give ±huge distances on the right sides, never a NaN.
+fn bvh_inv_dir(d: vec3f) -> vec3r {
+    let tiny = abs(d) < vec3f(1.0e-30);
+    let safe = select(d, select(vec3f(1.0e-30), vec3f(-1.0e-30), d < vec3f(0.0)), tiny);
+    return vec3r(1.0) / vec3r(safe);
+}
+
+// The leaf's primitives against the ray: `best` updated; true when `any_hit` and one was hit.
+fn bvh_leaf(n: BvhNode, o: vec3f, d: vec3f, t_min: f32, any_hit: bool, triangles_only: bool, best: ptr<function, Hit>) -> bool {
+    for (var k = 0u; k < n.b; k++) {
+        loop_iters += 1u;
+        let r = prim_ref(n.a + k);
+        if triangles_only && prim_kind(r) != PRIM_TRIANGLE {
+            continue;
+        }
+        let h = intersect_prim(r, o, d, t_min, (*best).t);
+        if h.x != MISS {
+            *best = Hit(h.x, r, h.y, h.z);
+            if any_hit {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// Nearest hit in (t_min, t_max) (`any_hit`: the first found; `triangles_only`: for shell
+// shadows, as `grid_walk`), with a stack of node indices: at an inner node the child on the
+// ray's near side of the split axis is visited first and the other pushed; a popped node's box
+// is tested against the nearest hit so far. The stack is a private array indexed at run time,
+// a per-lane scatter/gather on lavapipe; the tree is at most BVH_STACK deep (accel::bvh).
+fn bvh_walk_stack(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangles_only: bool) -> Hit {
+    var best = Hit(t_max, NO_HIT, 0.0, 0.0);
+    let or = vec3r(o);
+    let inv_d = bvh_inv_dir(d);
+    let negative = d < vec3f(0.0);
+    var stack: array<u32, BVH_STACK>;
+    var sp = 0u;
+    var i = 0u;
+    loop {
+        loop_iters += 1u;
+        let n = load_bvh_node(i);
+        var next = NO_HIT;
+        if bvh_box(n, or, inv_d, real(t_min), real(best.t)) {
+            if (n.b & BVH_INNER) != 0u {
+                let axis = (n.b >> BVH_AXIS_SHIFT) & 3u;
+                let right = n.b & BVH_CHILD_MASK;
+                // The left child holds the lower centroids: it is the near one unless the ray
+                // runs towards lower coordinates on the split axis.
+                let flip = select(select(negative.x, negative.y, axis == 1u), negative.z, axis == 2u);
+                next = select(i + 1u, right, flip);
+                stack[sp] = select(right, i + 1u, flip);
+                sp += 1u;
+            } else if bvh_leaf(n, o, d, t_min, any_hit, triangles_only, &best) {
+                return best;
+            }
+        }
+        if next == NO_HIT {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            next = stack[sp];
+        }
+        i = next;
+    }
+    return best;
+}
+
+// The same without a stack: the nodes in their depth-first order, a missed inner node's subtree
+// skipped by its escape link. Cheaper per iteration, but children come in a fixed order, so a
+// closest-hit ray cannot visit the near side first.
+fn bvh_walk_stackless(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangles_only: bool) -> Hit {
+    var best = Hit(t_max, NO_HIT, 0.0, 0.0);
+    let or = vec3r(o);
+    let inv_d = bvh_inv_dir(d);
+    let count = params.grid_base.z;
+    var i = 0u;
+    loop {
+        loop_iters += 1u;
+        let n = load_bvh_node(i);
+        let hit = bvh_box(n, or, inv_d, real(t_min), real(best.t));
+        let inner = (n.b & BVH_INNER) != 0u;
+        if hit && !inner && bvh_leaf(n, o, d, t_min, any_hit, triangles_only, &best) {
+            return best;
+        }
+        i = select(i + 1u, n.a, inner && !hit);
+        if i >= count {
+            break;
+        }
+    }
+    return best;
+}

@@ -1,0 +1,478 @@
+//! A binary bounding-volume hierarchy beside the grid: binned surface-area-heuristic build on
+//! the CPU (Wald 2007, "On fast construction of SAH-based bounding volume hierarchies"),
+//! flattened depth-first with the left child next to its parent, leaves of a few primitives.
+//!
+//! Built in f64 over the same primitive boxes the grid inserts by ([`Grid::for_each_bound`]);
+//! the packing (`gpu::layout`) rounds every box outward to f32 with a margin, so the shader's
+//! f32 slab test never loses a primitive to rounding.
+//!
+//! Each subtree occupies a contiguous run of nodes: node `i` with a subtree of `s` nodes has its
+//! left child at `i + 1`, its right child at `i + 1 + s_left` and the first node after its
+//! subtree (its *escape*) at `i + s`. The shader walks it either with a stack (visiting the
+//! child nearer along the split axis first) or stackless by the escape links (a fixed order);
+//! docs/performance.md, "Grid vs BVH", says which and why.
+
+use super::grid::Grid;
+use super::PrimRef;
+use crate::scene::Scene;
+use glam::DVec3;
+use std::fmt;
+
+/// Primitives a leaf holds at most.
+pub const MAX_LEAF: usize = 4;
+/// Bins per axis of the SAH sweep.
+pub const BINS: usize = 16;
+/// SAH cost of visiting an inner node, relative to one primitive test.
+pub const TRAVERSAL_COST: f64 = 1.0;
+/// Depth a tree never exceeds: the shader's traversal stack has this many slots. Past
+/// [`SAH_DEPTH`], nodes are split at the object median, which halves them at every level.
+pub const MAX_DEPTH: usize = 64;
+const SAH_DEPTH: usize = MAX_DEPTH - 34;
+/// Below this many primitives a subtree is built on the calling thread.
+const MIN_PRIMS_PER_THREAD: usize = 1 << 12;
+
+/// What a node is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeKind {
+    /// Children at `index + 1` and `right`; the node after the subtree at `escape`. `axis` is
+    /// the axis the children were split along (left: the lower centroids).
+    Inner { axis: u8, right: u32, escape: u32 },
+    /// Primitives `refs[first..first + count]`.
+    Leaf { first: u32, count: u32 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    pub lo: DVec3,
+    pub hi: DVec3,
+    pub kind: NodeKind,
+}
+
+/// How a build chooses its splits ([`Bvh::build_with`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Split {
+    /// Binned SAH over all three axes (what [`Bvh::build`] uses).
+    Sah,
+    /// The object median along the largest centroid extent: the baseline the SAH is tested
+    /// against.
+    Median,
+}
+
+/// The flattened hierarchy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bvh {
+    /// Depth-first, left child next; the root is `nodes[0]`.
+    pub nodes: Vec<Node>,
+    /// The primitives, leaf by leaf.
+    pub refs: Vec<PrimRef>,
+}
+
+/// A primitive as the builder sees it.
+#[derive(Clone, Copy)]
+struct Prim {
+    lo: DVec3,
+    hi: DVec3,
+    centre: DVec3,
+    r: PrimRef,
+}
+
+#[derive(Clone, Copy)]
+struct Aabb {
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb { lo: DVec3::splat(f64::INFINITY), hi: DVec3::splat(f64::NEG_INFINITY) };
+    fn grow(&mut self, lo: DVec3, hi: DVec3) {
+        self.lo = self.lo.min(lo);
+        self.hi = self.hi.max(hi);
+    }
+    fn union(self, o: Aabb) -> Aabb {
+        Aabb { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi) }
+    }
+    /// Half the surface area (the SAH only needs ratios); 0 for an empty box.
+    fn half_area(&self) -> f64 {
+        let e = (self.hi - self.lo).max(DVec3::ZERO);
+        if self.lo.x > self.hi.x {
+            return 0.0;
+        }
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+}
+
+fn bounds(prims: &[Prim]) -> (Aabb, Aabb) {
+    let (mut b, mut c) = (Aabb::EMPTY, Aabb::EMPTY);
+    for p in prims {
+        b.grow(p.lo, p.hi);
+        c.grow(p.centre, p.centre);
+    }
+    (b, c)
+}
+
+/// A subtree under construction: its nodes depth-first with indices local to it.
+type Nodes = Vec<Node>;
+
+/// Moves every index of `nodes` (a subtree) by `by` nodes.
+fn shift(nodes: &mut [Node], by: u32) {
+    for n in nodes {
+        if let NodeKind::Inner { right, escape, .. } = &mut n.kind {
+            *right += by;
+            *escape += by;
+        }
+    }
+}
+
+/// Summary of a built BVH, for logs and `irt bench`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BvhStats {
+    pub nodes: usize,
+    pub leaves: usize,
+    pub prims: usize,
+    pub depth: usize,
+    /// SAH cost relative to one primitive test per ray through the root box ([`Bvh::sah_cost`]).
+    pub sah: f64,
+    /// Bytes as packed for the device (nodes and references).
+    pub bytes: usize,
+}
+
+impl fmt::Display for BvhStats {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        write!(
+            f,
+            "BVH {} nodes, {} leaves ({:.2} primitives per leaf), depth {}, SAH cost {:.1}, {:.1} MiB",
+            self.nodes,
+            self.leaves,
+            self.prims as f64 / self.leaves.max(1) as f64,
+            self.depth,
+            self.sah,
+            self.bytes as f64 / (1024.0 * 1024.0)
+        )
+    }
+}
+
+impl Bvh {
+    /// The binned-SAH hierarchy over every sphere, triangle and cone of `scene`, on all cores.
+    pub fn build(scene: &Scene) -> Bvh {
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        Self::build_with(scene, Split::Sah, threads)
+    }
+
+    /// [`Bvh::build`] with the split rule and the number of threads given: the tree is the same
+    /// for every thread count (subtrees are built independently and joined in order).
+    pub fn build_with(scene: &Scene, split: Split, threads: usize) -> Bvh {
+        let mut prims = Vec::with_capacity(scene.primitive_count());
+        Grid::for_each_bound(scene, |r, lo, hi| prims.push(Prim { lo, hi, centre: (lo + hi) * 0.5, r }));
+        if prims.is_empty() {
+            // One empty leaf, so the shader's walk needs no special case.
+            let kind = NodeKind::Leaf { first: 0, count: 0 };
+            return Bvh { nodes: vec![Node { lo: DVec3::ZERO, hi: DVec3::ZERO, kind }], refs: vec![] };
+        }
+        let nodes = build_range(&mut prims, 0, 0, split, threads.max(1));
+        Bvh { nodes, refs: prims.iter().map(|p| p.r).collect() }
+    }
+
+    /// Expected cost of a ray through the root box by the surface-area heuristic, in units of
+    /// one primitive test: each node is visited with the probability that its box is hit given
+    /// the root's is (the ratio of their areas), inner nodes at [`TRAVERSAL_COST`], leaves at
+    /// one test per primitive.
+    pub fn sah_cost(&self) -> f64 {
+        let area = |n: &Node| Aabb { lo: n.lo, hi: n.hi }.half_area();
+        let root = area(&self.nodes[0]);
+        if root <= 0.0 {
+            return 0.0;
+        }
+        self.nodes
+            .iter()
+            .map(|n| {
+                area(n) / root
+                    * match n.kind {
+                        NodeKind::Inner { .. } => TRAVERSAL_COST,
+                        NodeKind::Leaf { count, .. } => count as f64,
+                    }
+            })
+            .sum()
+    }
+
+    /// The depth of the deepest leaf (the root alone: 1).
+    pub fn depth(&self) -> usize {
+        fn depth_at(b: &Bvh, i: usize) -> usize {
+            match b.nodes[i].kind {
+                NodeKind::Leaf { .. } => 1,
+                NodeKind::Inner { right, .. } => 1 + depth_at(b, i + 1).max(depth_at(b, right as usize)),
+            }
+        }
+        depth_at(self, 0)
+    }
+
+    pub fn stats(&self) -> BvhStats {
+        let leaves = self.nodes.iter().filter(|n| matches!(n.kind, NodeKind::Leaf { .. })).count();
+        BvhStats {
+            nodes: self.nodes.len(),
+            leaves,
+            prims: self.refs.len(),
+            depth: self.depth(),
+            sah: self.sah_cost(),
+            bytes: 32 * self.nodes.len() + 4 * self.refs.len(),
+        }
+    }
+}
+
+/// The subtree over `prims` (reordered in place), whose first primitive is `refs[first]`, at
+/// `depth`; `threads` threads may build it.
+fn build_range(prims: &mut [Prim], first: u32, depth: usize, split: Split, threads: usize) -> Nodes {
+    let (b, c) = bounds(prims);
+    let n = prims.len();
+    let leaf = || vec![Node { lo: b.lo, hi: b.hi, kind: NodeKind::Leaf { first, count: n as u32 } }];
+    if n == 1 {
+        return leaf();
+    }
+    let extent = c.hi - c.lo;
+    let mut chosen = None;
+    if split == Split::Sah && depth < SAH_DEPTH {
+        if let Some((axis, cost, bin)) = sah_split(prims, &b, &c) {
+            if n <= MAX_LEAF && cost >= n as f64 {
+                return leaf();
+            }
+            // Bins are cut at centroid coordinates; partition by the same bin function.
+            let k = BINS as f64 / extent[axis];
+            let lo = c.lo[axis];
+            let mid = partition(prims, |p| (((p.centre[axis] - lo) * k) as usize).min(BINS - 1) <= bin);
+            if mid > 0 && mid < n {
+                chosen = Some((axis, mid));
+            }
+        }
+    }
+    let (axis, mid) = match chosen {
+        Some(c) => c,
+        None if n <= MAX_LEAF => return leaf(),
+        None => {
+            // The object median along the largest centroid extent (ties by reference, so the
+            // result does not depend on the order the primitives came in).
+            let axis = extent.max_position();
+            let key = |p: &Prim| (p.centre[axis], p.r.0);
+            prims
+                .select_nth_unstable_by(n / 2, |a, b| key(a).partial_cmp(&key(b)).expect("finite centroids"));
+            (axis, n / 2)
+        }
+    };
+    let (left, right) = prims.split_at_mut(mid);
+    let (mut l, mut r) = if threads > 1 && n >= 2 * MIN_PRIMS_PER_THREAD {
+        let (lt, rt) = (threads / 2, threads - threads / 2);
+        std::thread::scope(|s| {
+            let h = s.spawn(|| build_range(right, first + mid as u32, depth + 1, split, rt));
+            let l = build_range(left, first, depth + 1, split, lt);
+            (l, h.join().expect("BVH build thread"))
+        })
+    } else {
+        (
+            build_range(left, first, depth + 1, split, 1),
+            build_range(right, first + mid as u32, depth + 1, split, 1),
+        )
+    };
+    let right_at = 1 + l.len() as u32;
+    let escape = right_at + r.len() as u32;
+    shift(&mut l, 1);
+    shift(&mut r, right_at);
+    let mut nodes = Vec::with_capacity(escape as usize);
+    nodes.push(Node {
+        lo: b.lo,
+        hi: b.hi,
+        kind: NodeKind::Inner { axis: axis as u8, right: right_at, escape },
+    });
+    nodes.append(&mut l);
+    nodes.append(&mut r);
+    nodes
+}
+
+/// Moves the primitives for which `left` holds before the others (unstable), returning how
+/// many there are. Deterministic: the same input gives the same order.
+fn partition(prims: &mut [Prim], left: impl Fn(&Prim) -> bool) -> usize {
+    let mut i = 0;
+    let mut j = prims.len();
+    while i < j {
+        if left(&prims[i]) {
+            i += 1;
+        } else {
+            j -= 1;
+            prims.swap(i, j);
+        }
+    }
+    i
+}
+
+/// The cheapest binned split: (axis, SAH cost in primitive tests relative to this node, last
+/// bin of the left side), or `None` when every axis puts all centroids in one bin.
+fn sah_split(prims: &[Prim], b: &Aabb, c: &Aabb) -> Option<(usize, f64, usize)> {
+    let extent = c.hi - c.lo;
+    let area = b.half_area();
+    let mut best: Option<(usize, f64, usize)> = None;
+    for axis in 0..3 {
+        if extent[axis] <= 0.0 {
+            continue;
+        }
+        let k = BINS as f64 / extent[axis];
+        let lo = c.lo[axis];
+        let mut boxes = [Aabb::EMPTY; BINS];
+        let mut counts = [0usize; BINS];
+        for p in prims {
+            let i = (((p.centre[axis] - lo) * k) as usize).min(BINS - 1);
+            boxes[i].grow(p.lo, p.hi);
+            counts[i] += 1;
+        }
+        // Right-to-left sweep: area and count of bins i.. for every i.
+        let mut right_area = [0.0; BINS];
+        let mut right_count = [0usize; BINS];
+        let (mut acc, mut count) = (Aabb::EMPTY, 0);
+        for i in (1..BINS).rev() {
+            acc = acc.union(boxes[i]);
+            count += counts[i];
+            right_area[i] = acc.half_area();
+            right_count[i] = count;
+        }
+        let (mut acc, mut count) = (Aabb::EMPTY, 0);
+        for i in 0..BINS - 1 {
+            acc = acc.union(boxes[i]);
+            count += counts[i];
+            let (nl, nr) = (count, right_count[i + 1]);
+            if nl == 0 || nr == 0 {
+                continue;
+            }
+            let cost = TRAVERSAL_COST
+                + (acc.half_area() * nl as f64 + right_area[i + 1] * nr as f64) / area.max(1e-300);
+            if best.is_none_or(|(_, c, _)| cost < c) {
+                best = Some((axis, cost, i));
+            }
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::grid::tests::{random_scene, scene, Rng};
+    use super::*;
+    use crate::scene::Sphere;
+
+    fn contains(outer: &Node, lo: DVec3, hi: DVec3) -> bool {
+        outer.lo.cmple(lo).all() && outer.hi.cmpge(hi).all()
+    }
+
+    /// Every primitive is in exactly one leaf, leaves tile `refs`, every box holds its children
+    /// and its primitives, the links say what the layout promises.
+    fn assert_well_formed(bvh: &Bvh, s: &Scene) {
+        let mut bounds = vec![];
+        Grid::for_each_bound(s, |r, lo, hi| bounds.push((r, lo, hi)));
+        let mut seen = vec![0u32; bounds.len()];
+        let index = |r: PrimRef| bounds.iter().position(|b| b.0 == r).expect("a scene primitive");
+        let mut next_ref = 0u32;
+        // Walks subtree `i`, returning its node count.
+        fn walk(b: &Bvh, i: usize, depth: usize, f: &mut dyn FnMut(&Node, usize)) -> usize {
+            f(&b.nodes[i], depth);
+            match b.nodes[i].kind {
+                NodeKind::Leaf { .. } => 1,
+                NodeKind::Inner { right, escape, .. } => {
+                    let n = &b.nodes[i];
+                    let (l, r) = (&b.nodes[i + 1], &b.nodes[right as usize]);
+                    assert!(
+                        contains(n, l.lo, l.hi) && contains(n, r.lo, r.hi),
+                        "node {i} holds its children"
+                    );
+                    let left = walk(b, i + 1, depth + 1, f);
+                    assert_eq!(right as usize, i + 1 + left, "right child after the left subtree");
+                    let right_n = walk(b, right as usize, depth + 1, f);
+                    assert_eq!(escape as usize, i + 1 + left + right_n, "escape after the subtree");
+                    1 + left + right_n
+                }
+            }
+        }
+        let total = walk(bvh, 0, 1, &mut |n, depth| {
+            assert!(depth <= MAX_DEPTH);
+            if let NodeKind::Leaf { first, count } = n.kind {
+                assert_eq!(first, next_ref, "leaves in order over refs");
+                assert!(count as usize <= MAX_LEAF.max(1) || bounds.is_empty());
+                next_ref += count;
+                for r in &bvh.refs[first as usize..(first + count) as usize] {
+                    let k = index(*r);
+                    seen[k] += 1;
+                    assert!(contains(n, bounds[k].1, bounds[k].2), "leaf holds {r:?}");
+                }
+            }
+        });
+        assert_eq!(total, bvh.nodes.len());
+        assert_eq!(next_ref as usize, bvh.refs.len());
+        assert!(seen.iter().all(|&k| k == 1), "every primitive in exactly one leaf");
+    }
+
+    #[test]
+    fn every_primitive_is_in_exactly_one_leaf_and_boxes_hold_their_children() {
+        for (seed, n, extent, offset) in [
+            (1, 1, 1.0, DVec3::ZERO),
+            (2, 2, 1.0, DVec3::ZERO),
+            (3, 50, 1.0, DVec3::ZERO),
+            (4, 2000, 10.0, DVec3::ZERO),
+            (5, 300, 1e-3, DVec3::splat(1e4)),
+        ] {
+            let s = random_scene(seed, n, extent, offset);
+            for split in [Split::Sah, Split::Median] {
+                assert_well_formed(&Bvh::build_with(&s, split, 2), &s);
+            }
+        }
+        // Many primitives with the same centroid (concentric spheres): no split separates
+        // them, the median does, and depth stays bounded.
+        let same: Vec<Sphere> =
+            (0..1000).map(|i| Sphere { center: DVec3::ZERO, radius: 1.0 + i as f64, material: 0 }).collect();
+        let s = scene(same, vec![]);
+        let b = Bvh::build(&s);
+        assert_well_formed(&b, &s);
+        assert!(b.depth() <= 12, "{}", b.depth());
+        // No primitives: one empty leaf.
+        let b = Bvh::build(&scene(vec![], vec![]));
+        assert_eq!(b.nodes.len(), 1);
+        assert!(b.refs.is_empty());
+    }
+
+    #[test]
+    fn the_tree_does_not_depend_on_the_thread_count() {
+        let s = random_scene(6, 30_000, 5.0, DVec3::ZERO);
+        let one = Bvh::build_with(&s, Split::Sah, 1);
+        for threads in [2, 3, 8] {
+            assert!(Bvh::build_with(&s, Split::Sah, threads) == one, "{threads} threads");
+        }
+        assert_well_formed(&one, &s);
+    }
+
+    /// Clusters of small spheres far apart (a teapot-in-a-stadium in miniature): the SAH puts
+    /// the empty space between clusters into no box, the median split cuts through clusters.
+    #[test]
+    fn sah_is_cheaper_than_the_median_split_on_a_clustered_scene() {
+        let mut rng = Rng(11);
+        let mut spheres = vec![];
+        for k in 0..8 {
+            let centre = rng.vec(-100.0, 100.0);
+            let count = if k == 0 { 2000 } else { 50 };
+            for _ in 0..count {
+                spheres.push(Sphere { center: centre + rng.vec(-1.0, 1.0), radius: 0.05, material: 0 });
+            }
+        }
+        // A large floor of two triangles under everything.
+        let floor = [
+            [
+                DVec3::new(-200.0, -120.0, -200.0),
+                DVec3::new(200.0, -120.0, -200.0),
+                DVec3::new(200.0, -120.0, 200.0),
+            ],
+            [
+                DVec3::new(-200.0, -120.0, -200.0),
+                DVec3::new(200.0, -120.0, 200.0),
+                DVec3::new(-200.0, -120.0, 200.0),
+            ],
+        ];
+        let s = scene(spheres, floor.to_vec());
+        let sah = Bvh::build_with(&s, Split::Sah, 2);
+        let median = Bvh::build_with(&s, Split::Median, 2);
+        println!("SAH {:.2}, median {:.2}", sah.sah_cost(), median.sah_cost());
+        assert!(sah.sah_cost() < 0.8 * median.sah_cost(), "{} vs {}", sah.sah_cost(), median.sah_cost());
+        assert_well_formed(&sah, &s);
+    }
+}

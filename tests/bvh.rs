@@ -1,0 +1,208 @@
+//! The BVH (`--accel bvh`, accel::bvh + shaders/bvh.wgsl) against the f64 CPU reference per
+//! pixel, against the grid's image, in f64, in every shadow mode, and in a moving scene.
+//!
+//! Tolerance: the golden tests' (`common::assert_matches_reference`: p99.9 ≤ 2/255, at most
+//! 0.25% of pixels off by more than 2/255, no NaN). The accelerator only decides which
+//! primitives a ray is tested against, so a correct BVH gives the grid's tolerance; a box that
+//! loses a primitive to rounding shows as a missing surface, far past both bounds.
+mod common;
+
+use irt::accel::AccelChoice;
+use irt::gpu::RenderOptions;
+use irt::render::{Mode, Schedule, Session, Settings};
+use irt::scene::{Scene, ShadowMode};
+use std::path::PathBuf;
+
+fn scene_file(name: &str) -> Scene {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    irt::io::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn sized(mut s: Scene, w: u32, h: u32) -> Scene {
+    (s.camera.width, s.camera.height) = (w, h);
+    s
+}
+
+fn with(accel: AccelChoice) -> RenderOptions {
+    RenderOptions { accel, ..Default::default() }
+}
+
+/// Spheres, triangles, cones, textures, dielectrics, metal: each scene file through both BVH
+/// walks against the reference.
+#[test]
+fn bvh_images_match_the_reference() {
+    let ctx = common::gpu();
+    for (name, size) in [
+        ("diffuse.toml", None),
+        ("mesh.toml", None),
+        ("cones.toml", None),
+        ("textured.toml", None),
+        ("dielectric.toml", None),
+        ("metal.toml", None),
+        ("spd/tetra_s4.nff", Some(96)),
+        ("spd/teapot_s2.nff", Some(96)),
+    ] {
+        let mut s = scene_file(name);
+        if let Some(n) = size {
+            s = sized(s, n, n);
+        }
+        let reference = common::reference_image(&s);
+        for accel in [AccelChoice::Bvh, AccelChoice::BvhStack] {
+            let gpu = common::render_gpu_with(&ctx, &s, with(accel));
+            common::assert_matches_reference(&format!("bvh-{accel}-{name}"), &gpu, &reference);
+        }
+    }
+}
+
+#[test]
+fn default_scene_with_the_bvh_matches_the_reference() {
+    let ctx = common::gpu();
+    let mut s = irt::scene::default_scene();
+    // Half resolution keeps the brute-force reference to a few seconds (as tests/golden.rs).
+    s.camera.width /= 2;
+    s.camera.height /= 2;
+    let gpu = common::render_gpu_with(&ctx, &s, with(AccelChoice::Bvh));
+    common::assert_matches_reference("bvh-default", &gpu, &common::reference_image(&s));
+}
+
+/// The f64 pipeline variant walks the BVH in f64 too (the slab test in `real`).
+#[test]
+fn f64_bvh_matches_the_reference() {
+    let ctx = common::gpu();
+    for name in ["mesh.toml", "cones.toml"] {
+        let s = scene_file(name);
+        for accel in [AccelChoice::Bvh, AccelChoice::BvhStack] {
+            let gpu =
+                common::render_gpu_with(&ctx, &s, RenderOptions { accel, f64: true, ..Default::default() });
+            common::assert_matches_reference(
+                &format!("bvh-f64-{accel}-{name}"),
+                &gpu,
+                &common::reference_image(&s),
+            );
+        }
+    }
+}
+
+/// BVH and grid images of the same scene agree pixel for pixel in every shadow mode (hard,
+/// bundles over split passes, shells with the large-mesh walk, which walks the accelerator):
+/// the two find the same nearest hits, so they differ at most where two primitives are hit at
+/// the same distance (a shared edge) and each picks another. Measured on these scenes: none.
+#[test]
+fn bvh_and_grid_images_agree_in_every_shadow_mode() {
+    let ctx = common::gpu();
+    let modes = [
+        ShadowMode::Hard,
+        ShadowMode::Bundle { samples: 20, rotate: true },
+        ShadowMode::Shell { falloff: Default::default(), combine: Default::default() },
+    ];
+    for name in ["shadows.toml", "mesh.toml", "cones.toml"] {
+        for mode in modes {
+            let mut s = sized(scene_file(name), 96, 72);
+            s.trace.shadows = mode;
+            for l in &mut s.lights {
+                l.radius = l.radius.max(0.3);
+            }
+            let grid = common::render_gpu_with(&ctx, &s, with(AccelChoice::Grid));
+            for accel in [AccelChoice::Bvh, AccelChoice::BvhStack] {
+                let bvh = common::render_gpu_with(&ctx, &s, with(accel));
+                let diff = irt::metrics::compare(&bvh, &grid);
+                println!("{name} {mode:?} {accel}: {diff}");
+                assert!(diff.non_finite == 0 && diff.bad_pixels == 0.0, "{name} {mode:?} {accel}: {diff}");
+            }
+        }
+    }
+}
+
+/// The shell walk runs only for meshes past `SHELL_DIRECT_TRIANGLES`; mesh.toml's is, so the
+/// shell kernel above walked the BVH. Checked here so that test cannot pass by not walking.
+#[test]
+fn the_shell_test_scene_walks_the_accelerator() {
+    let mut s = scene_file("mesh.toml");
+    s.trace.shadows = ShadowMode::Shell { falloff: Default::default(), combine: Default::default() };
+    assert!(irt::scene::shells_walk_grid(&s));
+}
+
+fn session(ctx: &irt::gpu::GpuContext, scene: &Scene, accel: AccelChoice) -> Session {
+    let settings = Settings {
+        mode: Mode::Conventional { schedule: Schedule::Plain, workers: 0 },
+        max_samples: 1,
+        accel,
+        ..Settings::default()
+    };
+    Session::new(ctx, scene, settings).unwrap()
+}
+
+/// A moving scene with the BVH: the session rebuilds the tree at every time (no refit yet), and
+/// its image matches the reference of the posed scene and the grid session's.
+#[test]
+fn a_moving_scene_with_the_bvh_matches_the_reference_at_every_time() {
+    let ctx = common::gpu();
+    let scene = sized(scene_file("animated.toml"), 80, 60);
+    let mut bvh = session(&ctx, &scene, AccelChoice::Bvh);
+    let mut grid = session(&ctx, &scene, AccelChoice::Grid);
+    assert!(bvh.grid().is_none() && grid.grid().is_some());
+    for t in [0.5, 1.25, 3.0] {
+        let r = bvh.set_time(&ctx, t).unwrap();
+        assert!(r.grid.is_some() && !r.recompiled, "geometry moved: the BVH was rebuilt, same kernel");
+        grid.set_time(&ctx, t).unwrap();
+        bvh.complete_pass(&ctx);
+        grid.complete_pass(&ctx);
+        let image = bvh.read_image(&ctx);
+        let diff = irt::metrics::compare(&image, &grid.read_image(&ctx));
+        assert!(diff.bad_pixels == 0.0, "at {t}: BVH and grid sessions differ: {diff}");
+        common::assert_matches_reference(
+            &format!("bvh-session-t{t}"),
+            &image,
+            &common::reference_image(&scene.at(t)),
+        );
+    }
+}
+
+#[test]
+fn accel_names_parse_and_bad_ones_are_errors() {
+    for (name, choice) in AccelChoice::NAMES {
+        assert_eq!(name.parse::<AccelChoice>(), Ok(choice));
+        assert_eq!(choice.to_string(), name);
+    }
+    let err = "kd-tree".parse::<AccelChoice>().unwrap_err();
+    assert!(err.contains("kd-tree") && err.contains("grid, bvh"), "{err}");
+}
+
+/// `--accel auto` (accel::auto) on scenes where one accelerator clearly won in
+/// docs/performance.md's "Grid vs BVH" table (BVH / grid below 0.9 or above 1.2 there): the
+/// grid on the evenly filled random spheres, the BVH on the teapot in a stadium, the small flake
+/// on a large floor, the tree, the tetrahedra, gears and the tiny scenes.
+#[test]
+fn auto_picks_the_accelerator_that_won_on_each_scene() {
+    use irt::accel::{AccelKind, BvhWalk};
+    let bvh = AccelKind::Bvh(BvhWalk::Stackless);
+    for (name, want) in [
+        ("accel/random_spheres.nff", AccelKind::Grid),
+        ("accel/stadium.nff", bvh),
+        ("spd/balls_s4.nff", bvh),
+        ("spd/tree_s3.nff", bvh),
+        ("spd/tetra_s4.nff", bvh),
+        ("spd/gears_s1.nff", bvh),
+        ("spd/sombrero_s1.nff", bvh),
+        ("textured.toml", bvh),
+        ("cones.toml", bvh),
+    ] {
+        assert_eq!(AccelChoice::Auto.resolve(&scene_file(name)), want, "{name}");
+    }
+    assert_eq!(AccelChoice::Auto.resolve(&irt::scene::default_scene()), bvh, "default");
+    assert_eq!(AccelChoice::default(), AccelChoice::Auto);
+}
+
+/// The renderer builds what auto picks, and keeps the grid auto looked at rather than build it
+/// twice.
+#[test]
+fn the_renderer_builds_what_auto_picks() {
+    let ctx = common::gpu();
+    for (name, grid) in [("accel/random_spheres.nff", true), ("spd/tetra_s4.nff", false)] {
+        let s = sized(scene_file(name), 32, 32);
+        let r = irt::gpu::Renderer::new(&ctx, &s, RenderOptions::default()).expect("renderer");
+        assert_eq!(r.accel.grid().is_some(), grid, "{name}");
+        let kernel_walks_bvh = r.variant.accel != irt::gpu::layout::ACCEL_GRID;
+        assert_eq!(kernel_walks_bvh, !grid, "{name}: the kernel walks what was packed");
+    }
+}
