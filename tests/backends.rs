@@ -4,6 +4,7 @@ mod common;
 
 use common::*;
 use glam::DVec3;
+use irt::accel::AccelChoice;
 use irt::accel::Grid;
 use irt::gpu::vk::{self, VkContext, VkError, VkRenderer, VkScene};
 use irt::gpu::{AdapterChoice, GpuContext, GpuScene, RenderOptions, Renderer};
@@ -44,6 +45,8 @@ fn bands_agree_bit_for_bit() {
     let (ctx, vk) = (gpu(), vk_ctx());
     let counting = RenderOptions { count_rays: true, ..Default::default() };
     assert_same("default", &ctx, &vk, &load("scenes/default.toml", 96, 72), counting);
+    let grid = RenderOptions { accel: AccelChoice::Grid, ..counting };
+    assert_same("default, grid", &ctx, &vk, &load("scenes/default.toml", 96, 72), grid);
     assert_same("textured", &ctx, &vk, &load("scenes/textured.toml", 80, 60), RenderOptions::default());
     assert_same("dielectric", &ctx, &vk, &load("scenes/dielectric.toml", 80, 60), counting);
     assert_same("cones", &ctx, &vk, &load("scenes/cones.toml", 64, 48), RenderOptions::default());
@@ -379,7 +382,8 @@ fn live_changes_agree() {
     let target = Target::Sphere(grows.spheres.len() as u32 - 1);
     grows.motions.push(Animated { target, motion: Motion { stages } });
     grows.validate().unwrap();
-    let settings = Settings { mode: Mode::conventional(), ..Settings::default() };
+    // The grid's lists grow with the ball (a BVH's nodes keep their number).
+    let settings = Settings { mode: Mode::conventional(), accel: AccelChoice::Grid, ..Settings::default() };
     let mut a = Session::new(&ctx, &grows, settings.clone()).unwrap();
     let mut b = Session::new(&vk, &grows, settings).unwrap();
     for (t, grown) in [(1.0, true), (0.0, false)] {
@@ -392,7 +396,7 @@ fn live_changes_agree() {
 }
 
 /// Every scene of scenes/ and every SPD scene, small, in both kinds of mode (a conventional
-/// frame, a frameless pass) and in f64: the same bits on both paths.
+/// frame, a frameless pass), f32 and f64, grid and BVH: the same bits on both paths.
 #[test]
 fn every_scene_agrees_in_both_modes_and_precisions() {
     use irt::render::Mode;
@@ -406,18 +410,17 @@ fn every_scene_agrees_in_both_modes_and_precisions() {
     assert!(files.len() >= 20, "found only {} scenes", files.len());
     for file in &files {
         let s = load(file.to_str().unwrap(), 40, 30);
-        for (mode, f64) in
-            [(Mode::conventional(), false), (Mode::frameless(), false), (Mode::frameless(), true)]
-        {
-            let settings = Settings { mode, f64, max_samples: 1, ..Settings::default() };
-            assert_sessions_agree(
-                &format!("{} {mode} f64 {f64}", file.display()),
-                &ctx,
-                &vk,
-                &s,
-                settings,
-                0,
-            );
+        // Each accelerator in each kind of mode and precision, over the scenes.
+        let cases = [
+            (Mode::conventional(), false, AccelChoice::Grid),
+            (Mode::frameless(), false, AccelChoice::Auto),
+            (Mode::frameless(), true, AccelChoice::Grid),
+            (Mode::conventional(), true, AccelChoice::Bvh),
+        ];
+        for (mode, f64, accel) in cases {
+            let settings = Settings { mode, f64, accel, max_samples: 1, ..Settings::default() };
+            let what = format!("{} {mode} f64 {f64} {accel}", file.display());
+            assert_sessions_agree(&what, &ctx, &vk, &s, settings, 0);
         }
     }
 }
