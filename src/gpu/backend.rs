@@ -41,6 +41,37 @@ impl Dispatch {
         let rect = tile.rect;
         Dispatch { entry: entry.to_string(), tile, groups: [rect[2].div_ceil(8), rect[3].div_ceil(8), 1] }
     }
+
+    /// The `render` entry point over `tile.rect` with its 8x8 tiles dealt round-robin to
+    /// `threads` workers (see shaders/trace.wgsl): lavapipe splits a dispatch's workgroups into one
+    /// contiguous run per thread. `threads` ≤ 1, or more tiles than one dispatch row holds, is
+    /// [`Dispatch::over_rect`].
+    pub fn dealt(tile: Tile, threads: u32) -> Self {
+        let (nx, ny) = (tile.rect[2].div_ceil(8), tile.rect[3].div_ceil(8));
+        let tiles = nx * ny;
+        let run = tiles.div_ceil(threads.max(1));
+        if threads <= 1 || run * threads > MAX_GROUPS {
+            return Self::over_rect("render", Tile { work: [0; 4], ..tile });
+        }
+        let tile = Tile { work: [threads, nx, tiles, run], ..tile };
+        Dispatch { entry: "render".into(), tile, groups: [run * threads, 1, 1] }
+    }
+}
+
+/// Workgroups one dispatch dimension may hold (Vulkan's guaranteed minimum, lavapipe's limit).
+pub const MAX_GROUPS: u32 = 65_535;
+
+/// How many threads a device deals the band renderer's tiles to: lavapipe's pool
+/// (`LP_NUM_THREADS`, else one thread per core); 0 for a GPU, whose scheduler balances itself and
+/// whose caches prefer neighbouring workgroups on neighbouring tiles.
+pub fn dealing_threads(device: &impl Device) -> u32 {
+    if !device.is_cpu() {
+        return 0;
+    }
+    std::env::var("LP_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get() as u32))
 }
 
 /// What a recording asks of a backend, in order.
