@@ -290,12 +290,30 @@ fn eye_direction_at(p: vec2f) -> vec3f {
     return eye_direction(p.x, p.y);
 }
 
-// The headless bands: one invocation per pixel of `tile.rect`.
+// The headless bands: one invocation per pixel of `tile.rect`, in 8x8 tiles. With `tile.work.x`
+// = n > 0 the tiles are dealt (Dispatch::dealt): lavapipe hands each of its n threads a
+// contiguous run of c = work.w workgroups, so workgroup g traces tile (g mod c)·n + g div c of
+// work.z tiles in rows of work.y, and every thread's tiles spread over the whole rect instead of
+// one thread taking the sky and the other the objects.
 @compute @workgroup_size(8, 8, 1)
-fn render(@builtin(global_invocation_id) gid: vec3u) {
-    if gid.x >= tile.rect.z || gid.y >= tile.rect.w {
+fn render(
+    @builtin(global_invocation_id) gid: vec3u,
+    @builtin(workgroup_id) wg: vec3u,
+    @builtin(local_invocation_id) lid: vec3u,
+) {
+    var p = gid.xy;
+    let n = tile.work.x;
+    if n > 0u {
+        let c = tile.work.w;
+        let t = (wg.x % c) * n + wg.x / c;
+        if t >= tile.work.z {
+            return;
+        }
+        p = vec2u(t % tile.work.y, t / tile.work.y) * 8u + lid.xy;
+    }
+    if p.x >= tile.rect.z || p.y >= tile.rect.w {
         return;
     }
     loop_iters = 0u;
-    trace_pixel(tile.rect.x + gid.x, tile.rect.y + gid.y);
+    trace_pixel(tile.rect.x + p.x, tile.rect.y + p.y);
 }

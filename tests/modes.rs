@@ -385,3 +385,19 @@ fn live_settings_give_what_a_fresh_session_gives() {
     }
     assert_same("back to the start", &live.read_image(&ctx), &first);
 }
+
+/// Dealing the band renderer's tiles to the device's threads (`RenderOptions::deal`) changes
+/// only which workgroup traces which tile: the same picture, bit for bit, for any thread count.
+#[test]
+fn dealt_tiles_give_the_picture_of_tiles_in_order() {
+    let ctx = common::gpu();
+    let scene = small_default(131, 67);
+    let render = |deal| {
+        let opts = irt::gpu::RenderOptions { deal: Some(deal), ..Default::default() };
+        irt::gpu::Renderer::new(&ctx, &scene, opts).unwrap().render(&ctx, &mut |_, _| {}).image
+    };
+    let in_order = render(0);
+    for threads in [2, 3, 5] {
+        assert_same(&format!("dealt to {threads}"), &in_order, &render(threads));
+    }
+}

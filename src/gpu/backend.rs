@@ -41,6 +41,37 @@ impl Dispatch {
         let rect = tile.rect;
         Dispatch { entry: entry.to_string(), tile, groups: [rect[2].div_ceil(8), rect[3].div_ceil(8), 1] }
     }
+
+    /// The `render` entry point over `tile.rect` with its 8x8 tiles dealt round-robin to
+    /// `threads` workers (see shaders/trace.wgsl): lavapipe splits a dispatch's workgroups into one
+    /// contiguous run per thread. `threads` ≤ 1, or more tiles than one dispatch row holds, is
+    /// [`Dispatch::over_rect`].
+    pub fn dealt(tile: Tile, threads: u32) -> Self {
+        let (nx, ny) = (tile.rect[2].div_ceil(8), tile.rect[3].div_ceil(8));
+        let tiles = nx * ny;
+        let run = tiles.div_ceil(threads.max(1));
+        if threads <= 1 || run * threads > MAX_GROUPS {
+            return Self::over_rect("render", Tile { work: [0; 4], ..tile });
+        }
+        let tile = Tile { work: [threads, nx, tiles, run], ..tile };
+        Dispatch { entry: "render".into(), tile, groups: [run * threads, 1, 1] }
+    }
+}
+
+/// Workgroups one dispatch dimension may hold (Vulkan's guaranteed minimum, lavapipe's limit).
+pub const MAX_GROUPS: u32 = 65_535;
+
+/// How many threads a device deals the band renderer's tiles to: lavapipe's pool
+/// (`LP_NUM_THREADS`, else one thread per core); 0 for a GPU, whose scheduler balances itself and
+/// whose caches prefer neighbouring workgroups on neighbouring tiles.
+pub fn dealing_threads(device: &impl Device) -> u32 {
+    if !device.is_cpu() {
+        return 0;
+    }
+    std::env::var("LP_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get() as u32))
 }
 
 /// What a recording asks of a backend, in order.
@@ -323,4 +354,46 @@ pub fn dispatch_overhead<B: ComputeBackend>(
     }
     times.sort();
     Ok(times[times.len() / 2])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shader's dealing (shaders/trace.wgsl, `render`) reaches every tile exactly once, and
+    /// each thread's contiguous run of workgroups spreads over the rect.
+    #[test]
+    fn dealt_tiles_cover_the_rect_once() {
+        for (w, h) in [(512, 32), (131, 67), (8, 8), (1, 1), (1000, 16)] {
+            for threads in [2, 3, 4, 7, 16] {
+                let d = Dispatch::dealt(Tile::whole([0, 0, w, h]), threads);
+                let [n, nx, tiles, run] = d.tile.work;
+                assert_eq!((n, nx, tiles), (threads, w.div_ceil(8), w.div_ceil(8) * h.div_ceil(8)));
+                assert_eq!(d.groups, [run * threads, 1, 1]);
+                let mut seen = vec![0u32; tiles as usize];
+                let mut first_run = Vec::new();
+                for g in 0..d.groups[0] {
+                    let t = (g % run) * n + g / run;
+                    if t < tiles {
+                        seen[t as usize] += 1;
+                        if g < run {
+                            first_run.push(t);
+                        }
+                    }
+                }
+                assert!(seen.iter().all(|&c| c == 1), "{w}x{h}, {threads} threads: {seen:?}");
+                // The first thread's tiles: every n-th, from the first tile to near the last.
+                if tiles >= 2 * threads {
+                    assert!(*first_run.last().unwrap() + n >= tiles, "{w}x{h}, {threads}: {first_run:?}");
+                }
+            }
+        }
+        // One thread, or too many tiles for one dispatch row: in order.
+        assert_eq!(
+            Dispatch::dealt(Tile::whole([0, 0, 64, 64]), 1),
+            Dispatch::over_rect("render", Tile::whole([0, 0, 64, 64]))
+        );
+        let huge = Dispatch::dealt(Tile::whole([0, 0, 8 * 1024, 8 * 1024]), 2);
+        assert_eq!((huge.tile.work[0], huge.groups), (0, [1024, 1024, 1]));
+    }
 }

@@ -178,8 +178,9 @@ pub struct Tile {
     /// their share of the light to the output) and whether it is the last (which updates the
     /// frame buffer). See [`Tile::whole`].
     pub pass_range: [u32; 4],
-    /// `render_queue`: chunks in the boundary array, tiles per workgroup (its budget), tile
-    /// columns, unused. `render_slice`: first position, positions, [`ORDER_TABLE`] or
+    /// `render`: threads the 8x8 tiles are dealt to (0: in order), tiles per row, tiles, tiles per
+    /// thread (`backend::Dispatch::dealt`). `render_queue`: chunks in the boundary array, tiles
+    /// per workgroup (its budget), tile columns, unused. `render_slice`: first position, positions, [`ORDER_TABLE`] or
     /// [`ORDER_DISSOLVE`], the dissolve's bits.
     pub work: [u32; 4],
     /// Progressive-refinement sample index, frame flags (`FRAME_*`), the dissolve's state at the

@@ -32,6 +32,9 @@ pub struct RenderOptions {
     pub max_scene_rows: Option<u32>,
     /// The accelerator: the grid, a BVH, or chosen per scene (`--accel`).
     pub accel: AccelChoice,
+    /// Deal each band's tiles to this many device threads (0: in order); `None`: the device's
+    /// (`backend::dealing_threads`).
+    pub deal: Option<u32>,
 }
 
 /// How long each stage of setting up took.
@@ -104,6 +107,9 @@ pub struct Bands {
     pub grid_size: [u32; 2],
     /// The `Tile::pass` of each pass over the image (one unless a bundle is split).
     pub passes: Vec<[u32; 4]>,
+    /// Each band's tiles dealt round-robin to this many device threads ([`Dispatch::dealt`];
+    /// 0: in order).
+    pub deal: u32,
 }
 
 impl Bands {
@@ -122,7 +128,7 @@ impl Bands {
             let band = BAND_ROWS.min(rows - y);
             for &pass in &self.passes {
                 let tile = Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() };
-                commands.push(Command::Dispatch(Dispatch::over_rect("render", tile)));
+                commands.push(Command::Dispatch(Dispatch::dealt(tile, self.deal)));
             }
             y += band;
             commands.push(Command::Progress { done: y, total: rows });
@@ -209,7 +215,7 @@ pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> P
     } else {
         Variant { f64: opts.f64, ..Variant::for_scene(scene, opts.count_rays) }
     };
-    let bands = Bands { width, height, grid_size, passes: passes(scene) };
+    let bands = Bands { width, height, grid_size, passes: passes(scene), deal: 0 };
     Prepared { accel, packed, params, variant, bands, grid_build }
 }
 
@@ -226,7 +232,9 @@ impl<D: Device> Renderer<D> {
         progress: SetupProgress,
     ) -> Result<Self, String> {
         let t1 = Instant::now();
-        let Prepared { accel, packed, params, variant, bands, grid_build } = prepare(scene, opts, progress);
+        let Prepared { accel, packed, params, variant, mut bands, grid_build } =
+            prepare(scene, opts, progress);
+        bands.deal = opts.deal.unwrap_or_else(|| super::backend::dealing_threads(ctx));
         let gpu_scene = ctx.upload(packed, params, opts.max_scene_rows)?;
         let t2 = Instant::now();
         let dispatcher =

@@ -603,7 +603,7 @@ impl<D: Device> Session<D> {
                     jitter: [jitter[0], jitter[1], 0.0, 0.0],
                     ..Tile::default()
                 };
-                Command::Dispatch(Dispatch::over_rect("render", tile))
+                Command::Dispatch(Dispatch::dealt(tile, crate::gpu::backend::dealing_threads(ctx)))
             })
             .collect();
         self.run(ctx, &Recording { commands })?;
