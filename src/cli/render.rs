@@ -84,13 +84,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         if args.stats {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
-        let settings = Settings {
-            mode,
-            f64: args.scene.f64(),
-            accel: args.scene.accel,
-            max_samples: 1,
-            ..Settings::default()
-        };
+        let settings = one_picture(&args, mode);
         return match args.backend {
             super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
             super::Backend::Ash => one_pass(
@@ -150,6 +144,12 @@ fn bands<D: Device>(
     write(args, format, &frame.image, scene, elapsed, ctx.adapter_name(), how)?;
     print_stats(args, &frame);
     Ok(())
+}
+
+/// The settings of a headless picture in `mode`: one sample, the scene arguments' precision and
+/// accelerator (`--mode`, and each frame of `--frames`).
+pub fn one_picture(args: &RenderArgs, mode: irt::render::Mode) -> Settings {
+    Settings { mode, f64: args.scene.f64(), accel: args.scene.accel, max_samples: 1, ..Settings::default() }
 }
 
 /// One complete frame (conventional) or pass (frameless) of an interactive mode, on `ctx`'s path.

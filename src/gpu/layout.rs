@@ -421,14 +421,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
                 }
                 t.push(texel);
             }
-            let ref_base = t.len() as u32;
-            for chunk in grid.prim_refs.chunks(REFS_PER_TEXEL as usize) {
-                let mut texel = [0u32; 4];
-                for (k, r) in chunk.iter().enumerate() {
-                    texel[k] = r.0;
-                }
-                t.push(texel);
-            }
+            let ref_base = push_refs(&mut t, &grid.prim_refs);
             let macro_base = t.len() as u32;
             for chunk in grid.macro_bits.chunks(4) {
                 let mut texel = [0u32; 4];
@@ -444,14 +437,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
                 t.push(a);
                 t.push(b);
             }
-            let ref_base = t.len() as u32;
-            for chunk in bvh.refs.chunks(REFS_PER_TEXEL as usize) {
-                let mut texel = [0u32; 4];
-                for (k, r) in chunk.iter().enumerate() {
-                    texel[k] = r.0;
-                }
-                t.push(texel);
-            }
+            let ref_base = push_refs(&mut t, &bvh.refs);
             [node_base, ref_base, bvh.nodes.len() as u32]
         }
     };
@@ -586,6 +572,20 @@ pub fn params<'a>(
     }
     set_camera(&mut p, cam, origin);
     p
+}
+
+/// Appends `refs` to the scene texels, [`REFS_PER_TEXEL`] to a texel (the grid's cell lists and
+/// the BVH's leaves alike); returns the texel they start at.
+fn push_refs(t: &mut Vec<[u32; 4]>, refs: &[PrimRef]) -> u32 {
+    let base = t.len() as u32;
+    for chunk in refs.chunks(REFS_PER_TEXEL as usize) {
+        let mut texel = [0u32; 4];
+        for (k, r) in chunk.iter().enumerate() {
+            texel[k] = r.0;
+        }
+        t.push(texel);
+    }
+    base
 }
 
 /// The device's nodes of `bvh`, boxes relative to `origin`: each rounded outward to f32 and
