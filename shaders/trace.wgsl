@@ -290,12 +290,13 @@ fn eye_direction_at(p: vec2f) -> vec3f {
     return eye_direction(p.x, p.y);
 }
 
-// The headless bands: one invocation per pixel of `tile.rect`, in 8x8 tiles. With `tile.work.x`
+// The headless bands: one invocation per pixel of `tile.rect`, in tiles of RENDER_TILE_W x
+// RENDER_TILE_H (layout::RENDER_TILE: 4x2-pixel SIMD groups on lavapipe). With `tile.work.x`
 // = n > 0 the tiles are dealt (Dispatch::dealt): lavapipe hands each of its n threads a
 // contiguous run of c = work.w workgroups, so workgroup g traces tile (g mod c)·n + g div c of
 // work.z tiles in rows of work.y, and every thread's tiles spread over the whole rect instead of
 // one thread taking the sky and the other the objects.
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(RENDER_TILE_W, RENDER_TILE_H, 1)
 fn render(
     @builtin(global_invocation_id) gid: vec3u,
     @builtin(workgroup_id) wg: vec3u,
@@ -309,7 +310,7 @@ fn render(
         if t >= tile.work.z {
             return;
         }
-        p = vec2u(t % tile.work.y, t / tile.work.y) * 8u + lid.xy;
+        p = vec2u(t % tile.work.y, t / tile.work.y) * vec2u(RENDER_TILE_W, RENDER_TILE_H) + lid.xy;
     }
     if p.x >= tile.rect.z || p.y >= tile.rect.w {
         return;

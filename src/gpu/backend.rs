@@ -35,23 +35,27 @@ pub struct Dispatch {
 }
 
 impl Dispatch {
-    /// `entry` over the invocations of `tile.rect` in 8x8 workgroups (the `render` entry point and
-    /// the readback kernels).
+    /// `entry` over the invocations of `tile.rect` in 8x8 workgroups (the readback kernels).
     pub fn over_rect(entry: &str, tile: Tile) -> Self {
         let rect = tile.rect;
         Dispatch { entry: entry.to_string(), tile, groups: [rect[2].div_ceil(8), rect[3].div_ceil(8), 1] }
     }
 
-    /// The `render` entry point over `tile.rect` with its 8x8 tiles dealt round-robin to
-    /// `threads` workers (see shaders/trace.wgsl): lavapipe splits a dispatch's workgroups into one
-    /// contiguous run per thread. `threads` ≤ 1, or more tiles than one dispatch row holds, is
-    /// [`Dispatch::over_rect`].
+    /// The `render` entry point over `tile.rect` with its tiles (`layout::RENDER_TILE`) dealt
+    /// round-robin to `threads` workers (see shaders/trace.wgsl): lavapipe splits a dispatch's
+    /// workgroups into one contiguous run per thread. `threads` ≤ 1, or more tiles than one
+    /// dispatch row holds: the tiles in order, one workgroup each.
     pub fn dealt(tile: Tile, threads: u32) -> Self {
-        let (nx, ny) = (tile.rect[2].div_ceil(8), tile.rect[3].div_ceil(8));
+        let [tw, th] = super::layout::RENDER_TILE;
+        let (nx, ny) = (tile.rect[2].div_ceil(tw), tile.rect[3].div_ceil(th));
         let tiles = nx * ny;
         let run = tiles.div_ceil(threads.max(1));
         if threads <= 1 || run * threads > MAX_GROUPS {
-            return Self::over_rect("render", Tile { work: [0; 4], ..tile });
+            return Dispatch {
+                entry: "render".into(),
+                tile: Tile { work: [0; 4], ..tile },
+                groups: [nx, ny, 1],
+            };
         }
         let tile = Tile { work: [threads, nx, tiles, run], ..tile };
         Dispatch { entry: "render".into(), tile, groups: [run * threads, 1, 1] }
@@ -368,7 +372,8 @@ mod tests {
             for threads in [2, 3, 4, 7, 16] {
                 let d = Dispatch::dealt(Tile::whole([0, 0, w, h]), threads);
                 let [n, nx, tiles, run] = d.tile.work;
-                assert_eq!((n, nx, tiles), (threads, w.div_ceil(8), w.div_ceil(8) * h.div_ceil(8)));
+                let [tw, th] = crate::gpu::layout::RENDER_TILE;
+                assert_eq!((n, nx, tiles), (threads, w.div_ceil(tw), w.div_ceil(tw) * h.div_ceil(th)));
                 assert_eq!(d.groups, [run * threads, 1, 1]);
                 let mut seen = vec![0u32; tiles as usize];
                 let mut first_run = Vec::new();
@@ -389,11 +394,10 @@ mod tests {
             }
         }
         // One thread, or too many tiles for one dispatch row: in order.
-        assert_eq!(
-            Dispatch::dealt(Tile::whole([0, 0, 64, 64]), 1),
-            Dispatch::over_rect("render", Tile::whole([0, 0, 64, 64]))
-        );
+        let [tw, th] = crate::gpu::layout::RENDER_TILE;
+        let one = Dispatch::dealt(Tile::whole([0, 0, 64, 64]), 1);
+        assert_eq!((one.tile.work, one.groups), ([0; 4], [64 / tw, 64 / th, 1]));
         let huge = Dispatch::dealt(Tile::whole([0, 0, 8 * 1024, 8 * 1024]), 2);
-        assert_eq!((huge.tile.work[0], huge.groups), (0, [1024, 1024, 1]));
+        assert_eq!((huge.tile.work[0], huge.groups), (0, [8 * 1024 / tw, 8 * 1024 / th, 1]));
     }
 }

@@ -312,7 +312,6 @@ pub struct Dispatcher {
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
     pipelines: Mutex<Vec<(String, wgpu::ComputePipeline)>>,
-    entry: String,
     bind_group_layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
     in_buf: wgpu::Buffer,
@@ -358,8 +357,9 @@ impl Dispatcher {
         self.variant
     }
 
-    /// Compiles `entry` of `kernel` for `variant` and binds it to `scene`, an output buffer of
-    /// `out_len` vec4s and the read-only input `inputs` (test kernels; may be empty).
+    /// Compiles `kernel` for `variant` (the module labelled `entry`; a pipeline per entry point at
+    /// its first run) and binds it to `scene`, an output buffer of `out_len` vec4s and the
+    /// read-only input `inputs` (test kernels; may be empty).
     pub fn new(
         ctx: &GpuContext,
         scene: &GpuScene,
@@ -438,7 +438,6 @@ impl Dispatcher {
             module,
             pipeline_layout,
             pipelines: Mutex::new(Vec::new()),
-            entry: entry.to_string(),
             bind_group_layout: bgl,
             bind_group,
             in_buf,
@@ -579,18 +578,6 @@ impl Dispatcher {
     /// Clears the ray counters.
     pub fn reset_counts(&self, ctx: &GpuContext) {
         ctx.queue.write_buffer(&self.stats_buf, 0, &[0u8; 16]);
-    }
-
-    /// Runs the kernel over `rect` = (x0, y0, width, height) invocations in 8x8 workgroups and
-    /// waits for it.
-    pub fn dispatch(&self, ctx: &GpuContext, rect: [u32; 4]) {
-        self.dispatch_tile(ctx, Tile::whole(rect));
-    }
-
-    /// [`Self::dispatch`] with an explicit pass (bundle sample range).
-    pub fn dispatch_tile(&self, ctx: &GpuContext, tile: Tile) {
-        let rect = tile.rect;
-        self.run(ctx, &self.entry, tile, [rect[2].div_ceil(8), rect[3].div_ceil(8), 1]);
     }
 
     /// Reads back the output buffer and the ray counters.

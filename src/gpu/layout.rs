@@ -199,6 +199,12 @@ impl Tile {
 }
 
 /// Tiles of the conventional mode: 32×2 pixels, RTRT's own; one workgroup traces one tile.
+/// The band renderer's workgroup (`render` in shaders/trace.wgsl): 4 pixels wide and 16 tall, 64
+/// invocations. Lavapipe cuts its 8-lane SIMD groups from the linear local index (Mesa ≥ 24.1,
+/// ../shared/LAVAPIPE.md), so each group is a 4×2 block of pixels instead of an 8×1 row: closer
+/// rays, fewer lanes waiting on a neighbour's longer walk (docs/performance.md, "Lane shape").
+pub const RENDER_TILE: [u32; 2] = [4, 16];
+
 pub const TILE_W: u32 = 32;
 pub const TILE_H: u32 = 2;
 
@@ -683,6 +689,8 @@ pub fn wgsl_constants() -> String {
         s += &c(&format!("FILTER_{}", name.to_uppercase()), filter_code(f));
     }
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
+    s += &c("RENDER_TILE_W", RENDER_TILE[0]);
+    s += &c("RENDER_TILE_H", RENDER_TILE[1]);
     s += &c("TILE_W", TILE_W);
     s += &c("TILE_H", TILE_H);
     s += &c("MAX_CHUNK_TILES", MAX_CHUNK_TILES);
