@@ -834,10 +834,10 @@ const _: () = assert!(TILE_W * TILE_H == 64);
 
 impl Schedule {
     /// The workers P a schedule is built for by default on `ctx`'s device: lavapipe's threads
-    /// (its pool is one thread per core), or a GPU's many workgroups in flight.
+    /// (`backend::dealing_threads`: `LP_NUM_THREADS`, else one a core), or a GPU's many workgroups in flight.
     pub fn default_workers(ctx: &impl Device) -> u32 {
         if ctx.is_cpu() {
-            std::thread::available_parallelism().map_or(2, |n| n.get() as u32)
+            crate::gpu::backend::dealing_threads(ctx)
         } else {
             256
         }
