@@ -208,9 +208,12 @@ fn print_stats(args: &RenderArgs, frame: &irt::gpu::Frame) {
             r.total()
         );
         println!(
-            "shader loop iterations: at most {} per pixel and pass (lavapipe's limit is {})",
+            "shader loop iterations: at most {} per pixel and pass (lavapipe's limit is {}), \
+             {:.1} per pixel on average; SIMD lanes busy at most {:.0}% of their loop iterations",
             frame.max_loop_iterations,
-            irt::gpu::layout::LAVAPIPE_LOOP_LIMIT
+            irt::gpu::layout::LAVAPIPE_LOOP_LIMIT,
+            frame.loops.mean,
+            frame.loops.occupancy * 100.0
         );
     }
 }

@@ -83,6 +83,48 @@ pub struct Frame {
     pub max_loop_iterations: u32,
     /// Eye rays that hit something (SPD reports these); always counted, from the output's alpha.
     pub eye_hits: u64,
+    /// Loop iterations per pixel and how busy lavapipe's SIMD lanes were ([`LoopMeter`]).
+    pub loops: LoopMeter,
+}
+
+/// What the shader's loop meter says of a frame: the mean loop iterations per pixel, and the
+/// lanes' occupancy: lavapipe runs [`SIMD_LANES`] invocations together (a 4x2-pixel block of a
+/// [`layout::RENDER_TILE`] workgroup) and a block's loops run until its busiest lane is done,
+/// so occupancy = Σ lane iterations / Σ blocks (lanes × the block's most). It is an upper
+/// bound: the meter sums all of a pixel's loops, and each loop waits for its own slowest lane.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LoopMeter {
+    pub mean: f64,
+    pub occupancy: f64,
+}
+
+/// Invocations lavapipe runs in one SIMD group (256-bit vectors of 32-bit lanes).
+pub const SIMD_LANES: u32 = 8;
+
+impl LoopMeter {
+    /// The meter of a `cols` x `rows` grid of per-pixel loop iterations (row-major).
+    pub fn of(iterations: &[u32], cols: u32, rows: u32) -> Self {
+        let (bw, bh) = (layout::RENDER_TILE[0], SIMD_LANES / layout::RENDER_TILE[0]);
+        let (mut sum, mut executed) = (0u64, 0u64);
+        for by in (0..rows).step_by(bh as usize) {
+            for bx in (0..cols).step_by(bw as usize) {
+                let mut most = 0u64;
+                for y in by..(by + bh).min(rows) {
+                    for x in bx..(bx + bw).min(cols) {
+                        let n = iterations[(y * cols + x) as usize] as u64;
+                        sum += n;
+                        most = most.max(n);
+                    }
+                }
+                executed += most * SIMD_LANES as u64;
+            }
+        }
+        let pixels = (cols as u64 * rows as u64).max(1);
+        LoopMeter {
+            mean: sum as f64 / pixels as f64,
+            occupancy: if executed == 0 { 1.0 } else { sum as f64 / executed as f64 },
+        }
+    }
 }
 
 /// What [`Renderer::with_progress`] reports: the stage, and how far it is (`done` of `total`).
@@ -153,7 +195,9 @@ impl Bands {
         // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
         let meter = |p: &[f32; 4]| p[3] as u32;
         let eye_hits = out.iter().filter(|p| meter(p) & 1 == 1).count() as u64;
-        let max_loop_iterations = out.iter().map(|p| meter(p) >> 1).max().unwrap_or(0);
+        let iterations: Vec<u32> = out.iter().map(|p| meter(p) >> 1).collect();
+        let max_loop_iterations = iterations.iter().copied().max().unwrap_or(0);
+        let loops = LoopMeter::of(&iterations, cols, out.len() as u32 / cols.max(1));
         if max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
             log::warn!(
                 "a pixel ran {max_loop_iterations} shader loop iterations; lavapipe stops loops after \
@@ -178,6 +222,7 @@ impl Bands {
             rays,
             max_loop_iterations,
             eye_hits,
+            loops,
         }
     }
 }
