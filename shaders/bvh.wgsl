@@ -1,7 +1,7 @@
 // BVH traversal (src/accel/bvh.rs builds the tree, src/gpu/layout.rs packs it: `BvhNode`).
 // Nodes are depth-first, the left child next to its parent; an inner node's `a` is its escape
-// (the first node after its subtree), `b` its axis and right child; a leaf's `a` is its first
-// primitive reference, `b` their count. Both walks test one node's box per loop iteration, so a
+// (the first node after its subtree), `b` its axis and right child; a leaf's `a` is its texel
+// of primitive references, `b` their count. Both walks test one node's box per loop iteration, so a
 // lavapipe iteration (which every lane pays for, taken branch or not) is one box test plus the
 // masked leaf loop.
 
@@ -33,11 +33,13 @@ fn bvh_inv_dir(d: vec3f) -> vec3r {
     return vec3r(1.0) / vec3r(safe);
 }
 
-// The leaf's primitives against the ray: `best` updated; true when `any_hit` and one was hit.
-fn bvh_leaf(n: BvhNode, o: vec3f, d: vec3f, t_min: f32, any_hit: bool, triangles_only: bool, best: ptr<function, Hit>) -> bool {
-    for (var k = 0u; k < n.b; k++) {
+// A leaf's primitives against the ray: `count` (at most 4) references in the one texel
+// `refs_texel`; `best` updated; true when `any_hit` and one was hit.
+fn bvh_leaf(refs_texel: u32, count: u32, o: vec3f, d: vec3f, t_min: f32, any_hit: bool, triangles_only: bool, best: ptr<function, Hit>) -> bool {
+    let refs = texel(params.grid_base.y + refs_texel);
+    for (var k = 0u; k < count; k++) {
         loop_iters += 1u;
-        let r = prim_ref(n.a + k);
+        let r = refs[k];
         if triangles_only && prim_kind(r) != PRIM_TRIANGLE {
             continue;
         }
@@ -79,7 +81,7 @@ fn bvh_walk_stack(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, tri
                 next = select(i + 1u, right, flip);
                 stack[sp] = select(right, i + 1u, flip);
                 sp += 1u;
-            } else if bvh_leaf(n, o, d, t_min, any_hit, triangles_only, &best) {
+            } else if bvh_leaf(n.a, n.b, o, d, t_min, any_hit, triangles_only, &best) {
                 return best;
             }
         }
@@ -95,24 +97,39 @@ fn bvh_walk_stack(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, tri
     return best;
 }
 
-// The same without a stack: the nodes in their depth-first order, a missed inner node's subtree
-// skipped by its escape link. Cheaper per iteration, but children come in a fixed order, so a
-// closest-hit ray cannot visit the near side first.
+// Compact node texel `q` decoded: its box `base + q * step` (as the host's quantise_node
+// rounded it, fused or not), `a` its link word.
+fn bvh_qnode(q: vec4u, base: vec3f, step: vec3f) -> BvhNode {
+    let lo = fma(vec3f(vec3u(q.x & 0xffffu, q.x >> 16u, q.y & 0xffffu)), step, base);
+    let hi = fma(vec3f(vec3u(q.y >> 16u, q.z & 0xffffu, q.z >> 16u)), step, base);
+    return BvhNode(lo, q.w, hi, 0u);
+}
+
+// The same without a stack, over compact nodes (one texel: the box in 16-bit steps of the
+// lattice `params.grid_min + q * params.grid_cell`, then the link word; layout.rs,
+// quantise_node): the nodes in their depth-first order, a missed inner node's subtree skipped by
+// its escape link. One fetch, a decode and a slab test per iteration; children come in a fixed
+// order, so a closest-hit ray cannot visit the near side first.
 fn bvh_walk_stackless(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangles_only: bool) -> Hit {
     var best = Hit(t_max, NO_HIT, 0.0, 0.0);
     let or = vec3r(o);
     let inv_d = bvh_inv_dir(d);
+    // Hoisted by hand: lavapipe moves nothing out of loops.
     let count = params.grid_base.z;
+    let nodes = params.grid_base.x;
+    let base = params.grid_min.xyz;
+    let step = params.grid_cell.xyz;
     var i = 0u;
     loop {
         loop_iters += 1u;
-        let n = load_bvh_node(i);
+        let n = bvh_qnode(texel(nodes + i), base, step);
         let hit = bvh_box(n, or, inv_d, real(t_min), real(best.t));
-        let inner = (n.b & BVH_INNER) != 0u;
-        if hit && !inner && bvh_leaf(n, o, d, t_min, any_hit, triangles_only, &best) {
+        let inner = (n.a & BVH_INNER) != 0u;
+        let link = n.a & ~BVH_INNER;
+        if hit && !inner && bvh_leaf(link & ((1u << BVH_COUNT_SHIFT) - 1u), link >> BVH_COUNT_SHIFT, o, d, t_min, any_hit, triangles_only, &best) {
             return best;
         }
-        i = select(i + 1u, n.a, inner && !hit);
+        i = select(i + 1u, link, inner && !hit);
         if i >= count {
             break;
         }

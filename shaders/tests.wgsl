@@ -233,3 +233,14 @@ fn k_shell_cell(@builtin(global_invocation_id) gid: vec3u) {
     if i == NO_HIT { return; }
     out_buf[i] = vec4f(bitcast<f32>(shell_cell(test_in[i].xyz)), 0.0, 0.0, 0.0);
 }
+
+// in: (node index, 0, 0, 0) -> (lo, link bits), (hi, 0): a compact BVH node of the uploaded
+// scene as the stackless walk decodes it (a scene packed for `--accel bvh`).
+@compute @workgroup_size(8, 8, 1)
+fn k_bvh_qnode(@builtin(global_invocation_id) gid: vec3u) {
+    let i = item(gid);
+    if i == NO_HIT { return; }
+    let n = bvh_qnode(texel(params.grid_base.x + bitcast<u32>(test_in[i].x)), params.grid_min.xyz, params.grid_cell.xyz);
+    out_buf[2u * i] = vec4f(n.lo, bitcast<f32>(n.a));
+    out_buf[2u * i + 1u] = vec4f(n.hi, 0.0);
+}

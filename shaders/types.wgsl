@@ -30,7 +30,8 @@ struct Params {
     lights: array<Light, MAX_LIGHTS>,
 }
 
-// A BVH node (two texels of the scene texture; src/gpu/layout.rs, BvhNode).
+// A BVH node of the stack walk (two texels of the scene texture; src/gpu/layout.rs, BvhNode).
+// The stackless walk reads compact one-texel nodes instead (layout.rs, quantise_node).
 struct BvhNode {
     lo: vec3f,
     a: u32,

@@ -206,3 +206,56 @@ fn the_renderer_builds_what_auto_picks() {
         assert_eq!(kernel_walks_bvh, !grid, "{name}: the kernel walks what was packed");
     }
 }
+
+/// The shader's decode of compact nodes (`bvh_qnode`, through the readback kernel
+/// `k_bvh_qnode`) against the host's: each decoded box is the host's fused or unfused decode
+/// and holds the node's f32 box, the link word comes through unchanged. Scenes with spheres and
+/// triangles, packed relative to the eye and to a point 1e5 away.
+#[test]
+fn shader_decodes_compact_nodes_as_the_host_packs_them() {
+    use irt::accel::{AccelRef, Bvh, BvhWalk};
+    use irt::gpu::layout::{bvh_nodes, decode_qnode, pack_scene, params, quantise_node, BvhLattice};
+    let ctx = common::gpu();
+    for name in ["spd/balls_s2.nff", "spd/teapot_s2.nff", "mesh.toml"] {
+        let s = scene_file(name);
+        let bvh = Bvh::build(&s);
+        for origin in [s.camera.eye, s.camera.eye + glam::DVec3::splat(1e5)] {
+            let accel = AccelRef::Bvh(&bvh, BvhWalk::Stackless);
+            let packed = pack_scene(&s, accel, origin);
+            let p = params(&s, accel, &packed, origin);
+            let scene = irt::gpu::GpuScene::upload_packed(&ctx, packed, p).expect("upload");
+            let nodes = bvh_nodes(&bvh, origin);
+            let inputs: Vec<[f32; 4]> =
+                (0..nodes.len()).map(|i| [f32::from_bits(i as u32), 0.0, 0.0, 0.0]).collect();
+            let out =
+                irt::gpu::readback::run_kernel(&ctx, &scene, "k_bvh_qnode", &inputs, nodes.len() as u32, 2);
+            let lattice = BvhLattice::of(&bvh, origin);
+            for (i, n) in nodes.iter().enumerate() {
+                let t = quantise_node(n, &lattice);
+                let (lo, hi) = decode_qnode(t, &lattice);
+                let (glo, ghi) = (&out[2 * i][..3], &out[2 * i + 1][..3]);
+                assert_eq!(out[2 * i][3].to_bits(), t[3], "{name}: node {i} link");
+                for k in 0..3 {
+                    assert!(
+                        glo[k] <= n.lo[k] && ghi[k] >= n.hi[k],
+                        "{name}: node {i} axis {k} loses its box"
+                    );
+                    // The device fuses the decode's multiply-add or not: within an ulp of the
+                    // host's fused decode either way.
+                    assert!(
+                        (glo[k] - lo[k]).abs() <= lo[k].abs().max(lattice.base[k].abs()) * f32::EPSILON,
+                        "{name}: node {i} axis {k}: {} vs {}",
+                        glo[k],
+                        lo[k]
+                    );
+                    assert!(
+                        (ghi[k] - hi[k]).abs() <= hi[k].abs().max(lattice.base[k].abs()) * f32::EPSILON,
+                        "{name}: node {i} axis {k}: {} vs {}",
+                        ghi[k],
+                        hi[k]
+                    );
+                }
+            }
+        }
+    }
+}

@@ -44,8 +44,22 @@ pub const PIXELS_PER_TEXEL: u32 = 4;
 pub const CELLS_PER_TEXEL: u32 = 2;
 pub const REFS_PER_TEXEL: u32 = 4;
 pub const MACRO_BITS_PER_TEXEL: u32 = 128;
-/// BVH nodes: one [`BvhNode`] (two texels) each.
+/// BVH nodes of the stack walk: one [`BvhNode`] (two texels) each.
 pub const BVH_NODE_TEXELS: u32 = 2;
+/// BVH nodes of the stackless walk: one texel each ([`quantise_node`]): the box as six 16-bit
+/// steps of the lattice [`BvhLattice`] (`[lo.x | lo.y << 16, lo.z | hi.x << 16, hi.y | hi.z <<
+/// 16]`), then the link word: an inner node's [`BVH_INNER`] | escape, a leaf's count <<
+/// [`BVH_COUNT_SHIFT`] | its reference texel. Half the fetches of a [`BvhNode`], which is what a
+/// lavapipe loop iteration pays most for (docs/performance.md, "Compact nodes").
+pub const BVH_QNODE_TEXELS: u32 = 1;
+/// A compact leaf's primitive count sits above this bit of its link word.
+pub const BVH_COUNT_SHIFT: u32 = 28;
+/// The largest step of a compact node's box coordinates.
+pub const BVH_QUANT_MAX: u32 = 0xffff;
+// A leaf's count (at most `MAX_LEAF`) fits between the count shift and the inner bit, and its
+// references in one texel.
+const _: () = assert!(crate::accel::bvh::MAX_LEAF < 1 << (31 - BVH_COUNT_SHIFT));
+const _: () = assert!(crate::accel::bvh::MAX_LEAF <= REFS_PER_TEXEL as usize);
 /// `BvhNode::b` of an inner node has this bit set; the split axis is in the bits from
 /// [`BVH_AXIS_SHIFT`], the right child's index below them.
 pub const BVH_INNER: u32 = 1 << 31;
@@ -112,7 +126,8 @@ pub struct GpuLight {
 /// A BVH node as the shader reads it (two texels). Mirrors `struct BvhNode` in
 /// `shaders/types.wgsl`. Inner node `i`: `a` is its escape (the first node after its subtree),
 /// `b` = [`BVH_INNER`] | axis << [`BVH_AXIS_SHIFT`] | right child (the left is `i + 1`).
-/// Leaf: `a` is its first primitive reference, `b` how many (its next node is `i + 1`).
+/// Leaf: `a` is its reference texel (one per leaf, in node order), `b` how many references it
+/// holds (its next node is `i + 1`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
@@ -326,8 +341,12 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
                 + grid.prim_refs.len().div_ceil(REFS_PER_TEXEL as usize)
                 + grid.macro_bits.len().div_ceil(4)
         }
-        AccelRef::Bvh(bvh, _) => {
-            BVH_NODE_TEXELS as usize * bvh.nodes.len() + bvh.refs.len().div_ceil(REFS_PER_TEXEL as usize)
+        AccelRef::Bvh(bvh, walk) => {
+            let node_texels = match walk {
+                BvhWalk::Stack => BVH_NODE_TEXELS,
+                BvhWalk::Stackless => BVH_QNODE_TEXELS,
+            };
+            node_texels as usize * bvh.nodes.len() + bvh_leaves(bvh).count().max(1)
         }
     };
     let bundle = match scene.trace.shadows {
@@ -436,14 +455,34 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
             }
             [cell_base, ref_base, macro_base]
         }
-        AccelRef::Bvh(bvh, _) => {
+        AccelRef::Bvh(bvh, walk) => {
             let node_base = t.len() as u32;
-            for n in bvh_nodes(bvh, origin) {
-                let [a, b]: [[u32; 4]; 2] = bytemuck::cast(n);
-                t.push(a);
-                t.push(b);
+            match walk {
+                BvhWalk::Stack => {
+                    for n in bvh_nodes(bvh, origin) {
+                        let [a, b]: [[u32; 4]; 2] = bytemuck::cast(n);
+                        t.push(a);
+                        t.push(b);
+                    }
+                }
+                BvhWalk::Stackless => {
+                    let lattice = BvhLattice::of(bvh, origin);
+                    t.extend(bvh_nodes(bvh, origin).iter().map(|n| quantise_node(n, &lattice)));
+                }
             }
-            let ref_base = push_refs(&mut t, &bvh.refs);
+            // One texel of references per leaf (at most `MAX_LEAF` = 4), in node order: a leaf
+            // reads its list with one fetch.
+            let ref_base = t.len() as u32;
+            for (first, count) in bvh_leaves(bvh) {
+                let mut texel = [0u32; 4];
+                for (k, r) in bvh.refs[first as usize..(first + count) as usize].iter().enumerate() {
+                    texel[k] = r.0;
+                }
+                t.push(texel);
+            }
+            if t.len() as u32 == ref_base {
+                t.push([0; 4]);
+            }
             [node_base, ref_base, bvh.nodes.len() as u32]
         }
     };
@@ -568,8 +607,10 @@ pub fn params<'a>(
             p.macro_res = [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], ACCEL_GRID];
         }
         AccelRef::Bvh(bvh, walk) => {
-            p.grid_min = v4(bvh.nodes[0].lo - origin, 0.0);
-            p.grid_max = v4(bvh.nodes[0].hi - origin, 0.0);
+            let lattice = BvhLattice::of(bvh, origin);
+            p.grid_min = [lattice.base[0], lattice.base[1], lattice.base[2], 0.0];
+            p.grid_max = [lattice.top[0], lattice.top[1], lattice.top[2], 0.0];
+            p.grid_cell = [lattice.step[0], lattice.step[1], lattice.step[2], 0.0];
             p.macro_res[3] = match walk {
                 BvhWalk::Stack => ACCEL_BVH,
                 BvhWalk::Stackless => ACCEL_BVH_STACKLESS,
@@ -597,7 +638,29 @@ fn push_refs(t: &mut Vec<[u32; 4]>, refs: &[PrimRef]) -> u32 {
 /// The device's nodes of `bvh`, boxes relative to `origin`: each rounded outward to f32 and
 /// grown by a margin (`BVH_MARGIN_ULPS`, `BVH_MARGIN_REL`), so that a ray the f32 slab test
 /// misses misses the box in exact arithmetic too, with room for the primitives' own rounding.
+/// A leaf's `a` is its reference texel: leaves in node order, one texel each.
 pub fn bvh_nodes(bvh: &Bvh, origin: DVec3) -> Vec<BvhNode> {
+    let mut leaf = 0u32;
+    bvh.nodes
+        .iter()
+        .map(|n| {
+            let (lo, hi) = node_box(n, origin);
+            let (a, b) = match n.kind {
+                NodeKind::Inner { axis, right, escape } => {
+                    (escape, BVH_INNER | (axis as u32) << BVH_AXIS_SHIFT | right)
+                }
+                NodeKind::Leaf { count, .. } => {
+                    leaf += 1;
+                    (leaf - 1, count)
+                }
+            };
+            BvhNode { lo, a, hi, b }
+        })
+        .collect()
+}
+
+/// `n`'s box relative to `origin`, grown by the margin and rounded outward to f32.
+fn node_box(n: &crate::accel::bvh::Node, origin: DVec3) -> ([f32; 3], [f32; 3]) {
     let down = |v: f64| {
         let f = v as f32;
         if (f as f64) > v {
@@ -614,23 +677,90 @@ pub fn bvh_nodes(bvh: &Bvh, origin: DVec3) -> Vec<BvhNode> {
             f
         }
     };
-    bvh.nodes
-        .iter()
-        .map(|n| {
-            let (lo, hi) = (n.lo - origin, n.hi - origin);
-            let magnitude = lo.abs().max(hi.abs()).max_element();
-            let margin =
-                BVH_MARGIN_ULPS * f32::EPSILON as f64 * magnitude + BVH_MARGIN_REL * (hi - lo).max_element();
-            let (lo, hi) = (lo - margin, hi + margin);
-            let (a, b) = match n.kind {
-                NodeKind::Inner { axis, right, escape } => {
-                    (escape, BVH_INNER | (axis as u32) << BVH_AXIS_SHIFT | right)
-                }
-                NodeKind::Leaf { first, count } => (first, count),
-            };
-            BvhNode { lo: [down(lo.x), down(lo.y), down(lo.z)], a, hi: [up(hi.x), up(hi.y), up(hi.z)], b }
-        })
-        .collect()
+    let (lo, hi) = (n.lo - origin, n.hi - origin);
+    let magnitude = lo.abs().max(hi.abs()).max_element();
+    let margin = BVH_MARGIN_ULPS * f32::EPSILON as f64 * magnitude + BVH_MARGIN_REL * (hi - lo).max_element();
+    let (lo, hi) = (lo - margin, hi + margin);
+    ([down(lo.x), down(lo.y), down(lo.z)], [up(hi.x), up(hi.y), up(hi.z)])
+}
+
+/// (first reference, count) of each leaf of `bvh`, in node order.
+fn bvh_leaves(bvh: &Bvh) -> impl Iterator<Item = (u32, u32)> + '_ {
+    bvh.nodes.iter().filter_map(|n| match n.kind {
+        NodeKind::Leaf { first, count } => Some((first, count)),
+        NodeKind::Inner { .. } => None,
+    })
+}
+
+/// The lattice a compact node's box coordinates are steps of, per axis: `base + q · step` for q
+/// in 0..=[`BVH_QUANT_MAX`], covering every node's f32 box ([`bvh_nodes`]). The shader decodes
+/// with `fma(q, step, base)` in f32 (`Params::grid_min` and `grid_cell`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhLattice {
+    pub base: [f32; 3],
+    pub top: [f32; 3],
+    pub step: [f32; 3],
+}
+
+impl BvhLattice {
+    pub fn of(bvh: &Bvh, origin: DVec3) -> Self {
+        let (mut base, mut top) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for n in &bvh.nodes {
+            let (lo, hi) = node_box(n, origin);
+            for k in 0..3 {
+                base[k] = base[k].min(lo[k]);
+                top[k] = top[k].max(hi[k]);
+            }
+        }
+        let mut step = [0f32; 3];
+        for k in 0..3 {
+            let mut s = ((top[k] as f64 - base[k] as f64) / BVH_QUANT_MAX as f64) as f32;
+            while decoded(BVH_QUANT_MAX, s, base[k]).0 < top[k] {
+                s = s.next_up();
+            }
+            step[k] = s;
+        }
+        BvhLattice { base, top, step }
+    }
+}
+
+/// The lowest and highest value the device may compute for `fma(q, step, base)` in f32: fused
+/// (one rounding) or not (two), whichever its compiler emits.
+fn decoded(q: u32, step: f32, base: f32) -> (f32, f32) {
+    let fused = (q as f32).mul_add(step, base);
+    let split = q as f32 * step + base;
+    (fused.min(split), fused.max(split))
+}
+
+/// The compact texel of `n` ([`BVH_QNODE_TEXELS`]): its box's lower corner rounded down and
+/// upper corner rounded up to `lattice` steps, so the decoded box holds the f32 box however the
+/// device rounds the decode; the link word from `n`'s escape or leaf texel and count.
+pub fn quantise_node(n: &BvhNode, lattice: &BvhLattice) -> [u32; 4] {
+    let mut q = [0u32; 6];
+    for k in 0..3 {
+        let (base, step) = (lattice.base[k], lattice.step[k]);
+        let steps = |v: f32| if step > 0.0 { (v as f64 - base as f64) / step as f64 } else { 0.0 };
+        let clamp = |v: f64| v.clamp(0.0, BVH_QUANT_MAX as f64) as u32;
+        let mut lo = clamp(steps(n.lo[k]).floor());
+        while lo > 0 && decoded(lo, step, base).1 > n.lo[k] {
+            lo -= 1;
+        }
+        let mut hi = clamp(steps(n.hi[k]).ceil());
+        while hi < BVH_QUANT_MAX && decoded(hi, step, base).0 < n.hi[k] {
+            hi += 1;
+        }
+        q[k] = lo;
+        q[3 + k] = hi;
+    }
+    let link = if n.b & BVH_INNER != 0 { BVH_INNER | n.a } else { n.b << BVH_COUNT_SHIFT | n.a };
+    [q[0] | q[1] << 16, q[2] | q[3] << 16, q[4] | q[5] << 16, link]
+}
+
+/// The box the device decodes from a compact texel `t` (the f32 fma, fused), for tests.
+pub fn decode_qnode(t: [u32; 4], lattice: &BvhLattice) -> ([f32; 3], [f32; 3]) {
+    let q = [t[0] & 0xffff, t[0] >> 16, t[1] & 0xffff, t[1] >> 16, t[2] & 0xffff, t[2] >> 16];
+    let at = |k: usize, v: u32| (v as f32).mul_add(lattice.step[k], lattice.base[k]);
+    ([at(0, q[0]), at(1, q[1]), at(2, q[2])], [at(0, q[3]), at(1, q[4]), at(2, q[5])])
 }
 
 /// The accelerator packed into `params` (`Params::macro_res[3]`).
@@ -702,6 +832,7 @@ pub fn wgsl_constants() -> String {
     s += &c("ORDER_DISSOLVE", ORDER_DISSOLVE);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
     s += &c("BVH_NODE_TEXELS", BVH_NODE_TEXELS);
+    s += &c("BVH_COUNT_SHIFT", BVH_COUNT_SHIFT);
     s += &c("BVH_INNER", BVH_INNER);
     s += &c("BVH_AXIS_SHIFT", BVH_AXIS_SHIFT);
     s += &c("BVH_CHILD_MASK", BVH_CHILD_MASK);
@@ -747,8 +878,65 @@ mod tests {
             let packed = pack_scene(scene, &grid, scene.camera.eye);
             assert_eq!(packed.texels.capacity(), packed.texels.len());
             let bvh = Bvh::build(scene);
-            let packed = pack_scene(scene, &bvh, scene.camera.eye);
-            assert_eq!(packed.texels.capacity(), packed.texels.len());
+            for walk in [BvhWalk::Stackless, BvhWalk::Stack] {
+                let packed = pack_scene(scene, AccelRef::Bvh(&bvh, walk), scene.camera.eye);
+                assert_eq!(packed.texels.capacity(), packed.texels.len());
+            }
+        }
+    }
+
+    /// Every compact node's decoded box holds its f32 box, whether the device fuses the decode's
+    /// multiply-add or not, and is at most two steps looser on each side; the link words say
+    /// what the two-texel nodes say. Scenes: near the origin, far from it (1e5), and flat (a
+    /// mesh in a plane: zero extent on one axis).
+    #[test]
+    fn compact_nodes_hold_their_boxes() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut scenes = vec![default_scene()];
+        for name in ["mesh.toml", "cones.toml", "spd/balls_s2.nff", "spd/tetra_s4.nff"] {
+            scenes.push(crate::io::load(&dir.join(name)).expect("scene loads"));
+        }
+        let flat = crate::scene::Mesh {
+            positions: (0..64).map(|i| DVec3::new((i % 8) as f64, 0.0, (i / 8) as f64 * 0.37)).collect(),
+            normals: None,
+            uvs: None,
+            indices: (0..49).filter(|i| i % 8 != 7).map(|i| [i, i + 1, i + 8]).collect(),
+            material: 0,
+        };
+        let mut plane = default_scene();
+        plane.spheres.clear();
+        plane.meshes = vec![flat];
+        scenes.push(plane);
+        let origins = |s: &Scene| [s.camera.eye, s.camera.eye + DVec3::splat(1e5), DVec3::ZERO];
+        for scene in &scenes {
+            let bvh = Bvh::build(scene);
+            for origin in origins(scene) {
+                let lattice = BvhLattice::of(&bvh, origin);
+                for (i, n) in bvh_nodes(&bvh, origin).iter().enumerate() {
+                    let t = quantise_node(n, &lattice);
+                    let q = [t[0] & 0xffff, t[0] >> 16, t[1] & 0xffff, t[1] >> 16, t[2] & 0xffff, t[2] >> 16];
+                    for k in 0..3 {
+                        let (base, step) = (lattice.base[k], lattice.step[k]);
+                        let (lo, hi) = (decoded(q[k], step, base), decoded(q[3 + k], step, base));
+                        assert!(
+                            lo.1 <= n.lo[k] && hi.0 >= n.hi[k],
+                            "node {i} axis {k}: {lo:?} {hi:?} vs {n:?}"
+                        );
+                        let step = step as f64;
+                        assert!(
+                            (n.lo[k] - lo.0) as f64 <= 2.0 * step && (hi.1 - n.hi[k]) as f64 <= 2.0 * step
+                        );
+                    }
+                    if n.b & BVH_INNER != 0 {
+                        assert_eq!(t[3], BVH_INNER | n.a, "node {i}: escape");
+                    } else {
+                        assert_eq!(
+                            (t[3] >> BVH_COUNT_SHIFT, t[3] & ((1 << BVH_COUNT_SHIFT) - 1)),
+                            (n.b, n.a)
+                        );
+                    }
+                }
+            }
         }
     }
 }

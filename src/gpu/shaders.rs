@@ -197,7 +197,8 @@ pub fn compose(kernel: Kernel, variant: Variant) -> String {
         Kernel::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
     };
     let bvh = variant.accel != layout::ACCEL_GRID;
-    let accel = [(!bvh || kernel == Kernel::Tests).then_some(GRID), bvh.then_some(BVH)];
+    let accel =
+        [(!bvh || kernel == Kernel::Tests).then_some(GRID), (bvh || kernel == Kernel::Tests).then_some(BVH)];
     for (name, text) in MODULES.iter().chain(accel.iter().flatten()).chain(&SHADING).chain(entries) {
         src += &format!("\n// ---- {name} ----\n");
         src += text;
