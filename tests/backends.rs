@@ -147,36 +147,41 @@ fn unknown_adapter_has_the_wgpu_message() {
     assert!(a.starts_with("no Vulkan adapter matches 'no-such-adapter-42'; available: "), "{a}");
 }
 
-/// Binding 1 is a SAMPLED_IMAGE descriptor without a sampler because naga writes the scene
-/// texture as an `OpTypeImage` with Sampled = 1, read by `OpImageFetch`, and no sampler types.
+/// Binding 1 is a STORAGE_IMAGE descriptor (in the GENERAL layout) because naga writes the
+/// scene texture, a read-only `texture_storage_2d<rgba32uint, read>`, as an `OpTypeImage` with
+/// Sampled = 2 and format Rgba32ui, read by `OpImageRead`: no sampled image, no sampler.
+/// (lavapipe's sampled-image fetch computes every lane's mip level; its storage-image read
+/// does not, which is 12-22% of a frame: docs/performance.md, "Scene texture as a storage image".)
 #[test]
-fn scene_texture_is_a_sampled_image_read_without_a_sampler() {
+fn scene_texture_is_a_storage_image_read_without_a_sampler() {
+    const RGBA32UI: u32 = 30;
     let vkc = vk_ctx();
     for layered in [false, true] {
         let variant = irt::gpu::shaders::Variant { layered, ..irt::gpu::shaders::Variant::FULL };
         let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, variant);
         let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
         let words = vk::compile_entry(&module, &info, "render", &vk::spv_options(&vkc)).expect("SPIR-V");
-        let (mut images, mut fetches, mut samplers) = (Vec::new(), 0, 0);
+        let (mut images, mut reads, mut fetches, mut samplers) = (Vec::new(), 0, 0, 0);
         let mut at = 5;
         while at < words.len() {
             let (count, op) = ((words[at] >> 16) as usize, words[at] & 0xffff);
             match op {
                 // OpTypeImage: result, sampled type, dim, depth, arrayed, MS, sampled, format.
-                25 => images.push((words[at + 5], words[at + 7])),
+                25 => images.push((words[at + 5], words[at + 7], words[at + 8])),
                 26 | 27 => samplers += 1,
                 95 => fetches += 1,
+                98 => reads += 1,
                 _ => {}
             }
             at += count;
         }
         assert_eq!(
             images,
-            vec![(layered as u32, 1)],
-            "layered {layered}: (arrayed, sampled) of each image type"
+            vec![(layered as u32, 2, RGBA32UI)],
+            "layered {layered}: (arrayed, sampled, format) of each image type"
         );
-        assert_eq!(samplers, 0, "no sampler types");
-        assert!(fetches > 0, "textureLoad is an OpImageFetch");
+        assert_eq!((samplers, fetches), (0, 0), "no sampler types, no sampled fetch");
+        assert!(reads > 0, "textureLoad is an OpImageRead");
     }
 }
 

@@ -91,7 +91,9 @@ impl GpuScene {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: wgpu::TextureFormat::Rgba32Uint,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
         let bytes = write_rows(ctx, &texture, packed.texels, layered) + std::mem::size_of::<Params>() as u64;
@@ -266,10 +268,10 @@ fn bind_group_layout(device: &wgpu::Device, layered: bool) -> wgpu::BindGroupLay
             entry(0, buffer(Bb::Uniform)),
             entry(
                 1,
-                B::Texture {
-                    sample_type: wgpu::TextureSampleType::Uint,
+                B::StorageTexture {
+                    access: wgpu::StorageTextureAccess::ReadOnly,
+                    format: wgpu::TextureFormat::Rgba32Uint,
                     view_dimension: view_dimension(layered),
-                    multisampled: false,
                 },
             ),
             entry(2, buffer(Bb::Storage { read_only: false })),

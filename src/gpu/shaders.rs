@@ -175,14 +175,14 @@ impl Variant {
         let real = if self.f64 { "f64" } else { "f32" };
         s += &format!("alias real = {real};\nalias vec3r = vec3<{real}>;\n");
         s += if self.layered {
-            "@group(0) @binding(1) var scene_tex: texture_2d_array<u32>;\n\
+            "@group(0) @binding(1) var scene_tex: texture_storage_2d_array<rgba32uint, read>;\n\
              fn scene_load(column: u32, row: u32) -> vec4u {\n\
              \x20   let layer_row = row & ((1u << SCENE_LAYER_SHIFT) - 1u);\n\
-             \x20   return textureLoad(scene_tex, vec2u(column, layer_row), row >> SCENE_LAYER_SHIFT, 0);\n}\n"
+             \x20   return textureLoad(scene_tex, vec2u(column, layer_row), row >> SCENE_LAYER_SHIFT);\n}\n"
         } else {
-            "@group(0) @binding(1) var scene_tex: texture_2d<u32>;\n\
+            "@group(0) @binding(1) var scene_tex: texture_storage_2d<rgba32uint, read>;\n\
              fn scene_load(column: u32, row: u32) -> vec4u {\n\
-             \x20   return textureLoad(scene_tex, vec2u(column, row), 0);\n}\n"
+             \x20   return textureLoad(scene_tex, vec2u(column, row));\n}\n"
         };
         s
     }

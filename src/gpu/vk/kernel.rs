@@ -18,12 +18,13 @@ use std::time::Instant;
 mod modes;
 
 /// Descriptor types of bindings 0–8 (shaders/types.wgsl): the frame constants, the scene texture
-/// (naga writes `texture_2d<u32>` read with `textureLoad` as an `OpTypeImage` with Sampled = 1
-/// and reads it with `OpImageFetch`: a sampled image without a sampler), then out, stats, tile,
+/// (naga writes the read-only `texture_storage_2d<rgba32uint, read>` as an `OpTypeImage` with
+/// Sampled = 2 and reads it with `OpImageRead`: a storage image, in the GENERAL layout), then
+/// out, stats, tile,
 /// test inputs, work, queue, frame.
 const BINDINGS: [vk::DescriptorType; 9] = [
     vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::SAMPLED_IMAGE,
+    vk::DescriptorType::STORAGE_IMAGE,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::STORAGE_BUFFER,
     vk::DescriptorType::UNIFORM_BUFFER,
@@ -238,7 +239,7 @@ impl VkScene {
                         .array_layers(layers)
                         .samples(vk::SampleCountFlags::TYPE_1)
                         .tiling(vk::ImageTiling::OPTIMAL)
-                        .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
+                        .usage(vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST)
                         .initial_layout(vk::ImageLayout::UNDEFINED),
                     None,
                 )
@@ -301,11 +302,8 @@ impl VkScene {
         let max_side = self.max_rows.map_or(max_dim, |m| m.min(max_dim));
         let fits = rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered;
         if fits {
-            self.bytes = self.res.write_rows(
-                packed.texels,
-                self.layered,
-                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-            )? + std::mem::size_of::<Params>() as u64;
+            self.bytes = self.res.write_rows(packed.texels, self.layered, vk::ImageLayout::GENERAL)?
+                + std::mem::size_of::<Params>() as u64;
             self.write_params(params);
             return Ok(false);
         }
@@ -317,7 +315,7 @@ impl VkScene {
 
 impl SceneResources {
     /// Writes `texels` (consumed) into the first rows of the image, whose layout is `from`
-    /// (UNDEFINED when new, SHADER_READ_ONLY_OPTIMAL when updated), and leaves it ready for the
+    /// (UNDEFINED when new, GENERAL when updated), and leaves it ready for the
     /// kernels. The texels go through one host-visible staging band of [`SCENE_LAYER_ROWS`] rows
     /// at a time, from the last band to the first, each freed on the host once copied (as
     /// `GpuScene::upload_packed` does through wgpu's staging). Returns the bytes written.
@@ -397,7 +395,7 @@ impl SceneResources {
                 if last_band {
                     let b = barrier(
                         vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                        vk::ImageLayout::GENERAL,
                         vk::AccessFlags::TRANSFER_WRITE,
                         vk::AccessFlags::SHADER_READ,
                     );
@@ -523,7 +521,7 @@ impl VkDispatcher {
         let d = &shared.device;
         let sizes = [
             vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 2 },
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::SAMPLED_IMAGE, descriptor_count: 1 },
+            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_IMAGE, descriptor_count: 1 },
             vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 6 },
         ];
         // SAFETY: object creation; the pool is destroyed by `drop` (or below on failure).
@@ -554,7 +552,7 @@ impl VkDispatcher {
         let image_info = [vk::DescriptorImageInfo {
             sampler: vk::Sampler::null(),
             image_view: scene.res.view,
-            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            image_layout: vk::ImageLayout::GENERAL,
         }];
         let mut writes = Vec::new();
         for (binding, &ty) in BINDINGS.iter().enumerate() {

@@ -86,7 +86,7 @@ impl VkDispatcher {
         let image = [vk::DescriptorImageInfo {
             sampler: vk::Sampler::null(),
             image_view: scene.res.view,
-            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            image_layout: vk::ImageLayout::GENERAL,
         }];
         let write = |binding: u32| {
             vk::WriteDescriptorSet::default()
