@@ -498,8 +498,8 @@ fn robustness_off_writes_unchecked_spirv() {
 }
 
 /// Timestamps and the compute-invocations query around each dispatch: one sample per dispatch,
-/// its invocations the dispatch's workgroups x 64 (8x8), a frame's the pixels x passes (the
-/// image's sides are multiples of 8 and of the bands' rows), device time within host time.
+/// its invocations the dispatch's workgroups x 64, a frame's the pixels x passes (the image's
+/// sides are multiples of the workgroup's), device time within host time.
 #[test]
 fn profile_counts_every_invocation_of_a_frame() {
     let ctx = VkContext::with_options(
@@ -521,8 +521,9 @@ fn profile_counts_every_invocation_of_a_frame() {
         ctx.take_samples();
         r.try_render(&ctx, &mut |_, _| {}).expect("frame");
         let samples = ctx.take_samples();
-        // Two bands (32 + 16 rows) of every pass.
-        assert_eq!(samples.len() as u64, 2 * passes, "one sample per dispatch");
+        // Every band of every pass (64 x 48 is one band of `BAND_PIXELS`).
+        let bands = 48u32.div_ceil((irt::gpu::renderer::BAND_PIXELS / 64).max(1)) as u64;
+        assert_eq!(samples.len() as u64, bands * passes, "one sample per dispatch");
         for s in &samples {
             assert_eq!(s.entry, "render");
             let groups = s.groups.iter().map(|&g| g as u64).product::<u64>();

@@ -488,6 +488,12 @@ fn profile(ctx: &irt::gpu::vk::VkContext, job: &Job) -> Result<Profile> {
 /// irt and each peer on the same scene and rays, `frames` rounds interleaved (one irt frame, then
 /// one frame of each peer) so that load from other processes falls on all alike; medians.
 /// Markdown row: irt ms, each peer's ms, irt Mrays/s, each peer's Mrays/s, each ratio irt / peer.
+/// The pause before each timed frame of [`peer_rounds`]: the peers' worker threads (Embree's
+/// TBB pool, rayon's) spin for a while after their frame, and lavapipe's threads, started right
+/// after, would share the cores with them (irt's frame read 1.5-1.8x longer that way). Each
+/// contender is timed on a machine the previous one has left.
+const SETTLE: Duration = Duration::from_millis(40);
+
 #[allow(clippy::too_many_arguments)]
 fn peer_rounds<D: Device>(
     name: &str,
@@ -506,10 +512,12 @@ fn peer_rounds<D: Device>(
     let mut irt_t = Vec::new();
     let mut peer_t = vec![Vec::new(); peers.len()];
     for _ in 0..frames.max(1) {
+        std::thread::sleep(SETTLE);
         let t = Instant::now();
         renderer.try_render(ctx, &mut |_, _| {})?;
         irt_t.push(t.elapsed());
         for (p, times) in peers.iter().zip(&mut peer_t) {
+            std::thread::sleep(SETTLE);
             let t = Instant::now();
             std::hint::black_box(p.render(threads));
             times.push(t.elapsed());

@@ -11,9 +11,11 @@ use crate::scene::{Scene, ShadowMode};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// Rows per dispatch: small enough for a responsive progress bar, large enough that the
-/// per-submit overhead (~0.1 ms) stays negligible against a band's tracing time.
-pub const BAND_ROWS: u32 = 32;
+/// Eye rays per dispatch of the band renderer, in whole rows: a 512² frame is one dispatch,
+/// larger frames several bands (a progress mark after each). Every dispatch ends with a submit
+/// and wait, and with one of lavapipe's threads idle until the other is done: 16 bands of 32
+/// rows cost 5–32% of a 512² frame against one (docs/performance.md, "One dispatch a frame").
+pub const BAND_PIXELS: u32 = 1 << 18;
 
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RenderOptions {
@@ -102,8 +104,9 @@ pub struct LoopMeter {
 pub const SIMD_LANES: u32 = 8;
 
 impl LoopMeter {
-    /// The meter of a `cols` x `rows` grid of per-pixel loop iterations (row-major).
-    pub fn of(iterations: &[u32], cols: u32, rows: u32) -> Self {
+    /// The meter of a `cols` x `rows` grid of per-pixel loop iterations (row-major,
+    /// `iterations(i)` of pixel i).
+    pub fn of(iterations: impl Fn(usize) -> u32, cols: u32, rows: u32) -> Self {
         let (bw, bh) = (layout::RENDER_TILE[0], SIMD_LANES / layout::RENDER_TILE[0]);
         let (mut sum, mut executed) = (0u64, 0u64);
         for by in (0..rows).step_by(bh as usize) {
@@ -111,7 +114,7 @@ impl LoopMeter {
                 let mut most = 0u64;
                 for y in by..(by + bh).min(rows) {
                     for x in bx..(bx + bw).min(cols) {
-                        let n = iterations[(y * cols + x) as usize] as u64;
+                        let n = iterations((y * cols + x) as usize) as u64;
                         sum += n;
                         most = most.max(n);
                     }
@@ -160,14 +163,14 @@ impl Bands {
         self.grid_size[0] as u64 * self.grid_size[1] as u64
     }
 
-    /// A frame: the counters zeroed, then bands of [`BAND_ROWS`] rows, every pass of a band
+    /// A frame: the counters zeroed, then bands of [`BAND_PIXELS`] eye rays, every pass of a band
     /// before the next, with a progress mark (rows done) after each band.
     pub fn recording(&self) -> Recording {
         let [cols, rows] = self.grid_size;
         let mut commands = vec![Command::ResetCounts];
         let mut y = 0;
         while y < rows {
-            let band = BAND_ROWS.min(rows - y);
+            let band = (BAND_PIXELS / cols.max(1)).max(1).min(rows - y);
             for &pass in &self.passes {
                 let tile = Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() };
                 commands.push(Command::Dispatch(Dispatch::dealt(tile, self.deal)));
@@ -195,9 +198,8 @@ impl Bands {
         // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
         let meter = |p: &[f32; 4]| p[3] as u32;
         let eye_hits = out.iter().filter(|p| meter(p) & 1 == 1).count() as u64;
-        let iterations: Vec<u32> = out.iter().map(|p| meter(p) >> 1).collect();
-        let max_loop_iterations = iterations.iter().copied().max().unwrap_or(0);
-        let loops = LoopMeter::of(&iterations, cols, out.len() as u32 / cols.max(1));
+        let max_loop_iterations = out.iter().map(|p| meter(p) >> 1).max().unwrap_or(0);
+        let loops = LoopMeter::of(|i| meter(&out[i]) >> 1, cols, out.len() as u32 / cols.max(1));
         if max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
             log::warn!(
                 "a pixel ran {max_loop_iterations} shader loop iterations; lavapipe stops loops after \
@@ -320,7 +322,7 @@ impl<D: Device> Renderer<D> {
         Ok(times[times.len() / 2])
     }
 
-    /// Traces every eye ray, in bands of [`BAND_ROWS`] rows; `progress(rows_done, rows)` after
+    /// Traces every eye ray, in bands of [`BAND_PIXELS`] eye rays; `progress(rows_done, rows)` after
     /// each.
     pub fn try_render(&self, ctx: &D, progress: &mut dyn FnMut(u32, u32)) -> Result<Frame, D::Error> {
         let frame = self.bands.render(&self.kernel(ctx), progress)?;
