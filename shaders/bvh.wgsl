@@ -15,14 +15,25 @@ fn load_bvh_node(i: u32) -> BvhNode {
 // Whether o + t d meets the node's box for some t in [t_min, t_max] (slab test in `real`). The
 // box's far distance is grown by 1 + 2γ₃ (Ize, "Robust BVH ray traversal", JCGT 2013), so the
 // test's own rounding never loses a box; the packing grew the boxes for everything else.
+// Its min and max are compares and selects: the distances are never NaN (`bvh_inv_dir` keeps
+// 1/d finite), and WGSL's min/max keep NaN semantics that cost lavapipe a third instruction each.
 fn bvh_box(n: BvhNode, o: vec3r, inv_d: vec3r, t_min: real, t_max: real) -> bool {
     let t0 = (vec3r(n.lo) - o) * inv_d;
     let t1 = (vec3r(n.hi) - o) * inv_d;
-    let lo = min(t0, t1);
-    let hi = max(t0, t1);
-    let near = max(max(lo.x, lo.y), max(lo.z, t_min));
-    let far = min(min(hi.x, hi.y), hi.z) * real(1.0000004);
-    return near <= min(far, t_max);
+    let swap = t1 < t0;
+    let lo = select(t0, t1, swap);
+    let hi = select(t1, t0, swap);
+    let near = max_r(max_r(lo.x, lo.y), max_r(lo.z, t_min));
+    let far = min_r(min_r(hi.x, hi.y), hi.z) * real(1.0000004);
+    return near <= min_r(far, t_max);
+}
+
+fn min_r(a: real, b: real) -> real {
+    return select(b, a, a < b);
+}
+
+fn max_r(a: real, b: real) -> real {
+    return select(b, a, a > b);
 }
 
 // 1 / d per axis, a zero (or tiny) component replaced by 1 / 1e-30 of the same sign: the slabs
