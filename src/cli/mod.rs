@@ -165,7 +165,7 @@ pub struct SceneArgs {
     pub precision: String,
     /// Accelerator: grid (the paper's uniform grid with macro-cells), bvh (a binned-SAH BVH
     /// walked without a stack, by escape links), bvh-stack (the same BVH walked with a stack,
-    /// near child first; for measuring), or auto (chosen per scene; the rule is in docs/performance.md, "Grid vs BVH").
+    /// near child first; for measuring), or auto (the BVH up to 2^21 primitives, the grid above them, where a BVH build needs too much memory; docs/performance.md, "Grid vs BVH").
     #[arg(long, value_name = "ACCEL", default_value_t = irt::accel::AccelChoice::default())]
     pub accel: irt::accel::AccelChoice,
 }
