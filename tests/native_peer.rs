@@ -1,6 +1,6 @@
 //! The native peer (irt::peer::native) traces the same work as irt's GPU path: same image, same
-//! rays, on the primary-shadow workload. Both are f32 over the same grid with the same
-//! algorithms, so they agree far more closely than the GPU and the f64 reference do (measured:
+//! rays, on the primary-shadow workload, over irt's grid (`native`) and over irt's BVH
+//! (`native-bvh`). Both are f32 with the same algorithms, so they agree far more closely than the GPU and the f64 reference do (measured:
 //! at most 0.2/255 on any channel, on these four scenes). The bound is tighter than the
 //! reference's (`assert_matches_reference`) but not zero: lavapipe's `normalize`, `inverseSqrt`
 //! and division may round differently from Rust's, and a ray that grazes a silhouette or a
@@ -10,7 +10,7 @@
 
 mod common;
 
-use irt::accel::Grid;
+use irt::accel::{Bvh, Grid};
 use irt::gpu::{RenderOptions, Renderer};
 use irt::peer::{native::NativePeer, primary_shadow};
 use std::path::Path;
@@ -24,20 +24,32 @@ fn check(name: &str, file: Option<&str>, size: u32) {
     let ctx = common::gpu();
     let opts = RenderOptions { count_rays: true, ..Default::default() };
     let gpu = Renderer::new(&ctx, &scene, opts).expect("renderer").render(&ctx, &mut |_, _| {});
-    let peer = NativePeer::new(&scene, &Grid::build(&scene)).expect("peer").render(2);
-    let diff = irt::metrics::compare(&peer.image, &gpu.image);
-    println!("{name}: {diff}");
-    assert!(
-        diff.bad_pixels <= 5e-4 && diff.p999 <= 0.5 / 255.0 && diff.non_finite == 0,
-        "{name}: native peer differs from the GPU: {diff}"
-    );
-    assert_eq!(gpu.rays.eye, peer.rays.eye, "{name}: eye rays");
-    assert_eq!(gpu.rays.reflection + gpu.rays.refraction, 0, "{name}: the workload has no secondary rays");
-    // A shadow ray is cast where n·l > 0: a grazing light can flip that, one ray per such pixel
-    // and light, which the image bound above already keeps rare.
-    let (g, p) = (gpu.rays.shadow as f64, peer.rays.shadow as f64);
-    assert!(g > 0.0, "{name}: the workload casts shadow rays");
-    assert!((g - p).abs() <= 5e-4 * g, "{name}: shadow rays GPU {g} vs native {p}");
+    // Both accelerators of the peer: irt's grid (`native`) and irt's BVH (`native-bvh`).
+    let peers = [
+        NativePeer::new(&scene, &Grid::build(&scene)).expect("peer"),
+        NativePeer::with_bvh(&scene, &Bvh::build(&scene)).expect("BVH peer"),
+    ];
+    for peer in &peers {
+        let who = peer.name();
+        let peer = peer.render(2);
+        let diff = irt::metrics::compare(&peer.image, &gpu.image);
+        println!("{name}, {who}: {diff}");
+        assert!(
+            diff.bad_pixels <= 5e-4 && diff.p999 <= 0.5 / 255.0 && diff.non_finite == 0,
+            "{name}: {who} peer differs from the GPU: {diff}"
+        );
+        assert_eq!(gpu.rays.eye, peer.rays.eye, "{name}, {who}: eye rays");
+        assert_eq!(
+            gpu.rays.reflection + gpu.rays.refraction,
+            0,
+            "{name}: the workload has no secondary rays"
+        );
+        // A shadow ray is cast where n·l > 0: a grazing light can flip that, one ray per such
+        // pixel and light, which the image bound above already keeps rare.
+        let (g, p) = (gpu.rays.shadow as f64, peer.rays.shadow as f64);
+        assert!(g > 0.0, "{name}: the workload casts shadow rays");
+        assert!((g - p).abs() <= 5e-4 * g, "{name}, {who}: shadow rays GPU {g} vs native {p}");
+    }
 }
 
 #[test]

@@ -154,6 +154,9 @@ pub enum Workload {
 pub enum Peer {
     /// irt's own algorithm (grid, 3D DDA, f32) as multithreaded Rust on the CPU.
     Native,
+    /// The same over irt's BVH, walked as the shader walks it (stackless, escape links): the
+    /// like-for-like peer of irt's default accelerator.
+    NativeBvh,
     /// Embree 3's BVH and single-ray kernels, multithreaded, robust (watertight) scene (a build
     /// with `--features embree`).
     Embree,
@@ -176,6 +179,10 @@ fn make_peer(
         Peer::Native => {
             Box::new(irt::peer::native::NativePeer::new(scene, grid).map_err(anyhow::Error::msg)?)
         }
+        Peer::NativeBvh => Box::new(
+            irt::peer::native::NativePeer::with_bvh(scene, &irt::accel::Bvh::build(scene))
+                .map_err(anyhow::Error::msg)?,
+        ),
         #[cfg(feature = "embree")]
         Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => Box::new(
             irt::peer::embree::EmbreePeer::with_options(
@@ -225,7 +232,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if !args.peer.is_empty() && args.workload != Workload::PrimaryShadow {
         bail!("--peer traces only the peer-comparable work: add --workload primary-shadow");
     }
-    if args.peer.iter().any(|&p| p != Peer::Native) && !cfg!(feature = "embree") {
+    if args.peer.iter().any(|&p| !matches!(p, Peer::Native | Peer::NativeBvh)) && !cfg!(feature = "embree") {
         bail!(NO_EMBREE);
     }
     let mut scene_args = args.scene;

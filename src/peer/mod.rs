@@ -25,7 +25,7 @@ pub trait Peer {
 
 impl Peer for native::NativePeer {
     fn name(&self) -> &'static str {
-        "native"
+        native::NativePeer::name(self)
     }
     fn render(&self, threads: usize) -> PeerFrame {
         native::NativePeer::render(self, threads)

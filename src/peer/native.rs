@@ -9,7 +9,8 @@
 //! Only the work [`super::primary_shadow`] leaves: eye rays at pixel centres, one hard-shadow ray
 //! per light facing the hit, diffuse Lambert shading, no ambient, background on a miss.
 
-use crate::accel::{Grid, PrimKind, PrimRef};
+use crate::accel::bvh::NodeKind;
+use crate::accel::{Bvh, Grid, PrimKind, PrimRef};
 use crate::gpu::layout::{sphere_anchor, RAY_OFFSET_REL};
 use crate::image::Image;
 use crate::scene::{MaterialKind, Scene, ShadowMode};
@@ -140,10 +141,33 @@ fn shadow_ray(sf: &Surface, light: &LightF) -> Option<(Vec3, Vec3, f32, f32)> {
     Some((so, l, dist - gap, nl))
 }
 
-/// The scene and grid prepared once; [`NativePeer::render`] traces a frame.
+/// The scene and its accelerator prepared once; [`NativePeer::render`] traces a frame.
 pub struct NativePeer {
     shade: Shade,
-    grid: GridF,
+    accel: AccelF,
+}
+
+/// What the native peer walks: irt's grid, or irt's BVH.
+enum AccelF {
+    Grid(GridF),
+    Bvh(BvhF),
+}
+
+/// irt's BVH in f32 relative to the eye, in its depth-first order: each node's box as the
+/// device's two-texel nodes hold it (`layout::bvh_nodes`: rounded outward, with the margin), an
+/// inner node's escape, a leaf's references.
+struct BvhF {
+    nodes: Vec<BvhNodeF>,
+    refs: Vec<PrimRef>,
+}
+
+struct BvhNodeF {
+    lo: Vec3,
+    hi: Vec3,
+    /// Inner: the escape (the node after the subtree). Leaf: its first reference.
+    link: u32,
+    /// Inner: `u32::MAX`. Leaf: how many references.
+    count: u32,
 }
 
 fn f(v: DVec3) -> Vec3 {
@@ -419,7 +443,7 @@ impl NativePeer {
         let res = grid.res;
         Ok(NativePeer {
             shade,
-            grid: GridF {
+            accel: AccelF::Grid(GridF {
                 min: f(grid.min - eye),
                 max: f(grid.max - eye),
                 cell: f(grid.cell_size),
@@ -430,8 +454,36 @@ impl NativePeer {
                 cell_start: grid.cell_start.clone(),
                 prim_refs: grid.prim_refs.clone(),
                 macro_bits: grid.macro_bits.clone(),
-            },
+            }),
         })
+    }
+
+    /// The same peer over irt's BVH (`--peer native-bvh`): the device's default accelerator,
+    /// walked as its shader does (stackless, by escape links, children in their fixed order).
+    pub fn with_bvh(scene: &Scene, bvh: &Bvh) -> Result<Self, String> {
+        let shade = Shade::new(scene, "native-bvh")?;
+        let boxes = crate::gpu::layout::bvh_nodes(bvh, scene.camera.eye);
+        let nodes = bvh
+            .nodes
+            .iter()
+            .zip(boxes)
+            .map(|(n, b)| {
+                let (link, count) = match n.kind {
+                    NodeKind::Inner { escape, .. } => (escape, u32::MAX),
+                    NodeKind::Leaf { first, count } => (first, count),
+                };
+                BvhNodeF { lo: Vec3::from(b.lo), hi: Vec3::from(b.hi), link, count }
+            })
+            .collect();
+        Ok(NativePeer { shade, accel: AccelF::Bvh(BvhF { nodes, refs: bvh.refs.clone() }) })
+    }
+
+    /// Which accelerator it walks, for tables ("native" walks the grid).
+    pub fn name(&self) -> &'static str {
+        match self.accel {
+            AccelF::Grid(_) => "native",
+            AccelF::Bvh(_) => "native-bvh",
+        }
     }
 
     /// One frame on `threads` threads (rows handed out one at a time, so a slow region does not
@@ -440,11 +492,56 @@ impl NativePeer {
         self.shade.render(self, threads)
     }
 
-    /// Amanatides & Woo over the grid, skipping empty macro-cells; the nearest hit in
-    /// (t_min, t_max), or with `any` the first found. A hit beyond the current cell stays a
-    /// candidate until the walk reaches its cell (primitives span cells; no mailbox).
+    /// The nearest hit in (t_min, t_max), or with `any` the first found.
     fn walk(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32, any: bool) -> Option<Hit> {
-        let g = &self.grid;
+        match &self.accel {
+            AccelF::Grid(g) => self.walk_grid(g, o, d, t_min, t_max, any),
+            AccelF::Bvh(b) => self.walk_bvh(b, o, d, t_min, t_max, any),
+        }
+    }
+
+    /// The shader's stackless BVH walk (shaders/bvh.wgsl): nodes in depth-first order, a missed
+    /// inner node's subtree skipped by its escape, the slab test's far distance grown by
+    /// 1 + 2γ₃ as there, 1/d of a zero component replaced by ±1e30.
+    fn walk_bvh(&self, b: &BvhF, o: Vec3, d: Vec3, t_min: f32, t_max: f32, any: bool) -> Option<Hit> {
+        let tiny = d.abs().cmplt(Vec3::splat(1e-30));
+        let safe =
+            Vec3::select(tiny, Vec3::select(d.cmplt(Vec3::ZERO), Vec3::splat(-1e-30), Vec3::splat(1e-30)), d);
+        let inv_d = safe.recip();
+        let mut best: Option<Hit> = None;
+        let mut best_t = t_max;
+        let mut i = 0usize;
+        while i < b.nodes.len() {
+            let n = &b.nodes[i];
+            let t0 = (n.lo - o) * inv_d;
+            let t1 = (n.hi - o) * inv_d;
+            let near = t0.min(t1).max_element().max(t_min);
+            let far = t0.max(t1).min_element() * 1.000_000_4;
+            let hit = near <= far.min(best_t);
+            if n.count == u32::MAX {
+                i = if hit { i + 1 } else { n.link as usize };
+                continue;
+            }
+            if hit {
+                for &r in &b.refs[n.link as usize..(n.link + n.count) as usize] {
+                    if let Some(h) = self.intersect(r, o, d, t_min, best_t) {
+                        best_t = h.t;
+                        best = Some(h);
+                        if any {
+                            return best;
+                        }
+                    }
+                }
+            }
+            i += 1;
+        }
+        best
+    }
+
+    /// Amanatides & Woo over the grid, skipping empty macro-cells. A hit beyond the current
+    /// cell stays a candidate until the walk reaches its cell (primitives span cells; no
+    /// mailbox).
+    fn walk_grid(&self, g: &GridF, o: Vec3, d: Vec3, t_min: f32, t_max: f32, any: bool) -> Option<Hit> {
         let moving = d.cmpne(Vec3::ZERO);
         let inv_d = Vec3::select(moving, d.recip(), Vec3::ZERO);
         if (!moving & (o.cmplt(g.min) | o.cmpgt(g.max))).any() {
