@@ -2,11 +2,11 @@
 # The irt / peer table of docs/performance.md: each scene at 512² on the primary-shadow workload
 # (eye rays + one hard-shadow ray per light, Lambert), irt and the peers in the same process,
 # FRAMES rounds interleaved (one irt frame, then one frame of each peer), medians. The peers are
-# the native Rust one and, when this irt was built with `--features embree` (`irt info` says so),
-# Embree 3; PEERS overrides the list (e.g. PEERS=native,embree,embree-fast). About a minute per
-# peer on 2 cores.
-# ACCEL (default grid, which the tables in docs/performance.md were taken with: the native peer
-# walks the same grid) sets irt's --accel; ACCEL=bvh compares irt's BVH with the peers.
+# the native Rust one over irt's grid and over irt's BVH and, when this irt was built with
+# `--features embree` (`irt info` says so), Embree 3; PEERS overrides the list (e.g.
+# PEERS=native,embree,embree-fast). About a minute per peer on 2 cores.
+# ACCEL (default auto, irt's default: the BVH up to 2^21 primitives) sets irt's --accel;
+# ACCEL=grid compares irt's grid walk with the `native` peer's.
 #   scripts/peer-table.sh [SCENE...]   (default: the default scene and the small SPD scenes)
 set -euo pipefail
 # Build with the Embree peer when libembree3 is installed (scripts/setup.sh --with-embree) and
@@ -24,8 +24,8 @@ scenes=("$@")
 info="$($irt info 2>/dev/null || true)"
 embree="$(sed -n 's/.*bench peers:.*embree (Embree \([0-9.]*\)).*/\1/p' <<<"$info")"
 if [ -z "${PEERS:-}" ]; then
-    PEERS=native
-    [ -z "$embree" ] || PEERS=native,embree
+    PEERS=native,native-bvh
+    [ -z "$embree" ] || PEERS=native,native-bvh,embree
 fi
 IFS=, read -r -a peers <<<"$PEERS"
 machine_header "scripts/peer-table.sh"
@@ -45,7 +45,7 @@ echo "$sep|---|"
 for s in "${scenes[@]}"; do
     arg=()
     [ "$s" = default ] || arg=("$s")
-    "$irt" bench "${arg[@]}" --workload primary-shadow --accel "${ACCEL:-grid}" --peer "$PEERS" --frames "$frames" --markdown 2>/dev/null
+    "$irt" bench "${arg[@]}" --workload primary-shadow --accel "${ACCEL:-auto}" --peer "$PEERS" --frames "$frames" --markdown 2>/dev/null
 done
 echo
 echo "Load after: $(uptime | sed 's/.*load average/load average/')"
