@@ -50,7 +50,7 @@ pub const BVH_NODE_TEXELS: u32 = 2;
 /// steps of the lattice [`BvhLattice`] (`[lo.x | lo.y << 16, lo.z | hi.x << 16, hi.y | hi.z <<
 /// 16]`), then the link word: an inner node's [`BVH_INNER`] | escape, a leaf's count <<
 /// [`BVH_COUNT_SHIFT`] | its reference texel. Half the fetches of a [`BvhNode`], which is what a
-/// lavapipe loop iteration pays most for (docs/performance.md, "Compact nodes").
+/// lavapipe loop iteration pays most for (docs/performance.md, "Compact BVH nodes").
 pub const BVH_QNODE_TEXELS: u32 = 1;
 /// A compact leaf's primitive count sits above this bit of its link word.
 pub const BVH_COUNT_SHIFT: u32 = 28;
