@@ -272,6 +272,9 @@ pub struct PackedScene {
     pub grid_base: [u32; 4],
     /// First texel of each light's shell section (shell shadow mode; empty otherwise).
     pub shell_sections: Vec<u32>,
+    /// With a BVH, the lattice its compact nodes were quantised to ([`params`] hands it to the
+    /// shader).
+    pub bvh_lattice: Option<BvhLattice>,
 }
 
 impl PackedScene {
@@ -434,6 +437,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         texel[..chunk.len()].copy_from_slice(chunk);
         t.push(texel);
     }
+    let mut bvh_lattice = None;
     let accel_base = match accel {
         AccelRef::Grid(grid) => {
             let cells = grid.cell_start.len() - 1;
@@ -457,19 +461,19 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         }
         AccelRef::Bvh(bvh, walk) => {
             let node_base = t.len() as u32;
+            let nodes = bvh_nodes(bvh, origin);
+            let lattice = BvhLattice::of_nodes(&nodes);
             match walk {
                 BvhWalk::Stack => {
-                    for n in bvh_nodes(bvh, origin) {
+                    for n in nodes {
                         let [a, b]: [[u32; 4]; 2] = bytemuck::cast(n);
                         t.push(a);
                         t.push(b);
                     }
                 }
-                BvhWalk::Stackless => {
-                    let lattice = BvhLattice::of(bvh, origin);
-                    t.extend(bvh_nodes(bvh, origin).iter().map(|n| quantise_node(n, &lattice)));
-                }
+                BvhWalk::Stackless => t.extend(nodes.iter().map(|n| quantise_node(n, &lattice))),
             }
+            bvh_lattice = Some(lattice);
             // One texel of references per leaf (at most `MAX_LEAF` = 4), in node order: a leaf
             // reads its list with one fetch.
             let ref_base = t.len() as u32;
@@ -550,6 +554,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         aux_base: [cone_base, uv_base, texture_base, pixel_base],
         grid_base: [accel_base[0], accel_base[1], accel_base[2], bundle_base],
         shell_sections,
+        bvh_lattice,
     }
 }
 
@@ -607,7 +612,7 @@ pub fn params<'a>(
             p.macro_res = [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], ACCEL_GRID];
         }
         AccelRef::Bvh(bvh, walk) => {
-            let lattice = BvhLattice::of(bvh, origin);
+            let lattice = packed.bvh_lattice.unwrap_or_else(|| BvhLattice::of(bvh, origin));
             p.grid_min = [lattice.base[0], lattice.base[1], lattice.base[2], 0.0];
             p.grid_max = [lattice.top[0], lattice.top[1], lattice.top[2], 0.0];
             p.grid_cell = [lattice.step[0], lattice.step[1], lattice.step[2], 0.0];
@@ -703,10 +708,16 @@ pub struct BvhLattice {
 }
 
 impl BvhLattice {
+    /// The lattice of `bvh`'s nodes packed relative to `origin`.
     pub fn of(bvh: &Bvh, origin: DVec3) -> Self {
+        Self::of_nodes(&bvh_nodes(bvh, origin))
+    }
+
+    /// The lattice covering `nodes` (as [`bvh_nodes`] rounds them).
+    pub fn of_nodes(nodes: &[BvhNode]) -> Self {
         let (mut base, mut top) = ([f32::MAX; 3], [f32::MIN; 3]);
-        for n in &bvh.nodes {
-            let (lo, hi) = node_box(n, origin);
+        for n in nodes {
+            let (lo, hi) = (n.lo, n.hi);
             for k in 0..3 {
                 base[k] = base[k].min(lo[k]);
                 top[k] = top[k].max(hi[k]);

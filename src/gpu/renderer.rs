@@ -98,6 +98,8 @@ pub struct Frame {
 pub struct LoopMeter {
     pub mean: f64,
     pub occupancy: f64,
+    /// The most iterations of any pixel.
+    pub max: u32,
 }
 
 /// Invocations lavapipe runs in one SIMD group (256-bit vectors of 32-bit lanes).
@@ -108,7 +110,7 @@ impl LoopMeter {
     /// `iterations(i)` of pixel i).
     pub fn of(iterations: impl Fn(usize) -> u32, cols: u32, rows: u32) -> Self {
         let (bw, bh) = (layout::RENDER_TILE[0], SIMD_LANES / layout::RENDER_TILE[0]);
-        let (mut sum, mut executed) = (0u64, 0u64);
+        let (mut sum, mut executed, mut max) = (0u64, 0u64, 0u64);
         for by in (0..rows).step_by(bh as usize) {
             for bx in (0..cols).step_by(bw as usize) {
                 let mut most = 0u64;
@@ -120,12 +122,14 @@ impl LoopMeter {
                     }
                 }
                 executed += most * SIMD_LANES as u64;
+                max = max.max(most);
             }
         }
         let pixels = (cols as u64 * rows as u64).max(1);
         LoopMeter {
             mean: sum as f64 / pixels as f64,
             occupancy: if executed == 0 { 1.0 } else { sum as f64 / executed as f64 },
+            max: max as u32,
         }
     }
 }
@@ -198,8 +202,8 @@ impl Bands {
         // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
         let meter = |p: &[f32; 4]| p[3] as u32;
         let eye_hits = out.iter().filter(|p| meter(p) & 1 == 1).count() as u64;
-        let max_loop_iterations = out.iter().map(|p| meter(p) >> 1).max().unwrap_or(0);
         let loops = LoopMeter::of(|i| meter(&out[i]) >> 1, cols, out.len() as u32 / cols.max(1));
+        let max_loop_iterations = loops.max;
         if max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
             log::warn!(
                 "a pixel ran {max_loop_iterations} shader loop iterations; lavapipe stops loops after \
