@@ -147,6 +147,24 @@ fn spd_rules_trace_the_pixel_corners() {
 }
 
 #[test]
+fn spd_writes_a_scalable_database_that_loads() {
+    let path = tmp("tetra_s3.nff");
+    let out = irt(&["spd", "tetra", "--size", "3", "--out", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("64 triangles"));
+    let scene = irt::io::load(&path).unwrap();
+    assert_eq!((scene.triangle_count(), scene.lights.len()), (64, 1));
+    // Past what irt loads: refused before anything is generated, with the range.
+    let big = tmp("balls_s7.nff");
+    fails_with(
+        &irt(&["spd", "balls", "--size", "7", "--out", big.to_str().unwrap()]),
+        &["balls size 7", "1 to 6"],
+    );
+    assert!(!big.exists());
+    fails_with(&irt(&["spd", "mount", "--out", big.to_str().unwrap()]), &["mount"]);
+}
+
+#[test]
 fn nff_errors_name_the_place() {
     let path = tmp("bad.nff");
     std::fs::write(&path, "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 8 8\nq 1 2\n")

@@ -9,6 +9,7 @@ mod convert;
 mod info;
 mod render;
 mod sequence;
+mod spd;
 mod stability;
 mod tradeoff;
 
@@ -25,7 +26,7 @@ use std::path::{Path, PathBuf};
     about = "Interactive ray tracer on Vulkan compute (Parker et al., I3D 1999)",
     long_about = "irt traces scenes with WGSL compute shaders on any Vulkan device — by default \
 Mesa's lavapipe, which runs Vulkan on the CPU. Without a SCENE it draws the built-in default \
-scene.\n\nExamples:\n  irt view\n  irt view scenes/spd/balls_s2.nff --mode frameless\n  irt replay scenes/paths/orbit.toml --mode frameless\n  irt render --out default.png\n  irt render --out default.exr\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt render --shadows bundle:16 --out soft.png\n  irt tradeoff --out-dir tradeoff\n  irt bench\n  irt convert model.glb model.toml\n  irt info"
+scene.\n\nExamples:\n  irt view\n  irt view scenes/spd/balls_s2.nff --mode frameless\n  irt replay scenes/paths/orbit.toml --mode frameless\n  irt render --out default.png\n  irt render --out default.exr\n  irt render scenes/metal.toml --width 800 --height 600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt render --shadows bundle:16 --out soft.png\n  irt tradeoff --out-dir tradeoff\n  irt bench\n  irt convert model.glb model.toml\n  irt spd balls --size 6 --out balls_s6.nff\n  irt info"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -46,6 +47,8 @@ pub enum Command {
     Stability(stability::StabilityArgs),
     /// Write any scene irt can load (TOML, glTF) as a native TOML scene, losslessly.
     Convert(convert::ConvertArgs),
+    /// Write Haines' sphereflake (balls) or Sierpinski tetrahedron (tetra) at any size, as NFF.
+    Spd(spd::SpdArgs),
     // about and long help come from ViewArgs (a doc comment here would replace them).
     View(irt::app::ViewArgs),
     /// Replay a camera path; measure latency, pixel age and dynamic error (docs/interactive.md).
@@ -61,6 +64,7 @@ impl Command {
             Command::Tradeoff(a) => tradeoff::run(a),
             Command::Stability(a) => stability::run(a),
             Command::Convert(a) => convert::run(a),
+            Command::Spd(a) => spd::run(a),
             Command::View(a) => irt::app::run(a),
             Command::Replay(a) => irt::render::replay::run(a),
         }

@@ -10,6 +10,7 @@ pub mod obj;
 pub mod ply;
 pub mod png;
 pub mod shapes;
+pub mod spd;
 pub mod stage;
 pub mod toml;
 pub mod toml_write;
