@@ -132,6 +132,32 @@ fn session(ctx: &irt::gpu::GpuContext, scene: &Scene, accel: AccelChoice) -> Ses
     Session::new(ctx, scene, settings).unwrap()
 }
 
+/// A session orders its stackless BVH towards the eye again once the camera has moved far
+/// enough, not for a small move, and the picture is what a session started at that camera
+/// draws (the order changes which boxes are tested first, not what is hit).
+#[test]
+fn a_session_reorders_its_bvh_for_a_far_eye_and_draws_the_same_picture() {
+    let ctx = common::gpu();
+    let scene = sized(scene_file("spd/balls_s2.nff"), 64, 64);
+    let mut moved = session(&ctx, &scene, AccelChoice::Bvh);
+    let start = scene.camera.eye;
+    assert_eq!(moved.bvh_ordered_for(), Some(start));
+    let mut camera = scene.camera.clone();
+    camera.eye = start * 1.001;
+    moved.set_camera(&ctx, &camera);
+    assert_eq!(moved.bvh_ordered_for(), Some(start), "a small move keeps the order");
+    // Seen from the opposite side: the old order would test the far side's boxes first.
+    camera.eye = glam::DVec3::new(-start.x, start.y, -start.z);
+    moved.set_camera(&ctx, &camera);
+    assert_eq!(moved.bvh_ordered_for(), Some(camera.eye), "a far move orders the tree again");
+    moved.complete_pass(&ctx);
+    let mut fresh = session(&ctx, &Scene { camera: camera.clone(), ..scene.clone() }, AccelChoice::Bvh);
+    fresh.complete_pass(&ctx);
+    let diff = irt::metrics::compare(&moved.read_image(&ctx), &fresh.read_image(&ctx));
+    assert!(diff.bad_pixels == 0.0, "the reordered session and a fresh one differ: {diff}");
+    assert!(session(&ctx, &scene, AccelChoice::Grid).bvh_ordered_for().is_none());
+}
+
 /// A moving scene with the BVH: the session rebuilds the tree at every time (no refit yet), and
 /// its image matches the reference of the posed scene and the grid session's.
 #[test]

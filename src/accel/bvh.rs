@@ -35,8 +35,9 @@ const MIN_PRIMS_PER_THREAD: usize = 1 << 12;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NodeKind {
     /// Children at `index + 1` and `right`; the node after the subtree at `escape`. `axis` is
-    /// the axis the children were split along (left: the lower centroids).
-    Inner { axis: u8, right: u32, escape: u32 },
+    /// the axis the children were split along: the left child holds the lower centroids, or
+    /// the higher ones where `swapped` ([`Bvh::ordered_towards`]).
+    Inner { axis: u8, right: u32, escape: u32, swapped: bool },
     /// Primitives `refs[first..first + count]`.
     Leaf { first: u32, count: u32 },
 }
@@ -194,6 +195,50 @@ impl Bvh {
             .sum()
     }
 
+    /// The same tree flattened again with, at every inner node, the child nearer `eye` first
+    /// (its box nearer, or if both boxes are as near, e.g. both hold the eye, its centre; ties
+    /// in the builder's order): the
+    /// stackless walk visits children in their stored order, so eye rays from `eye` meet the
+    /// near side of each split first and cut the far side's boxes by the hit found (docs/
+    /// performance.md, "Eye-ordered BVH"). Leaves and references are renumbered in the new
+    /// order; boxes and leaves are unchanged.
+    pub fn ordered_towards(&self, eye: DVec3) -> Bvh {
+        let mut out =
+            Bvh { nodes: Vec::with_capacity(self.nodes.len()), refs: Vec::with_capacity(self.refs.len()) };
+        self.emit_ordered(0, eye, &mut out);
+        out
+    }
+
+    fn emit_ordered(&self, i: usize, eye: DVec3, out: &mut Bvh) {
+        let n = self.nodes[i];
+        match n.kind {
+            NodeKind::Leaf { first, count } => {
+                let at = out.refs.len() as u32;
+                out.refs.extend_from_slice(&self.refs[first as usize..(first + count) as usize]);
+                out.nodes.push(Node { kind: NodeKind::Leaf { first: at, count }, ..n });
+            }
+            NodeKind::Inner { axis, right, swapped, .. } => {
+                let key = |c: &Node| {
+                    let nearest = eye.clamp(c.lo, c.hi);
+                    (eye.distance_squared(nearest), eye.distance_squared((c.lo + c.hi) * 0.5))
+                };
+                let (l, r) = (i + 1, right as usize);
+                // Ties keep the builder's order, so the result depends on the eye alone, not on
+                // the order the tree came in.
+                let (kl, kr) = (key(&self.nodes[l]), key(&self.nodes[r]));
+                let swap = kr < kl || (kr == kl && swapped);
+                let (first, second) = if swap { (r, l) } else { (l, r) };
+                let at = out.nodes.len();
+                out.nodes.push(n);
+                self.emit_ordered(first, eye, out);
+                let right = out.nodes.len() as u32;
+                self.emit_ordered(second, eye, out);
+                let escape = out.nodes.len() as u32;
+                out.nodes[at].kind = NodeKind::Inner { axis, right, escape, swapped: swapped != swap };
+            }
+        }
+    }
+
     /// The depth of the deepest leaf (the root alone: 1).
     pub fn depth(&self) -> usize {
         fn depth_at(b: &Bvh, i: usize) -> usize {
@@ -278,7 +323,7 @@ fn build_range(prims: &mut [Prim], first: u32, depth: usize, split: Split, threa
     nodes.push(Node {
         lo: b.lo,
         hi: b.hi,
-        kind: NodeKind::Inner { axis: axis as u8, right: right_at, escape },
+        kind: NodeKind::Inner { axis: axis as u8, right: right_at, escape, swapped: false },
     });
     nodes.append(&mut l);
     nodes.append(&mut r);
@@ -430,6 +475,64 @@ mod tests {
         let b = Bvh::build(&scene(vec![], vec![]));
         assert_eq!(b.nodes.len(), 1);
         assert!(b.refs.is_empty());
+    }
+
+    /// The squared distance from `eye` to `n`'s box (0 inside) and to its centre.
+    fn nearness(n: &Node, eye: DVec3) -> (f64, f64) {
+        (eye.distance_squared(eye.clamp(n.lo, n.hi)), eye.distance_squared((n.lo + n.hi) * 0.5))
+    }
+
+    /// The leaves as (box, sorted references), in a canonical order: what ordering must keep.
+    fn leaves(b: &Bvh) -> Vec<(DVec3, DVec3, Vec<PrimRef>)> {
+        let mut out: Vec<_> = b
+            .nodes
+            .iter()
+            .filter_map(|n| match n.kind {
+                NodeKind::Leaf { first, count } => {
+                    let mut r = b.refs[first as usize..(first + count) as usize].to_vec();
+                    r.sort_by_key(|p| p.0);
+                    Some((n.lo, n.hi, r))
+                }
+                NodeKind::Inner { .. } => None,
+            })
+            .collect();
+        out.sort_by(|a, b| {
+            (a.2.first().map(|p| p.0), a.0.to_array())
+                .partial_cmp(&(b.2.first().map(|p| p.0), b.0.to_array()))
+                .unwrap()
+        });
+        out
+    }
+
+    /// Ordering towards an eye keeps the tree well formed with the same leaves, puts the child
+    /// nearer the eye first at every inner node, marks the nodes whose children it swapped,
+    /// and depends on the eye alone (ordering an ordered tree for another eye is ordering the
+    /// builder's tree for it).
+    #[test]
+    fn ordering_towards_an_eye_puts_the_nearer_child_first_and_keeps_the_tree() {
+        let s = random_scene(7, 3000, 10.0, DVec3::ZERO);
+        let built = Bvh::build(&s);
+        let eyes = [DVec3::new(30.0, 5.0, -20.0), DVec3::new(-30.0, -5.0, 20.0), DVec3::ZERO];
+        for eye in eyes {
+            let b = built.ordered_towards(eye);
+            assert_well_formed(&b, &s);
+            assert_eq!(b.nodes.len(), built.nodes.len());
+            assert!(leaves(&b) == leaves(&built), "the same leaves");
+            assert_eq!(b.depth(), built.depth());
+            let mut swaps = 0;
+            for (i, n) in b.nodes.iter().enumerate() {
+                if let NodeKind::Inner { right, swapped, .. } = n.kind {
+                    let (l, r) = (&b.nodes[i + 1], &b.nodes[right as usize]);
+                    assert!(nearness(l, eye) <= nearness(r, eye), "node {i}: the nearer child first");
+                    swaps += swapped as usize;
+                }
+            }
+            let inner = b.nodes.iter().filter(|n| matches!(n.kind, NodeKind::Inner { .. })).count();
+            assert!(swaps > 0 && swaps < inner, "{swaps} of {inner} swapped");
+            for other in eyes {
+                assert!(b.ordered_towards(other) == built.ordered_towards(other), "order {eye} then {other}");
+            }
+        }
     }
 
     #[test]

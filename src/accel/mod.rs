@@ -63,7 +63,18 @@ impl Accel {
     pub fn build(scene: &Scene, kind: AccelKind, progress: &(dyn Fn(usize, usize) + Sync)) -> Accel {
         match kind {
             AccelKind::Grid => Accel::Grid(Grid::build_with_progress(scene, progress)),
-            AccelKind::Bvh(walk) => Accel::Bvh(Bvh::build(scene), walk),
+            AccelKind::Bvh(walk) => Accel::bvh(scene, walk),
+        }
+    }
+
+    /// The BVH of `scene` walked by `walk`. The stackless walk visits children in their stored
+    /// order, so its tree is ordered towards the camera's eye ([`Bvh::ordered_towards`]); the
+    /// stack walk orders them per ray and keeps the builder's order.
+    pub fn bvh(scene: &Scene, walk: BvhWalk) -> Accel {
+        let bvh = Bvh::build(scene);
+        match walk {
+            BvhWalk::Stackless => Accel::Bvh(bvh.ordered_towards(scene.camera.eye), walk),
+            BvhWalk::Stack => Accel::Bvh(bvh, walk),
         }
     }
 

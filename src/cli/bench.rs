@@ -180,8 +180,12 @@ fn make_peer(
             Box::new(irt::peer::native::NativePeer::new(scene, grid).map_err(anyhow::Error::msg)?)
         }
         Peer::NativeBvh => Box::new(
-            irt::peer::native::NativePeer::with_bvh(scene, &irt::accel::Bvh::build(scene))
-                .map_err(anyhow::Error::msg)?,
+            // The device's tree, as its stackless walk gets it (ordered towards the eye).
+            irt::peer::native::NativePeer::with_bvh(
+                scene,
+                &irt::accel::Bvh::build(scene).ordered_towards(scene.camera.eye),
+            )
+            .map_err(anyhow::Error::msg)?,
         ),
         #[cfg(feature = "embree")]
         Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => Box::new(

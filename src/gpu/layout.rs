@@ -465,6 +465,11 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
             let lattice = BvhLattice::of_nodes(&nodes);
             match walk {
                 BvhWalk::Stack => {
+                    // Its shader takes the left child for the lower centroids along `axis`.
+                    debug_assert!(
+                        bvh.nodes.iter().all(|n| !matches!(n.kind, NodeKind::Inner { swapped: true, .. })),
+                        "the stack walk's tree keeps the builder's order"
+                    );
                     for n in nodes {
                         let [a, b]: [[u32; 4]; 2] = bytemuck::cast(n);
                         t.push(a);
@@ -651,7 +656,7 @@ pub fn bvh_nodes(bvh: &Bvh, origin: DVec3) -> Vec<BvhNode> {
         .map(|n| {
             let (lo, hi) = node_box(n, origin);
             let (a, b) = match n.kind {
-                NodeKind::Inner { axis, right, escape } => {
+                NodeKind::Inner { axis, right, escape, .. } => {
                     (escape, BVH_INNER | (axis as u32) << BVH_AXIS_SHIFT | right)
                 }
                 NodeKind::Leaf { count, .. } => {

@@ -12,7 +12,7 @@ use super::order::{Dissolve, PixelOrder};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, Settings};
 use crate::accel::grid::Frame;
-use crate::accel::{Accel, AccelKind, Bvh, Grid};
+use crate::accel::{Accel, AccelKind, BvhWalk, Grid};
 use crate::gpu::backend::{infallible, Command, ComputeBackend, Device, Dispatch, Recording};
 use crate::gpu::dispatch::ModeBuffers;
 use crate::gpu::layout::{
@@ -166,7 +166,19 @@ pub struct Session<D: Device = GpuContext> {
     /// Re-insert only the moving primitives when the time changes (else rebuild the grid in the
     /// same frame: the two give the same grid; this is for measuring).
     pub incremental: bool,
+    /// A stackless BVH's children are ordered towards this eye ([`Session::reorder`]).
+    ordered_eye: DVec3,
+    /// What the last ordering and upload took: above [`REORDER_BUDGET`], a moving camera keeps
+    /// the old order until it comes to rest.
+    reorder_cost: Duration,
 }
+
+/// The eye moves this far, as a fraction of the scene's box diagonal, before a stackless BVH is
+/// ordered towards it again ([`Session::reorder`]).
+pub const REORDER_MOVE: f64 = 0.05;
+/// A reordering that took longer than this waits for the camera to come to rest (one complete
+/// frame or pass), so that dragging a large model does not stutter.
+pub const REORDER_BUDGET: Duration = Duration::from_millis(8);
 
 /// Times at which an animation is posed to find the box its moving objects sweep (plus its
 /// ends); a cubic that overshoots between them makes the frame grow when it happens.
@@ -213,9 +225,12 @@ impl<D: Device> Session<D> {
         let frame = animation_frame(&base, &moving);
         let accel = first_accel(&scene, settings.accel.resolve(&scene), &frame);
         let origin = scene.camera.eye;
+        let t = Instant::now();
         let packed = layout::pack_scene(&scene, &accel, origin);
         let params = layout::params(&scene, &accel, &packed, origin);
         let gpu_scene = ctx.upload(packed, params, None)?;
+        // What a reordering will take, as near as is known before one: its pack and upload.
+        let reorder_cost = t.elapsed();
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
         let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity)?;
@@ -245,6 +260,8 @@ impl<D: Device> Session<D> {
             moving,
             frame,
             incremental: true,
+            ordered_eye: origin,
+            reorder_cost,
         };
         s.configure_mode(ctx)?;
         s.bound(ctx).clear_frame().map_err(|e| e.to_string())?;
@@ -346,6 +363,11 @@ impl<D: Device> Session<D> {
         Ok(report)
     }
 
+    /// The eye a stackless BVH's children are ordered towards (`None`: another accelerator).
+    pub fn bvh_ordered_for(&self) -> Option<DVec3> {
+        matches!(self.accel, Accel::Bvh(_, BvhWalk::Stackless)).then_some(self.ordered_eye)
+    }
+
     pub fn camera(&self) -> &Camera {
         &self.scene.camera
     }
@@ -386,6 +408,7 @@ impl<D: Device> Session<D> {
         }
         self.scene.camera = cam;
         self.write_camera(ctx);
+        self.reorder(ctx, false);
         self.restart();
     }
 
@@ -509,6 +532,9 @@ impl<D: Device> Session<D> {
     pub fn try_step(&mut self, ctx: &D) -> Result<StepReport, D::Error> {
         if self.converged() {
             return Ok(StepReport { idle: true, camera_version: self.camera_version, ..Default::default() });
+        }
+        if self.samples > 0 {
+            self.reorder(ctx, true);
         }
         match self.settings.mode {
             Mode::Conventional { .. } => self.step_conventional(ctx),
@@ -772,7 +798,7 @@ fn first_accel(scene: &Scene, kind: AccelKind, frame: &Option<(Frame, DVec3, DVe
     match (kind, frame) {
         (AccelKind::Grid, Some((f, ..))) => Accel::Grid(Grid::build_in(scene, *f)),
         (AccelKind::Grid, None) => Accel::Grid(Grid::build(scene)),
-        (AccelKind::Bvh(walk), _) => Accel::Bvh(Bvh::build(scene), walk),
+        (AccelKind::Bvh(walk), _) => Accel::bvh(scene, walk),
     }
 }
 
@@ -788,8 +814,45 @@ impl<D: Device> Session<D> {
     fn reaccel(&mut self, scene: &Scene, motion: bool) -> Accel {
         match self.accel {
             Accel::Grid(_) => Accel::Grid(self.regrid(scene, motion)),
-            Accel::Bvh(_, walk) => Accel::Bvh(Bvh::build(scene), walk),
+            Accel::Bvh(_, walk) => {
+                self.ordered_eye = scene.camera.eye;
+                Accel::bvh(scene, walk)
+            }
         }
+    }
+
+    /// Orders a stackless BVH towards the camera's eye again once the eye has moved
+    /// [`REORDER_MOVE`] of the scene's size from the eye it was ordered for: a tree ordered for
+    /// one side walks the far side's boxes first when seen from the other (2.7x the loop
+    /// iterations on SPD balls_s4 seen from the opposite side). The picture does not change, so
+    /// refinement goes on. Unless `at_rest`, only when the last reordering took at most
+    /// [`REORDER_BUDGET`].
+    fn reorder(&mut self, ctx: &D, at_rest: bool) {
+        let Accel::Bvh(bvh, BvhWalk::Stackless) = &self.accel else { return };
+        let eye = self.scene.camera.eye;
+        let root = &bvh.nodes[0];
+        if eye.distance(self.ordered_eye) <= REORDER_MOVE * (root.hi - root.lo).length()
+            || (!at_rest && self.reorder_cost > REORDER_BUDGET)
+        {
+            return;
+        }
+        let t = Instant::now();
+        self.accel = Accel::Bvh(bvh.ordered_towards(eye), BvhWalk::Stackless);
+        self.ordered_eye = eye;
+        let packed = layout::pack_scene(&self.scene, &self.accel, self.origin);
+        let mut params = layout::params(&self.scene, &self.accel, &packed, self.origin);
+        params.eye_grid = D::params(&self.gpu_scene).eye_grid;
+        let uploaded = ctx.update_scene(&mut self.gpu_scene, packed, params).and_then(|new_texture| {
+            if new_texture {
+                ctx.rebind(&mut self.dispatcher, &self.gpu_scene)?;
+            }
+            Ok(())
+        });
+        if let Err(e) = uploaded {
+            log::warn!("ordering the BVH towards the new eye: {e}");
+        }
+        self.reorder_cost = t.elapsed();
+        log::debug!("BVH ordered towards the eye {eye} in {:.1?}", self.reorder_cost);
     }
 
     /// The grid of `scene`: the moving primitives re-inserted into the current grid when only
