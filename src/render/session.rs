@@ -168,8 +168,8 @@ pub struct Session<D: Device = GpuContext> {
     pub incremental: bool,
     /// A stackless BVH's children are ordered towards this eye ([`Session::reorder`]).
     ordered_eye: DVec3,
-    /// What the last ordering and upload took: above [`REORDER_BUDGET`], a moving camera keeps
-    /// the old order until it comes to rest.
+    /// What the last ordering and upload took (zero before the first): above
+    /// [`REORDER_BUDGET`], a moving camera keeps the old order until it comes to rest.
     reorder_cost: Duration,
 }
 
@@ -225,12 +225,9 @@ impl<D: Device> Session<D> {
         let frame = animation_frame(&base, &moving);
         let accel = first_accel(&scene, settings.accel.resolve(&scene), &frame);
         let origin = scene.camera.eye;
-        let t = Instant::now();
         let packed = layout::pack_scene(&scene, &accel, origin);
         let params = layout::params(&scene, &accel, &packed, origin);
         let gpu_scene = ctx.upload(packed, params, None)?;
-        // What a reordering will take, as near as is known before one: its pack and upload.
-        let reorder_cost = t.elapsed();
         let variant = Variant { f64: settings.f64, ..Variant::for_scene(&scene, false) };
         let capacity = [scene.camera.width, scene.camera.height];
         let dispatcher = make_dispatcher(ctx, &gpu_scene, variant, capacity)?;
@@ -261,7 +258,8 @@ impl<D: Device> Session<D> {
             frame,
             incremental: true,
             ordered_eye: origin,
-            reorder_cost,
+            // Unknown until the first reordering measures itself.
+            reorder_cost: Duration::ZERO,
         };
         s.configure_mode(ctx)?;
         s.bound(ctx).clear_frame().map_err(|e| e.to_string())?;
@@ -839,9 +837,11 @@ impl<D: Device> Session<D> {
         let t = Instant::now();
         self.accel = Accel::Bvh(bvh.ordered_towards(eye), BvhWalk::Stackless);
         self.ordered_eye = eye;
+        let ordered = t.elapsed();
         let packed = layout::pack_scene(&self.scene, &self.accel, self.origin);
         let mut params = layout::params(&self.scene, &self.accel, &packed, self.origin);
         params.eye_grid = D::params(&self.gpu_scene).eye_grid;
+        let packed_at = t.elapsed();
         let uploaded = ctx.update_scene(&mut self.gpu_scene, packed, params).and_then(|new_texture| {
             if new_texture {
                 ctx.rebind(&mut self.dispatcher, &self.gpu_scene)?;
@@ -852,7 +852,13 @@ impl<D: Device> Session<D> {
             log::warn!("ordering the BVH towards the new eye: {e}");
         }
         self.reorder_cost = t.elapsed();
-        log::debug!("BVH ordered towards the eye {eye} in {:.1?}", self.reorder_cost);
+        log::debug!(
+            "BVH ordered towards the eye {eye} in {:.1?} (order {:.1?}, pack {:.1?}, upload {:.1?})",
+            self.reorder_cost,
+            ordered,
+            packed_at - ordered,
+            self.reorder_cost - packed_at
+        );
     }
 
     /// The grid of `scene`: the moving primitives re-inserted into the current grid when only
