@@ -10,7 +10,7 @@
 
 mod common;
 
-use irt::accel::{Bvh, Grid};
+use irt::accel::{bvh_for, BvhWalk, Grid};
 use irt::gpu::{RenderOptions, Renderer};
 use irt::peer::{native::NativePeer, primary_shadow};
 use std::path::Path;
@@ -27,7 +27,8 @@ fn check(name: &str, file: Option<&str>, size: u32) {
     // Both accelerators of the peer: irt's grid (`native`) and irt's BVH (`native-bvh`).
     let peers = [
         NativePeer::new(&scene, &Grid::build(&scene)).expect("peer"),
-        NativePeer::with_bvh(&scene, &Bvh::build(&scene)).expect("BVH peer"),
+        // The tree the device walks (ordered towards the eye), as `irt bench --peer native-bvh`.
+        NativePeer::with_bvh(&scene, &bvh_for(&scene, BvhWalk::Stackless)).expect("BVH peer"),
     ];
     for peer in &peers {
         let who = peer.name();

@@ -67,15 +67,9 @@ impl Accel {
         }
     }
 
-    /// The BVH of `scene` walked by `walk`. The stackless walk visits children in their stored
-    /// order, so its tree is ordered towards the camera's eye ([`Bvh::ordered_towards`]); the
-    /// stack walk orders them per ray and keeps the builder's order.
+    /// The BVH of `scene` walked by `walk` ([`bvh_for`]).
     pub fn bvh(scene: &Scene, walk: BvhWalk) -> Accel {
-        let bvh = Bvh::build(scene);
-        match walk {
-            BvhWalk::Stackless => Accel::Bvh(bvh.ordered_towards(scene.camera.eye), walk),
-            BvhWalk::Stack => Accel::Bvh(bvh, walk),
-        }
+        Accel::Bvh(bvh_for(scene, walk), walk)
     }
 
     /// Builds what `choice` asks for.
@@ -113,6 +107,17 @@ impl Accel {
             Accel::Grid(g) => g.stats().to_string(),
             Accel::Bvh(b, w) => format!("{} ({w:?} walk)", b.stats()),
         }
+    }
+}
+
+/// The BVH of `scene` as `walk` needs it. The stackless walk visits children in their stored
+/// order, so its tree is ordered towards the camera's eye ([`Bvh::ordered_towards`]); the stack
+/// walk orders them per ray and keeps the builder's order.
+pub fn bvh_for(scene: &Scene, walk: BvhWalk) -> Bvh {
+    let bvh = Bvh::build(scene);
+    match walk {
+        BvhWalk::Stackless => bvh.ordered_towards(scene.camera.eye),
+        BvhWalk::Stack => bvh,
     }
 }
 

@@ -179,14 +179,11 @@ fn make_peer(
         Peer::Native => {
             Box::new(irt::peer::native::NativePeer::new(scene, grid).map_err(anyhow::Error::msg)?)
         }
-        Peer::NativeBvh => Box::new(
+        Peer::NativeBvh => {
             // The device's tree, as its stackless walk gets it (ordered towards the eye).
-            irt::peer::native::NativePeer::with_bvh(
-                scene,
-                &irt::accel::Bvh::build(scene).ordered_towards(scene.camera.eye),
-            )
-            .map_err(anyhow::Error::msg)?,
-        ),
+            let bvh = irt::accel::bvh_for(scene, irt::accel::BvhWalk::Stackless);
+            Box::new(irt::peer::native::NativePeer::with_bvh(scene, &bvh).map_err(anyhow::Error::msg)?)
+        }
         #[cfg(feature = "embree")]
         Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => Box::new(
             irt::peer::embree::EmbreePeer::with_options(

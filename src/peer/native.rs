@@ -460,7 +460,7 @@ impl NativePeer {
 
     /// The same peer over irt's BVH (`--peer native-bvh`): the device's default accelerator,
     /// walked as its shader does (stackless, by escape links, children in their stored order:
-    /// give it the device's tree, `Bvh::ordered_towards` the eye).
+    /// give it the device's tree, `accel::bvh_for(scene, BvhWalk::Stackless)`).
     pub fn with_bvh(scene: &Scene, bvh: &Bvh) -> Result<Self, String> {
         let shade = Shade::new(scene, "native-bvh")?;
         let boxes = crate::gpu::layout::bvh_nodes(bvh, scene.camera.eye);
