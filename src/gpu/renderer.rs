@@ -350,3 +350,16 @@ impl Renderer<GpuContext> {
         infallible(self.try_median_frame_time(ctx, frames))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two 4x2 blocks of an 8x2 grid whose pixel i ran i iterations: 0..3 and 8..11 (sum 44, the
+    /// block runs 11), 4..7 and 12..15 (sum 76, runs 15).
+    #[test]
+    fn loop_meter_counts_blocks_by_their_busiest_lane() {
+        let m = LoopMeter::of(|i| i as u32, 8, 2);
+        assert_eq!(m, LoopMeter { mean: 120.0 / 16.0, occupancy: 120.0 / (8.0 * 26.0), max: 15 });
+    }
+}
