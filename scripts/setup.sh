@@ -32,7 +32,9 @@ apt_update() {
 
 have_vulkan() {
     # The loader plus at least one installed driver manifest (ICD).
-    ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1' || return 1
+    # grep reads all of it: with -q it would exit at the first match, and under pipefail
+    # ldconfig's SIGPIPE would fail the check now and then (seen in a CI run).
+    ldconfig -p 2>/dev/null | grep 'libvulkan\.so\.1' >/dev/null || return 1
     local d
     for d in /usr/share/vulkan/icd.d /etc/vulkan/icd.d /usr/local/share/vulkan/icd.d; do
         compgen -G "$d/*.json" >/dev/null && return 0
