@@ -613,6 +613,8 @@ pub fn params<'a>(
             p.grid_max = v4(grid.max - origin, 0.0);
             p.grid_cell = v4(grid.cell_size, 0.0);
             p.grid_inv_cell = v4(grid.cell_size.recip(), 0.0);
+            // The shader divides by the constant (grid.wgsl, macro_linear).
+            assert_eq!(grid.macro_factor, crate::accel::grid::MACRO_FACTOR, "a grid of another macro factor");
             p.grid_res = [res[0], res[1], res[2], grid.macro_factor];
             p.macro_res = [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], ACCEL_GRID];
         }
@@ -851,6 +853,7 @@ pub fn wgsl_constants() -> String {
     for (name, f) in Filter::NAMES {
         s += &c(&format!("FILTER_{}", name.to_uppercase()), filter_code(f));
     }
+    s += &c("MACRO_FACTOR", crate::accel::grid::MACRO_FACTOR);
     s += &c("MAX_LIGHTS", MAX_LIGHTS as u32);
     s += &c("RENDER_TILE_W", RENDER_TILE[0]);
     s += &c("RENDER_TILE_H", RENDER_TILE[1]);
