@@ -68,6 +68,8 @@ struct Measured {
     open: Duration,
     first_frame: Duration,
     frame: Duration,
+    /// The median frame's host side after its dispatches ([`irt::gpu::Frame::readback`]).
+    readback: Duration,
     rays: irt::gpu::RayCounts,
     grid: String,
     device: String,
@@ -313,6 +315,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         open,
         first_frame,
         frame,
+        readback,
         rays,
         grid: stats,
         device,
@@ -361,6 +364,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
             frame.as_secs_f64() * 1e3,
             args.frames.max(1),
             if profile.is_some() { "; queries on" } else { "" }
+        );
+        println!(
+            "readback         {:.2} ms of it (output mapped and decoded into the image on the host, median)",
+            readback.as_secs_f64() * 1e3
         );
         if args.backend == super::Backend::Ash {
             let o = args.ash.options();
@@ -444,7 +451,7 @@ impl Job<'_> {
             )?;
             return Ok(None);
         }
-        let frame = renderer.try_median_frame_time(ctx, self.frames)?;
+        let (frame, readback) = renderer.try_median_frame_times(ctx, self.frames)?;
         let overhead = if self.dispatch_overhead > 0 {
             use irt::gpu::shaders::{Kernel, Variant};
             let d = ctx
@@ -467,6 +474,7 @@ impl Job<'_> {
             open,
             first_frame,
             frame,
+            readback,
             rays,
             grid: renderer.accel.summary(),
             device: ctx.adapter_name().to_string(),

@@ -115,8 +115,12 @@ pub trait ComputeBackend {
     fn reset_counts(&self) -> Result<(), Self::Error>;
     /// Runs `d` and waits for it.
     fn dispatch(&self, d: &Dispatch) -> Result<(), Self::Error>;
-    /// The output buffer and the ray counters.
-    fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), Self::Error>;
+    /// `read` of the output buffer and the ray counters, where the device left them (no copy).
+    fn read_output_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, Self::Error>;
+    /// A copy of the output buffer, and the ray counters.
+    fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), Self::Error> {
+        self.read_output_with(|out, rays| (out.to_vec(), rays))
+    }
     /// Restarts the tile queue.
     fn reset_queue(&self) -> Result<(), Self::Error>;
     /// The tile queue's counter: chunks taken so far (past the last once the queue is empty).
@@ -158,8 +162,8 @@ impl ComputeBackend for WgpuKernel<'_> {
         self.dispatcher.run(self.ctx, &d.entry, d.tile, d.groups);
         Ok(())
     }
-    fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), Infallible> {
-        Ok(self.dispatcher.read(self.ctx))
+    fn read_output_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, Infallible> {
+        Ok(self.dispatcher.read_with(self.ctx, read))
     }
     fn reset_queue(&self) -> Result<(), Infallible> {
         self.dispatcher.reset_queue(self.ctx);

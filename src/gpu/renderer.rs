@@ -87,6 +87,9 @@ pub struct Frame {
     pub eye_hits: u64,
     /// Loop iterations per pixel and how busy lavapipe's SIMD lanes were ([`LoopMeter`]).
     pub loops: LoopMeter,
+    /// The host's share of the frame after its dispatches: the output copied into readback
+    /// memory, mapped, and decoded into the image.
+    pub readback: Duration,
 }
 
 /// What the shader's loop meter says of a frame: the mean loop iterations per pixel, and the
@@ -107,8 +110,8 @@ pub const SIMD_LANES: u32 = 8;
 
 impl LoopMeter {
     /// The meter of a `cols` x `rows` grid of per-pixel loop iterations (row-major,
-    /// `iterations(i)` of pixel i).
-    pub fn of(iterations: impl Fn(usize) -> u32, cols: u32, rows: u32) -> Self {
+    /// `iterations(i)` of pixel i, called once per pixel, block by block).
+    pub fn of(mut iterations: impl FnMut(usize) -> u32, cols: u32, rows: u32) -> Self {
         let (bw, bh) = (layout::RENDER_TILE[0], SIMD_LANES / layout::RENDER_TILE[0]);
         let (mut sum, mut executed, mut max) = (0u64, 0u64, 0u64);
         for by in (0..rows).step_by(bh as usize) {
@@ -192,17 +195,35 @@ impl Bands {
         progress: &mut dyn FnMut(u32, u32),
     ) -> Result<Frame, B::Error> {
         backend.run(&self.recording(), progress)?;
-        let (out, rays) = backend.read_output()?;
-        Ok(self.frame(&out, rays))
+        let t = Instant::now();
+        let mut frame = backend.read_output_with(|out, rays| self.frame(out, rays))?;
+        frame.readback = t.elapsed();
+        Ok(frame)
     }
 
-    /// The frame of the output buffer `out`.
+    /// The frame of the output buffer `out`, in one pass over it: the host side of a frame is
+    /// bound by reading the 4 MiB of a 512² output (separate passes for the hits, the meter and
+    /// the pixels took 2.7 ms a frame on the Intel machine, this one pass 1.0; docs/performance.md).
     pub fn frame(&self, out: &[[f32; 4]], rays: RayCounts) -> Frame {
         let cols = self.grid_size[0];
+        let (w, h) = (self.width as usize, self.height as usize);
+        let direct = cols as usize == w;
+        let mut pixels = if direct { vec![[0.0f32; 3]; out.len()] } else { Vec::new() };
+        let mut eye_hits = 0u64;
         // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
-        let meter = |p: &[f32; 4]| p[3] as u32;
-        let eye_hits = out.iter().filter(|p| meter(p) & 1 == 1).count() as u64;
-        let loops = LoopMeter::of(|i| meter(&out[i]) >> 1, cols, out.len() as u32 / cols.max(1));
+        let loops = LoopMeter::of(
+            |i| {
+                let p = &out[i];
+                let meter = p[3] as u32;
+                eye_hits += (meter & 1) as u64;
+                if direct {
+                    pixels[i] = [p[0], p[1], p[2]];
+                }
+                meter >> 1
+            },
+            cols,
+            out.len() as u32 / cols.max(1),
+        );
         let max_loop_iterations = loops.max;
         if max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
             log::warn!(
@@ -210,25 +231,23 @@ impl Bands {
                  {LAVAPIPE_LOOP_LIMIT} per invocation group, so parts of this image may be wrong"
             );
         }
-        let (w, h) = (self.width as usize, self.height as usize);
-        let pixels = if cols as usize == w {
-            out.iter().map(|p| [p[0], p[1], p[2]]).collect()
-        } else {
+        if !direct {
             let at = |x: usize, y: usize| out[y * cols as usize + x];
-            (0..w * h)
+            pixels = (0..w * h)
                 .map(|i| {
                     let (x, y) = (i % w, i / w);
                     let c = [at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1)];
                     [0, 1, 2].map(|k| c.iter().map(|p| p[k]).sum::<f32>() * 0.25)
                 })
-                .collect()
-        };
+                .collect();
+        }
         Frame {
             image: Image { width: self.width, height: self.height, pixels },
             rays,
             max_loop_iterations,
             eye_hits,
             loops,
+            readback: Duration::ZERO,
         }
     }
 }
@@ -316,14 +335,23 @@ impl<D: Device> Renderer<D> {
     /// Median wall time of `frames` (at least 1) further renders: what the measurement commands
     /// report. Call after a first frame, which carries lavapipe's shader compile.
     pub fn try_median_frame_time(&self, ctx: &D, frames: u32) -> Result<Duration, D::Error> {
-        let mut times = Vec::new();
+        Ok(self.try_median_frame_times(ctx, frames)?.0)
+    }
+
+    /// The median frame time of `frames` frames, and the median of their [`Frame::readback`].
+    pub fn try_median_frame_times(&self, ctx: &D, frames: u32) -> Result<(Duration, Duration), D::Error> {
+        let (mut times, mut readbacks) = (Vec::new(), Vec::new());
         for _ in 0..frames.max(1) {
             let t = Instant::now();
-            self.try_render(ctx, &mut |_, _| {})?;
+            let frame = self.try_render(ctx, &mut |_, _| {})?;
             times.push(t.elapsed());
+            readbacks.push(frame.readback);
         }
-        times.sort();
-        Ok(times[times.len() / 2])
+        let median = |mut v: Vec<Duration>| {
+            v.sort();
+            v[v.len() / 2]
+        };
+        Ok((median(times), median(readbacks)))
     }
 
     /// Traces every eye ray, in bands of [`BAND_PIXELS`] eye rays; `progress(rows_done, rows)` after

@@ -655,8 +655,8 @@ impl VkDispatcher {
         })
     }
 
-    /// The output buffer and the ray counters.
-    pub fn read(&self) -> Result<(Vec<[f32; 4]>, RayCounts), VkError> {
+    /// `read` of the output buffer and the ray counters, in the mapped readback memory.
+    pub fn read_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, VkError> {
         let out_bytes = self.out_len * 16;
         self.shared.submit("the readback", |d, cmd| {
             // SAFETY: recording into the command buffer `submit` began.
@@ -669,8 +669,9 @@ impl VkDispatcher {
                 d.cmd_copy_buffer(cmd, self.stats.raw, self.readback.raw, &[copy]);
             }
         })?;
-        let data = self.readback.read(out_bytes + 16);
-        Ok(crate::gpu::dispatch::decode_output(&data, out_bytes))
+        Ok(self
+            .readback
+            .read_with(out_bytes + 16, |d| crate::gpu::dispatch::decode_output(d, out_bytes, read)))
     }
 }
 
@@ -685,8 +686,8 @@ impl ComputeBackend for VkKernel<'_> {
     fn dispatch(&self, d: &Dispatch) -> Result<(), VkError> {
         self.0.run(&d.entry, d.tile, d.groups)
     }
-    fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), VkError> {
-        self.0.read()
+    fn read_output_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, VkError> {
+        self.0.read_with(read)
     }
     fn reset_queue(&self) -> Result<(), VkError> {
         self.0.reset_queue()

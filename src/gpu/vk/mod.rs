@@ -328,10 +328,15 @@ impl Buffer {
 
     /// A copy of the first `len` bytes of a host-visible buffer.
     pub fn read(&self, len: u64) -> Vec<u8> {
+        self.read_with(len, <[u8]>::to_vec)
+    }
+
+    /// `read` of the first `len` bytes of a host-visible buffer, in place.
+    pub fn read_with<T>(&self, len: u64, read: impl FnOnce(&[u8]) -> T) -> T {
         let m = self.mapped.lock().unwrap_or_else(|e| e.into_inner());
         assert!(!m.0.is_null() && len <= self.size, "read of a mapped buffer");
         // SAFETY: as in `write`; coherent memory, and the submission that wrote it was waited for.
-        unsafe { std::slice::from_raw_parts(m.0, len as usize) }.to_vec()
+        read(unsafe { std::slice::from_raw_parts(m.0, len as usize) })
     }
 }
 
