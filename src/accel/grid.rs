@@ -84,9 +84,7 @@ pub struct Grid {
     /// Per cell, in increasing primitive order (spheres, triangles, cones): the build is
     /// deterministic.
     pub prim_refs: Vec<PrimRef>,
-    /// Fine cells per macro-cell side.
-    pub macro_factor: u32,
-    /// `ceil(res / macro_factor)` per axis.
+    /// `ceil(res / MACRO_FACTOR)` per axis.
     pub macro_res: [u32; 3],
     /// One bit per macro-cell (same linear order as cells), set when any of its cells is non-empty.
     pub macro_bits: Vec<u32>,
@@ -673,7 +671,6 @@ impl Frame {
             cell_size: self.cell_size(),
             cell_start,
             prim_refs,
-            macro_factor: MACRO_FACTOR,
             macro_res,
             macro_bits,
         }
@@ -882,7 +879,7 @@ pub(in crate::accel) mod tests {
             assert!(p.cmpgt(g.min).all() && p.cmplt(g.max).all(), "{p} outside the grid box");
             let [x, y, z] = cell_containing(g, p);
             assert!(g.cell(x, y, z).contains(&r), "{r:?} missing from cell {x},{y},{z} at {p}");
-            let f = g.macro_factor;
+            let f = MACRO_FACTOR;
             assert!(g.macro_occupied(x / f, y / f, z / f));
         };
         for (i, sp) in s.spheres.iter().enumerate() {
@@ -997,7 +994,7 @@ pub(in crate::accel) mod tests {
             let refs = &g.prim_refs[g.cell_start[c] as usize..g.cell_start[c + 1] as usize];
             assert!(refs.windows(2).all(|w| w[0] < w[1]), "refs sorted and unique");
         }
-        let f = g.macro_factor;
+        let f = MACRO_FACTOR;
         for mz in 0..g.macro_res[2] {
             for my in 0..g.macro_res[1] {
                 for mx in 0..g.macro_res[0] {

@@ -154,7 +154,8 @@ pub struct Params {
     pub grid_max: [f32; 4],
     pub grid_cell: [f32; 4],
     pub grid_inv_cell: [f32; 4],
-    /// xyz cells per axis, w fine cells per macro-cell side.
+    /// xyz cells per axis (w unused: the fine cells per macro-cell side are the WGSL constant
+    /// `MACRO_FACTOR`, which the shader divides by without a run-time divide).
     pub grid_res: [u32; 4],
     /// xyz macro-cells per axis; w the accelerator ([`ACCEL_GRID`], [`ACCEL_BVH`],
     /// [`ACCEL_BVH_STACKLESS`]). With a BVH, `grid_min`/`grid_max` are its root box and the
@@ -613,9 +614,7 @@ pub fn params<'a>(
             p.grid_max = v4(grid.max - origin, 0.0);
             p.grid_cell = v4(grid.cell_size, 0.0);
             p.grid_inv_cell = v4(grid.cell_size.recip(), 0.0);
-            // The shader divides by the constant (grid.wgsl, macro_linear).
-            assert_eq!(grid.macro_factor, crate::accel::grid::MACRO_FACTOR, "a grid of another macro factor");
-            p.grid_res = [res[0], res[1], res[2], grid.macro_factor];
+            p.grid_res = [res[0], res[1], res[2], 0];
             p.macro_res = [grid.macro_res[0], grid.macro_res[1], grid.macro_res[2], ACCEL_GRID];
         }
         AccelRef::Bvh(bvh, walk) => {

@@ -203,7 +203,7 @@ impl Bands {
 
     /// The frame of the output buffer `out`, in one pass over it: the host side of a frame is
     /// bound by reading the 4 MiB of a 512² output (separate passes for the hits, the meter and
-    /// the pixels took 2.7 ms a frame on the Intel machine, this one pass 1.0; docs/performance.md).
+    /// the pixels took 2.7 ms a frame on the Intel machine, this one pass 1.9; docs/performance.md).
     pub fn frame(&self, out: &[[f32; 4]], rays: RayCounts) -> Frame {
         let cols = self.grid_size[0];
         let (w, h) = (self.width as usize, self.height as usize);

@@ -73,7 +73,6 @@ struct GridF {
     cell: Vec3,
     inv_cell: Vec3,
     res: IVec3,
-    macro_factor: u32,
     macro_res: [u32; 2],
     cell_start: Vec<u32>,
     prim_refs: Vec<PrimRef>,
@@ -449,7 +448,6 @@ impl NativePeer {
                 cell: f(grid.cell_size),
                 inv_cell: f(grid.cell_size.recip()),
                 res: IVec3::new(res[0] as i32, res[1] as i32, res[2] as i32),
-                macro_factor: grid.macro_factor,
                 macro_res: [grid.macro_res[0], grid.macro_res[1]],
                 cell_start: grid.cell_start.clone(),
                 prim_refs: grid.prim_refs.clone(),
@@ -632,7 +630,7 @@ impl Caster for NativePeer {
 
 impl GridF {
     fn macro_occupied(&self, cell: IVec3) -> bool {
-        let m = cell.as_uvec3() / self.macro_factor;
+        let m = cell.as_uvec3() / crate::accel::grid::MACRO_FACTOR;
         let i = m.x + self.macro_res[0] * (m.y + self.macro_res[1] * m.z);
         self.macro_bits[(i / 32) as usize] & (1 << (i % 32)) != 0
     }
