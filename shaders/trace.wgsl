@@ -157,7 +157,43 @@ struct PendingRay {
     w: vec3f,
 }
 
+// What a ray brings back from its nearest hit, its own weight not applied: the background on a
+// miss, else ambient and lights at the hit; with the surface and material its reflected and
+// refracted rays start from.
+struct Shaded {
+    c: vec3f,
+    hit: bool,
+    sf: Surface,
+    m: Material,
+}
+
+fn shade_ray(o: vec3f, d: vec3f, eye_ray: bool) -> Shaded {
+    let h = trace_closest(o, d, 0.0, BIG);
+    loop_iters += 1u;
+    if h.prim == NO_HIT {
+        return Shaded(select(vec3f(0.0), params.background.rgb, tile.pass_range.z != 0u), false, Surface(), Material());
+    }
+    if eye_ray {
+        eye_hit = 1.0;
+    }
+    let sf = surface_at(h, o, d);
+    var m = load_material(sf.material);
+    if HAS_TEXTURES && m.texture != NO_TEXTURE {
+        m.color *= sample_texture(m.texture, sf.uv);
+    }
+    return Shaded(shade_local(sf, m, -d), true, sf, m);
+}
+
+// Whether the pipeline's materials can spawn reflected or refracted rays: a diffuse-only
+// pipeline (a diffuse scene; the peer workload) traces the eye ray alone and has no ray stack,
+// whose zero-initialisation and pushes every pixel pays on lavapipe (docs/performance.md, "No ray
+// stack where no ray is spawned").
+const SECONDARY_RAYS = (MATERIAL_KINDS & ~(1u << MAT_DIFFUSE)) != 0u;
+
 fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
+    if !SECONDARY_RAYS {
+        return shade_ray(eye, dir, true).c;
+    }
     var stack: array<PendingRay, MAX_STACK>;
     var sp = 0u;
     var ray = PendingRay(eye, 1u, dir, vec3f(1.0));
@@ -165,40 +201,25 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
     let max_depth = params.image.z;
     let cutoff = params.trace.x;
     loop {
-        let h = trace_closest(ray.o, ray.d, 0.0, BIG);
-        loop_iters += 1u;
-        if ray.depth == 1u && h.prim != NO_HIT {
-            eye_hit = 1.0;
-        }
-        if h.prim == NO_HIT {
-            if tile.pass_range.z != 0u {
-                total += ray.w * params.background.rgb;
+        let s = shade_ray(ray.o, ray.d, ray.depth == 1u);
+        total += ray.w * s.c;
+        if s.hit && ray.depth < max_depth {
+            let sf = s.sf;
+            let k = reflectance(s.m, sf.n, -ray.d, sf.inside);
+            let w_s = ray.w * k.ks;
+            if max(max(w_s.x, w_s.y), w_s.z) > cutoff {
+                let r = reflect_dir(ray.d, sf.n);
+                stack[sp] = PendingRay(offset_origin(sf, r), ray.depth + 1u, r, w_s);
+                sp += 1u;
+                ray_counts.y += 1u;
             }
-        } else {
-            let sf = surface_at(h, ray.o, ray.d);
-            var m = load_material(sf.material);
-            if HAS_TEXTURES && m.texture != NO_TEXTURE {
-                m.color *= sample_texture(m.texture, sf.uv);
-            }
-            let e = -ray.d;
-            total += ray.w * shade_local(sf, m, e);
-            if ray.depth < max_depth {
-                let k = reflectance(m, sf.n, e, sf.inside);
-                let w_s = ray.w * k.ks;
-                if max(max(w_s.x, w_s.y), w_s.z) > cutoff {
-                    let r = reflect_dir(ray.d, sf.n);
-                    stack[sp] = PendingRay(offset_origin(sf, r), ray.depth + 1u, r, w_s);
+            let w_t = ray.w * k.kt;
+            if k.kt > 0.0 && max(max(w_t.x, w_t.y), w_t.z) > cutoff {
+                let t = refract_dir(ray.d, sf.n, select(1.0 / s.m.eta, s.m.eta, sf.inside));
+                if t.w != 0.0 {
+                    stack[sp] = PendingRay(offset_origin(sf, t.xyz), ray.depth + 1u, t.xyz, w_t);
                     sp += 1u;
-                    ray_counts.y += 1u;
-                }
-                let w_t = ray.w * k.kt;
-                if k.kt > 0.0 && max(max(w_t.x, w_t.y), w_t.z) > cutoff {
-                    let t = refract_dir(ray.d, sf.n, select(1.0 / m.eta, m.eta, sf.inside));
-                    if t.w != 0.0 {
-                        stack[sp] = PendingRay(offset_origin(sf, t.xyz), ray.depth + 1u, t.xyz, w_t);
-                        sp += 1u;
-                        ray_counts.z += 1u;
-                    }
+                    ray_counts.z += 1u;
                 }
             }
         }

@@ -43,6 +43,15 @@ fn specialised_pipelines_draw_what_the_uber_pipeline_draws() {
         s.trace.shadows = "shell".parse::<ShadowMode>().unwrap();
         scenes.push((name, s));
     }
+    // Diffuse only (the peer workload): the pipeline traces the eye ray alone, without the ray
+    // stack (`SECONDARY_RAYS` false); the uber-pipeline has every material kind and the stack.
+    for (name, path) in
+        [("balls, diffuse only", "scenes/spd/balls_s2.nff"), ("mesh.toml, diffuse only", "scenes/mesh.toml")]
+    {
+        let s = irt::peer::primary_shadow(&load(path, 96));
+        assert!(s.materials.iter().all(|m| matches!(m.kind, irt::scene::MaterialKind::Diffuse { .. })));
+        scenes.push((name, s));
+    }
     for (name, scene) in scenes {
         let render = |uber_shader| {
             let r = Renderer::new(&ctx, &scene, RenderOptions { uber_shader, ..Default::default() })
