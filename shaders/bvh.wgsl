@@ -50,6 +50,7 @@ fn bvh_leaf(refs_texel: u32, count: u32, o: vec3f, d: vec3f, t_min: f32, any_hit
     let refs = texel(params.grid_base.y + refs_texel);
     for (var k = 0u; k < count; k++) {
         loop_iters += 1u;
+        simd_tick(LOOP_CANDIDATES);
         let r = refs[k];
         if triangles_only && prim_kind(r) != PRIM_TRIANGLE {
             continue;
@@ -80,6 +81,7 @@ fn bvh_walk_stack(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, tri
     var i = 0u;
     loop {
         loop_iters += 1u;
+        simd_tick(LOOP_WALK);
         let n = load_bvh_node(i);
         var next = NO_HIT;
         if bvh_box(n, or, inv_d, real(t_min), real(best.t)) {
@@ -133,6 +135,7 @@ fn bvh_walk_stackless(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool,
     var i = 0u;
     loop {
         loop_iters += 1u;
+        simd_tick(LOOP_WALK);
         let n = bvh_qnode(texel(nodes + i), base, step);
         let hit = bvh_box(n, or, inv_d, real(t_min), real(best.t));
         let inner = (n.a & BVH_INNER) != 0u;

@@ -7,6 +7,29 @@ var<private> ray_counts: vec4u;
 var<private> loop_iters: u32;
 // 1 if this invocation's eye ray hit something (written as the output's alpha), else 0.
 var<private> eye_hit: f32;
+// SIMD efficiency (`Variant::simd_stats`; `irt bench --simd`), per loop of layout::SIMD_LOOPS:
+// the iterations this lane was active in, and (counted by one active lane, `simd_elect`) the
+// iterations its SIMD group ran, masked lanes included.
+var<private> simd_lanes: vec4u;
+var<private> simd_groups: vec4u;
+
+// One iteration of loop `k` (a LOOP_* constant); nothing unless the variant counts.
+fn simd_tick(k: u32) {
+    if SIMD_STATS {
+        simd_lanes[k] += 1u;
+        if simd_elect() {
+            simd_groups[k] += 1u;
+        }
+    }
+}
+
+// `v` added to the 64-bit counter at stats word `at` (low word first).
+fn stats_add64(at: u32, v: u32) {
+    let old = atomicAdd(&stats[at], v);
+    if old > 0xffffffffu - v {
+        atomicAdd(&stats[at + 1u], 1u);
+    }
+}
 
 struct Surface {
     p: vec3f,
@@ -135,6 +158,7 @@ fn shade_local(sf: Surface, m: Material, e: vec3f) -> vec3f {
     }
     for (var i = 0u; i < params.image.w; i++) {
         loop_iters += 1u;
+        simd_tick(LOOP_LIGHTS);
         let light = params.lights[i];
         let to_light = light.position_radius.xyz - sf.p;
         let l = normalize(to_light);
@@ -170,6 +194,7 @@ struct Shaded {
 fn shade_ray(o: vec3f, d: vec3f, eye_ray: bool) -> Shaded {
     let h = trace_closest(o, d, 0.0, BIG);
     loop_iters += 1u;
+    simd_tick(LOOP_RAY_TREE);
     if h.prim == NO_HIT {
         return Shaded(select(vec3f(0.0), params.background.rgb, tile.pass_range.z != 0u), false, Surface(), Material());
     }
@@ -246,6 +271,8 @@ fn eye_direction(px: f32, py: f32) -> vec3f {
 fn trace_pixel(x: u32, y: u32) {
     ray_counts = vec4u(1u, 0u, 0u, 0u);
     eye_hit = 0.0;
+    simd_lanes = vec4u(0u);
+    simd_groups = vec4u(0u);
     // One invocation per eye ray: at pixel centres, or at pixel corners (SPD's rule).
     pixel_id = y * params.eye_grid.x + x;
     bundle_seed = pixel_id + tile.sample.x * 0x9e3779b9u;
@@ -280,6 +307,12 @@ fn trace_pixel(x: u32, y: u32) {
         atomicAdd(&stats[1], ray_counts.y);
         atomicAdd(&stats[2], ray_counts.z);
         atomicAdd(&stats[3], ray_counts.w);
+    }
+    if SIMD_STATS {
+        for (var k = 0u; k < 4u; k++) {
+            stats_add64(4u + 4u * k, simd_lanes[k]);
+            stats_add64(6u + 4u * k, simd_groups[k]);
+        }
     }
     if (flags & FRAME_WRITE) != 0u && tile.pass_range.w != 0u {
         update_frame(pixel_id, total);

@@ -51,7 +51,7 @@ struct Tile {
 // @binding(1), scene_tex, and its loader `scene_load` are in the prelude (src/gpu/shaders.rs):
 // a 2D texture or, for scenes past one layer, a 2D array.
 @group(0) @binding(2) var<storage, read_write> out_buf: array<vec4f>;
-@group(0) @binding(3) var<storage, read_write> stats: array<atomic<u32>, 4>;
+@group(0) @binding(3) var<storage, read_write> stats: array<atomic<u32>, STATS_WORDS>;
 @group(0) @binding(4) var<uniform> tile: Tile;
 @group(0) @binding(5) var<storage, read> test_in: array<vec4f>;
 // The dispatch modes' inputs (shaders/modes.wgsl): the conventional mode's chunk boundaries, or

@@ -56,6 +56,12 @@ pub struct BenchArgs {
     /// dispatch + submit + wait, median reported: the per-dispatch overhead of the device path.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub dispatch_overhead: u32,
+    /// Also render one frame with SIMD counters (the device needs subgroup operations; lavapipe
+    /// has them) and print, per loop (accelerator walk, candidate tests, ray tree, lights), the
+    /// share of the lane slots its SIMD groups ran that did work: how much of an iteration's cost
+    /// lanes that are done or masked pay. The timed frames run without the counters.
+    #[arg(long)]
+    pub simd: bool,
     #[command(flatten)]
     pub ash: super::AshArgs,
     #[command(flatten)]
@@ -78,6 +84,8 @@ struct Measured {
     overhead: Option<Duration>,
     /// `--profile`: what the queries said of one frame.
     profile: Option<Profile>,
+    /// `--simd`: the loops' counters of one frame, and the lanes in a SIMD group.
+    simd: Option<([irt::gpu::SimdCount; 4], u32)>,
 }
 
 /// The queries' view of one frame (`--profile`).
@@ -292,6 +300,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         frames: args.frames,
         dispatch_overhead: args.dispatch_overhead,
         markdown: args.markdown,
+        simd: args.simd,
     };
     let t = Instant::now();
     let measured = match args.backend {
@@ -323,6 +332,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         cache_status,
         overhead,
         profile,
+        simd,
     } = measured;
     let mrays = rays.total() as f64 / frame.as_secs_f64() / 1e6;
     let (w, h) = (scene.camera.width, scene.camera.height);
@@ -381,6 +391,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         if let Some(p) = &profile {
             print_profile(p);
         }
+        if let Some((loops, size)) = &simd {
+            print_simd(loops, *size, w as u64 * h as u64);
+        }
         if let Some(o) = overhead {
             println!(
                 "dispatch         {:.1} µs (1 workgroup of {TINY_ENTRY}: dispatch + submit + wait, median of {})",
@@ -413,6 +426,7 @@ struct Job<'a> {
     frames: u32,
     dispatch_overhead: u32,
     markdown: bool,
+    simd: bool,
 }
 
 impl Job<'_> {
@@ -433,6 +447,19 @@ impl Job<'_> {
             .map_err(anyhow::Error::msg)?;
         let rays = counting.try_render(ctx, &mut |_, _| {})?.rays;
         drop(counting);
+        let simd = if self.simd {
+            let size = ctx.subgroup_size().ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: --simd needs subgroup operations in compute shaders and one SIMD group size",
+                    ctx.adapter_name()
+                )
+            })?;
+            let counting = Renderer::new(ctx, scene, RenderOptions { simd_stats: true, ..opts })
+                .map_err(anyhow::Error::msg)?;
+            Some((counting.try_render(ctx, &mut |_, _| {})?.rays.simd, size))
+        } else {
+            None
+        };
         if !self.peers.is_empty() {
             // The native peer walks irt's grid whichever accelerator the device traces.
             let peer_grid = renderer.accel.grid().cloned().unwrap_or_else(|| irt::accel::Grid::build(scene));
@@ -482,6 +509,7 @@ impl Job<'_> {
             cache_status: cache_status.to_string(),
             overhead,
             profile: None,
+            simd,
         }))
     }
 }
@@ -671,4 +699,20 @@ fn accel_rounds<D: Device>(
         log::warn!("the accelerators traced different ray counts {rays:?}: their images differ");
     }
     Ok(())
+}
+
+/// `--simd`: per loop, the share of the lane slots run that did work, and the slots a pixel paid.
+fn print_simd(loops: &[irt::gpu::SimdCount; 4], size: u32, pixels: u64) {
+    println!("SIMD efficiency  active lanes / lanes run, per loop ({size}-lane groups; slots run per pixel)");
+    for (name, c) in irt::gpu::layout::SIMD_LOOPS.iter().zip(loops) {
+        match c.efficiency(size) {
+            Some(e) => println!(
+                "  {name:<14} {:5.1}%  ({:.1} slots, {:.1} of them active)",
+                100.0 * e,
+                (c.group_iterations * size as u64) as f64 / pixels as f64,
+                c.lane_iterations as f64 / pixels as f64
+            ),
+            None => println!("  {name:<14}     -   (not run)"),
+        }
+    }
 }

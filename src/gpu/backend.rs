@@ -206,6 +206,9 @@ pub trait Device {
     fn adapter_driver(&self) -> &str;
     /// The device runs on the CPU (lavapipe): schedules are built for its threads.
     fn is_cpu(&self) -> bool;
+    /// Lanes of a SIMD group (what `SimdCount::efficiency` divides by), where the device runs the
+    /// SIMD counters (`Variant::simd_stats`) and its groups have one size.
+    fn subgroup_size(&self) -> Option<u32>;
     /// Uploads `packed` with its frame constants (and waits for it), layered past `max_rows`
     /// rows if given and fewer than the device's largest texture side.
     fn upload(
@@ -273,6 +276,10 @@ impl Device for GpuContext {
     fn is_cpu(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
+    fn subgroup_size(&self) -> Option<u32> {
+        let (min, max) = (self.info.subgroup_min_size, self.info.subgroup_max_size);
+        (self.device.features().contains(wgpu::Features::SUBGROUP) && min == max).then_some(min)
+    }
     fn upload(&self, packed: PackedScene, params: Params, max_rows: Option<u32>) -> Result<GpuScene, String> {
         let scene = GpuScene::upload_packed_with(self, packed, params, max_rows)?;
         self.wait();
@@ -309,6 +316,9 @@ impl Device for GpuContext {
     ) -> Result<Dispatcher, String> {
         if variant.f64 && !self.device.features().contains(wgpu::Features::SHADER_F64) {
             return Err(super::context::no_f64_message(&self.info.name));
+        }
+        if variant.simd_stats && !self.device.features().contains(wgpu::Features::SUBGROUP) {
+            return Err(super::context::no_subgroups_message(&self.info.name));
         }
         Ok(Dispatcher::with_modes(self, scene, kernel, variant, "render", out_len, inputs, modes))
     }

@@ -15,6 +15,11 @@ pub fn no_f64_message(adapter: &str) -> String {
     format!("{adapter} has no f64 shader support (SHADER_F64): use --precision f32")
 }
 
+/// Why a `Variant::simd_stats` kernel cannot run on `adapter`.
+pub fn no_subgroups_message(adapter: &str) -> String {
+    format!("{adapter} has no subgroup operations in compute shaders, which the SIMD counters (--simd) need")
+}
+
 /// (major, minor) of the first "Mesa X.Y" in a driver string.
 pub fn mesa_version(driver_info: &str) -> Option<(u32, u32)> {
     let rest = &driver_info[driver_info.find("Mesa ")? + 5..];
@@ -182,6 +187,8 @@ impl GpuContext {
             if cache_dir.is_some() { wgpu::Features::PIPELINE_CACHE } else { wgpu::Features::empty() };
         // f64 shaders (`--precision f64`) where the adapter has them (lavapipe does).
         features |= adapter.features() & wgpu::Features::SHADER_F64;
+        // Subgroup operations for the SIMD counters (`irt bench --simd`) where the adapter has them.
+        features |= adapter.features() & wgpu::Features::SUBGROUP;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("irt"),
             required_features: features,

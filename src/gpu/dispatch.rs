@@ -345,7 +345,30 @@ pub struct RayCounts {
     pub reflection: u64,
     pub refraction: u64,
     pub shadow: u64,
+    /// Per loop of `layout::SIMD_LOOPS`, from a `Variant::simd_stats` kernel (zero otherwise).
+    pub simd: [SimdCount; layout::SIMD_LOOPS.len()],
 }
+
+/// One loop's SIMD counters over a frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SimdCount {
+    /// Iterations summed over lanes, each counting those it was active in.
+    pub lane_iterations: u64,
+    /// Iterations the SIMD groups ran (each once per group, however many lanes were active).
+    pub group_iterations: u64,
+}
+
+impl SimdCount {
+    /// Active lanes per lane slot run, for groups of `subgroup_size` lanes (`None`: the loop
+    /// never ran).
+    pub fn efficiency(&self, subgroup_size: u32) -> Option<f64> {
+        (self.group_iterations > 0)
+            .then(|| self.lane_iterations as f64 / (self.group_iterations as f64 * subgroup_size as f64))
+    }
+}
+
+/// Bytes of the stats buffer (`layout::STATS_WORDS` counters).
+pub const STATS_BYTES: u64 = layout::STATS_WORDS as u64 * 4;
 
 impl RayCounts {
     pub fn total(&self) -> u64 {
@@ -402,7 +425,7 @@ impl Dispatcher {
         let out_bytes = out_len * 16;
         let out_buf = storage(ctx, "out", out_bytes, wgpu::BufferUsages::COPY_SRC);
         let stats_buf =
-            storage(ctx, "stats", 16, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
+            storage(ctx, "stats", STATS_BYTES, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
         let tile_buf = uniform(ctx, "tile", bytemuck::bytes_of(&Tile::default()));
         let input_bytes: &[u8] = if inputs.is_empty() { &[0; 16] } else { bytemuck::cast_slice(inputs) };
         let in_buf = {
@@ -425,7 +448,7 @@ impl Dispatcher {
         let readback_len = out_bytes.max(modes.frame_len * 16);
         let readback = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
-            size: readback_len.max(16) + 16,
+            size: readback_len.max(16) + STATS_BYTES,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -579,26 +602,35 @@ impl Dispatcher {
 
     /// Clears the ray counters.
     pub fn reset_counts(&self, ctx: &GpuContext) {
-        ctx.queue.write_buffer(&self.stats_buf, 0, &[0u8; 16]);
+        ctx.queue.write_buffer(&self.stats_buf, 0, &[0u8; STATS_BYTES as usize]);
     }
 
     /// Reads back the output buffer and the ray counters: `read` gets them in the mapped
     /// readback memory, which no copy precedes.
     pub fn read_with<T>(&self, ctx: &GpuContext, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> T {
         let out_bytes = self.out_len * 16;
-        self.read_back(ctx, &[(&self.out_buf, out_bytes), (&self.stats_buf, 16)], |d| {
+        self.read_back(ctx, &[(&self.out_buf, out_bytes), (&self.stats_buf, STATS_BYTES)], |d| {
             decode_output(d, out_bytes, read)
         })
     }
 }
 
 /// `read` of the output buffer's vec4s and the ray counters, from `out_bytes` of output followed
-/// by the 16 bytes of counters (how both device paths read them back), in place.
+/// by the `STATS_BYTES` of counters (how both device paths read them back), in place.
 pub fn decode_output<T>(d: &[u8], out_bytes: u64, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> T {
     let (out, c) = d.split_at(out_bytes as usize);
-    let c: [u32; 4] = bytemuck::pod_read_unaligned(&c[..16]);
-    let counts =
-        RayCounts { eye: c[0] as u64, reflection: c[1] as u64, refraction: c[2] as u64, shadow: c[3] as u64 };
+    let c: [u32; layout::STATS_WORDS as usize] = bytemuck::pod_read_unaligned(&c[..STATS_BYTES as usize]);
+    let wide = |at: usize| c[at] as u64 | (c[at + 1] as u64) << 32;
+    let counts = RayCounts {
+        eye: c[0] as u64,
+        reflection: c[1] as u64,
+        refraction: c[2] as u64,
+        shadow: c[3] as u64,
+        simd: std::array::from_fn(|k| SimdCount {
+            lane_iterations: wide(4 + 4 * k),
+            group_iterations: wide(6 + 4 * k),
+        }),
+    };
     match bytemuck::try_cast_slice(out) {
         Ok(out) => read(out, counts),
         // Mapped memory is aligned on every device seen; a copy only if one is not.
@@ -615,12 +647,20 @@ mod tests {
     #[test]
     fn output_decodes_aligned_or_not() {
         let out = [[1.0f32, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0]];
-        let counts = [9u32, 10, 11, 12];
+        // The ray counts, then per loop its two 64-bit counters (low word first).
+        let mut counts = vec![9u32, 10, 11, 12];
+        for k in 0..layout::SIMD_LOOPS.len() as u32 {
+            counts.extend([100 + k, k, 200 + k, 0]);
+        }
         let mut bytes = vec![0u8; 1];
         bytes.extend_from_slice(bytemuck::cast_slice(&out));
         bytes.extend_from_slice(bytemuck::cast_slice(&counts));
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[1..]);
-        let expect = RayCounts { eye: 9, reflection: 10, refraction: 11, shadow: 12 };
+        let simd = std::array::from_fn(|k| SimdCount {
+            lane_iterations: 100 + k as u64 + ((k as u64) << 32),
+            group_iterations: 200 + k as u64,
+        });
+        let expect = RayCounts { eye: 9, reflection: 10, refraction: 11, shadow: 12, simd };
         for d in [bytemuck::cast_slice::<u32, u8>(&words), &bytes[1..]] {
             let (o, c) = decode_output(d, 32, |o, c| (o.to_vec(), c));
             assert_eq!((o.as_slice(), c), (&out[..], expect));

@@ -229,6 +229,17 @@ pub const TILE_H: u32 = 2;
 /// chunk stays well inside lavapipe's loop limit (docs/interactive.md).
 pub const MAX_CHUNK_TILES: u32 = 16;
 
+/// The loops whose SIMD efficiency a `Variant::simd_stats` kernel counts (shaders/trace.wgsl,
+/// `simd_tick`), in the order of their counters: the accelerator's walk (BVH nodes, grid cells),
+/// the candidates it hands out (a leaf's or a cell's primitives), the ray tree (one iteration a
+/// ray shaded) and the lights (with the soft-shadow modes' samples).
+pub const SIMD_LOOPS: [&str; 4] = ["walk", "candidates", "ray tree", "lights"];
+
+/// 32-bit words of the stats buffer (shaders/types.wgsl `stats`): the four ray counts, then per
+/// entry of [`SIMD_LOOPS`] two 64-bit counters (low word first): lane-iterations in which the
+/// lane was active, and iterations its SIMD group ran.
+pub const STATS_WORDS: u32 = 4 + 4 * SIMD_LOOPS.len() as u32;
+
 /// `Tile::sample[1]` flags: the pixel's last pass writes the frame buffer …
 pub const FRAME_WRITE: u32 = 1;
 /// … adding its sample to the sum (progressive refinement; alpha counts samples) …
@@ -866,6 +877,10 @@ pub fn wgsl_constants() -> String {
     s += &c("ORDER_TABLE", ORDER_TABLE);
     s += &c("ORDER_DISSOLVE", ORDER_DISSOLVE);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
+    s += &c("STATS_WORDS", STATS_WORDS);
+    for (k, name) in SIMD_LOOPS.iter().enumerate() {
+        s += &c(&format!("LOOP_{}", name.replace(' ', "_").to_uppercase()), k as u32);
+    }
     s += &c("BVH_NODE_TEXELS", BVH_NODE_TEXELS);
     s += &c("BVH_COUNT_SHIFT", BVH_COUNT_SHIFT);
     s += &c("BVH_INNER", BVH_INNER);

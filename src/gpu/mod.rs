@@ -14,5 +14,5 @@ pub mod readback;
 pub mod renderer;
 pub mod vk;
 
-pub use dispatch::{Dispatcher, GpuScene, ModeBuffers, RayCounts};
+pub use dispatch::{Dispatcher, GpuScene, ModeBuffers, RayCounts, SimdCount};
 pub use renderer::{Frame, RenderOptions, Renderer, SetupProgress, SetupStage};

@@ -21,6 +21,9 @@ pub const BAND_PIXELS: u32 = 1 << 18;
 pub struct RenderOptions {
     /// Count rays by kind (four atomics per pixel; off for timing runs).
     pub count_rays: bool,
+    /// Count each loop's SIMD efficiency (`Variant::simd_stats`; a measuring run: the device
+    /// needs subgroup operations, and the counters cost time).
+    pub simd_stats: bool,
     /// Compile the full uber-shader instead of the variant specialised to the scene.
     pub uber_shader: bool,
     /// Trace eye rays through the pixel corners, a (width+1)x(height+1) grid, as SPD's testing
@@ -281,9 +284,9 @@ pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> P
     params.eye_grid = layout::eye_grid(width, height, opts.corner_rays);
     let grid_size = [params.eye_grid[0], params.eye_grid[1]];
     let variant = if opts.uber_shader {
-        Variant { count_rays: opts.count_rays, f64: opts.f64, ..Variant::FULL }
+        Variant { count_rays: opts.count_rays, f64: opts.f64, simd_stats: opts.simd_stats, ..Variant::FULL }
     } else {
-        Variant { f64: opts.f64, ..Variant::for_scene(scene, opts.count_rays) }
+        Variant { f64: opts.f64, simd_stats: opts.simd_stats, ..Variant::for_scene(scene, opts.count_rays) }
     };
     let bands = Bands { width, height, grid_size, passes: passes(scene), deal: 0 };
     Prepared { accel, packed, params, variant, bands, grid_build }

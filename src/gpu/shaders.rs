@@ -69,6 +69,10 @@ pub struct Variant {
     /// Set by the dispatcher from the uploaded scene (`layout::accel_code`), like `layered`: the
     /// kernel walks what was packed.
     pub accel: u32,
+    /// Count each loop's SIMD efficiency (`layout::SIMD_LOOPS`: lane-iterations active against
+    /// iterations run) into the stats buffer: a measuring variant (`irt bench --simd`) that needs
+    /// the device's subgroup operations.
+    pub simd_stats: bool,
 }
 
 /// Every material kind.
@@ -91,6 +95,7 @@ impl Variant {
         layered: false,
         shell_walk: true,
         accel: layout::ACCEL_GRID,
+        simd_stats: false,
     };
 
     pub fn for_scene(scene: &crate::scene::Scene, count_rays: bool) -> Self {
@@ -107,6 +112,7 @@ impl Variant {
             shell_walk: matches!(scene.trace.shadows, ShadowMode::Shell { .. })
                 && crate::scene::shells_walk_grid(scene),
             accel: layout::ACCEL_GRID,
+            simd_stats: false,
         }
     }
 
@@ -129,6 +135,7 @@ impl Variant {
                     layered: bits & 1 != 0,
                     shell_walk: bits & 6 == 6,
                     accel: layout::ACCEL_GRID,
+                    simd_stats: false,
                 });
                 // The BVH walks with every primitive/shadow combination too.
                 let last = *v.last().expect("pushed");
@@ -139,8 +146,10 @@ impl Variant {
         v.extend([false, true].map(|count_rays| Variant { f64: true, count_rays, ..Variant::FULL }));
         v.push(Variant { textures: false, ..Variant::FULL });
         v.push(Variant { shell_walk: false, ..Variant::FULL });
+        v.push(Variant { simd_stats: true, ..Variant::FULL });
         for accel in [layout::ACCEL_BVH, layout::ACCEL_BVH_STACKLESS] {
             v.push(Variant { accel, ..Variant::FULL });
+            v.push(Variant { accel, simd_stats: true, ..Variant::FULL });
             v.extend([false, true].map(|count_rays| Variant {
                 f64: true,
                 count_rays,
@@ -159,6 +168,15 @@ impl Variant {
         s += &b("HAS_TRIANGLES", self.triangles);
         s += &b("HAS_CONES", self.cones);
         s += &b("COUNT_RAYS", self.count_rays);
+        s += &b("SIMD_STATS", self.simd_stats);
+        // The lane that counts a SIMD group's iteration (shaders/trace.wgsl, `simd_tick`): the
+        // first active one, the one whose pixel (unique in a dispatch) the broadcast returns.
+        // naga 30 has no subgroupElect, and takes subgroup built-ins without `enable subgroups;`
+        // (it rejects the directive), checking them against the device's capabilities instead.
+        s += &format!(
+            "fn simd_elect() -> bool {{\n    return {};\n}}\n",
+            if self.simd_stats { "subgroupBroadcastFirst(pixel_id) == pixel_id" } else { "false" }
+        );
         s += &b("HAS_TEXTURES", self.textures);
         s += &b("SHELL_WALK", self.shell_walk);
         s += &format!("const SHADOW_MODE: u32 = {}u;\n", self.shadows);

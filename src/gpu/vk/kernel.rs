@@ -6,7 +6,9 @@ use super::spirv::{compile_entry, options_for, tile_as_push_constants};
 use super::{fail, Buffer, Shared, VkContext, VkError};
 use crate::accel::Grid;
 use crate::gpu::backend::{ComputeBackend, Dispatch};
-use crate::gpu::dispatch::{pad_rows, scene_bands, scene_texture_extent, ModeBuffers, RayCounts};
+use crate::gpu::dispatch::{
+    pad_rows, scene_bands, scene_texture_extent, ModeBuffers, RayCounts, STATS_BYTES,
+};
 use crate::gpu::layout::{self, PackedScene, Params, Tile, SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
 use crate::gpu::shaders::{self, Kernel, Variant};
 use crate::scene::Scene;
@@ -485,17 +487,28 @@ impl VkDispatcher {
         if variant.f64 && !shared.caps.f64 {
             return Err(VkError::Other(crate::gpu::context::no_f64_message(&ctx.info.name)));
         }
+        if variant.simd_stats && shared.caps.subgroup_size.is_none() {
+            return Err(VkError::Other(crate::gpu::context::no_subgroups_message(&ctx.info.name)));
+        }
         let src = shaders::compose(kernel, variant);
         let (module, info) =
             shaders::validate(&src).map_err(|e| VkError::Shader(format!("naga rejected the kernel: {e}")))?;
         let (module, info) =
             if shared.caps.options.push_tile { tile_as_push_constants(module)? } else { (module, info) };
-        let options = options_for(&shared.caps);
+        let mut options = options_for(&shared.caps);
+        if variant.simd_stats {
+            // subgroupBroadcastFirst (`simd_elect` in the prelude, src/gpu/shaders.rs).
+            use naga::back::spv::Capability as C;
+            options
+                .capabilities
+                .get_or_insert_default()
+                .extend([C::GroupNonUniform, C::GroupNonUniformBallot]);
+        }
         let layout = Layout::new(shared, scene.layered)?;
         use vk::BufferUsageFlags as U;
         let storage = |bytes: u64, extra: U| shared.buffer(bytes, U::STORAGE_BUFFER | extra, false);
         let out = storage(out_len * 16, U::TRANSFER_SRC)?;
-        let stats = storage(16, U::TRANSFER_SRC | U::TRANSFER_DST)?;
+        let stats = storage(STATS_BYTES, U::TRANSFER_SRC | U::TRANSFER_DST)?;
         let tile = shared.buffer(std::mem::size_of::<Tile>() as u64, U::UNIFORM_BUFFER, true)?;
         tile.write(0, bytemuck::bytes_of(&Tile::default()));
         let input_bytes: &[u8] = if inputs.is_empty() { &[0; 16] } else { bytemuck::cast_slice(inputs) };
@@ -517,7 +530,8 @@ impl VkDispatcher {
         let work = storage(modes.work_len * 4, U::TRANSFER_DST)?;
         let queue = storage(16, U::TRANSFER_DST | U::TRANSFER_SRC)?;
         let frame = storage(modes.frame_len * 16, U::TRANSFER_DST | U::TRANSFER_SRC)?;
-        let readback = shared.buffer((out_len * 16).max(modes.frame_len * 16) + 16, U::TRANSFER_DST, true)?;
+        let readback =
+            shared.buffer((out_len * 16).max(modes.frame_len * 16) + STATS_BYTES, U::TRANSFER_DST, true)?;
         let d = &shared.device;
         let sizes = [
             vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 2 },
@@ -651,7 +665,7 @@ impl VkDispatcher {
     pub fn reset_counts(&self) -> Result<(), VkError> {
         // SAFETY: recording into the command buffer `submit` began.
         self.shared.submit("clearing the ray counters", |d, cmd| unsafe {
-            d.cmd_fill_buffer(cmd, self.stats.raw, 0, 16, 0)
+            d.cmd_fill_buffer(cmd, self.stats.raw, 0, STATS_BYTES, 0)
         })
     }
 
@@ -665,13 +679,13 @@ impl VkDispatcher {
                     let copy = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: out_bytes };
                     d.cmd_copy_buffer(cmd, self.out.raw, self.readback.raw, &[copy]);
                 }
-                let copy = vk::BufferCopy { src_offset: 0, dst_offset: out_bytes, size: 16 };
+                let copy = vk::BufferCopy { src_offset: 0, dst_offset: out_bytes, size: STATS_BYTES };
                 d.cmd_copy_buffer(cmd, self.stats.raw, self.readback.raw, &[copy]);
             }
         })?;
         Ok(self
             .readback
-            .read_with(out_bytes + 16, |d| crate::gpu::dispatch::decode_output(d, out_bytes, read)))
+            .read_with(out_bytes + STATS_BYTES, |d| crate::gpu::dispatch::decode_output(d, out_bytes, read)))
     }
 }
 

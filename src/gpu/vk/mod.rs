@@ -106,6 +106,9 @@ pub(crate) struct Caps {
     pub options: VkOptions,
     /// Timestamps and pipeline statistics, where `options.profile` asked and the device has them.
     pub queries: QuerySupport,
+    /// Lanes of a SIMD group, where compute shaders have subgroup operations (Vulkan 1.1's
+    /// basic set; what `Variant::simd_stats` needs).
+    pub subgroup_size: Option<u32>,
 }
 
 /// The instance, device and queue, shared (reference-counted) by everything made on them, so that
@@ -478,6 +481,14 @@ impl VkContext {
             let pd = physicals[index];
             let info = infos[index].clone();
             let props = instance.get_physical_device_properties(pd);
+            let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+            if props.api_version >= vk::API_VERSION_1_1 {
+                let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
+                instance.get_physical_device_properties2(pd, &mut p2);
+            }
+            let subgroup_size = (subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BASIC))
+            .then_some(subgroup.subgroup_size);
             let family = instance
                 .get_physical_device_queue_family_properties(pd)
                 .iter()
@@ -533,6 +544,7 @@ impl VkContext {
                 max_texture_array_layers: props.limits.max_image_array_layers,
                 options,
                 queries,
+                subgroup_size,
             };
             let enable_core = vk::PhysicalDeviceFeatures::default()
                 .robust_buffer_access(robust && core.robust_buffer_access != 0)

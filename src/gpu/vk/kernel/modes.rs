@@ -132,6 +132,9 @@ impl Device for VkContext {
     fn is_cpu(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
+    fn subgroup_size(&self) -> Option<u32> {
+        self.shared.caps.subgroup_size
+    }
     fn upload(&self, packed: PackedScene, params: Params, max_rows: Option<u32>) -> Result<VkScene, String> {
         VkScene::upload_packed_with(self, packed, params, max_rows).map_err(|e| e.to_string())
     }
