@@ -495,15 +495,7 @@ impl VkDispatcher {
             shaders::validate(&src).map_err(|e| VkError::Shader(format!("naga rejected the kernel: {e}")))?;
         let (module, info) =
             if shared.caps.options.push_tile { tile_as_push_constants(module)? } else { (module, info) };
-        let mut options = options_for(&shared.caps);
-        if variant.simd_stats {
-            // subgroupBroadcastFirst (`simd_elect` in the prelude, src/gpu/shaders.rs).
-            use naga::back::spv::Capability as C;
-            options
-                .capabilities
-                .get_or_insert_default()
-                .extend([C::GroupNonUniform, C::GroupNonUniformBallot]);
-        }
+        let options = options_for(&shared.caps);
         let layout = Layout::new(shared, scene.layered)?;
         use vk::BufferUsageFlags as U;
         let storage = |bytes: u64, extra: U| shared.buffer(bytes, U::STORAGE_BUFFER | extra, false);

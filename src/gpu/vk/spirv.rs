@@ -24,6 +24,10 @@ pub(crate) fn options_for(caps: &Caps) -> spv::Options<'static> {
         C::SampledCubeArray,
         C::SampleRateShading,
     ];
+    // Subgroup operations where the device has them, as wgpu-hal allows them with
+    // Features::SUBGROUP: the SIMD counters' subgroupBroadcastFirst (`Variant::simd_stats`).
+    let subgroups =
+        caps.subgroup_size.map(|_| [C::GroupNonUniform, C::GroupNonUniformBallot]).into_iter().flatten();
     let policy = |robust: bool| {
         if robust {
             naga::proc::BoundsCheckPolicy::Unchecked
@@ -42,7 +46,7 @@ pub(crate) fn options_for(caps: &Caps) -> spv::Options<'static> {
             _ => (1, 6),
         },
         flags: spv::WriterFlags::LABEL_VARYINGS | spv::WriterFlags::FORCE_POINT_SIZE,
-        capabilities: Some(capabilities.iter().cloned().collect()),
+        capabilities: Some(capabilities.iter().cloned().chain(subgroups).collect()),
         bounds_check_policies: naga::proc::BoundsCheckPolicies {
             index: policy(!caps.options.index_checks),
             buffer: policy(off || caps.robust_buffer_access2),
