@@ -335,6 +335,30 @@ fn bench_races_the_native_peer_on_the_same_rays() {
     );
 }
 
+/// `irt bench --simd`: a line per shader loop with its efficiency, a percentage no larger than
+/// 100; with the peer rounds (which print their own table), a clear refusal.
+#[test]
+fn bench_prints_each_loops_simd_efficiency() {
+    let out = irt(&["bench", "--simd", "--width", "32", "--height", "24", "--frames", "1"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("SIMD efficiency"), "{stdout}");
+    for name in irt::gpu::layout::SIMD_LOOPS {
+        let line = stdout.lines().find(|l| l.trim_start().starts_with(name)).expect(name);
+        let pct: f64 = line[line.find(name).unwrap() + name.len()..]
+            .split_whitespace()
+            .next()
+            .and_then(|w| w.strip_suffix('%'))
+            .and_then(|w| w.parse().ok())
+            .unwrap_or_else(|| panic!("no percentage: {line}"));
+        assert!(pct > 0.0 && pct <= 100.0, "{line}");
+    }
+    fails_with(
+        &irt(&["bench", "--simd", "--workload", "primary-shadow", "--peer", "native"]),
+        &["--simd", "--peer"],
+    );
+}
+
 /// `--frames` writes one numbered file per frame, each what `--time` renders for its instant
 /// (the sequence's session updates in place; the single render builds afresh: the same picture
 /// within the golden tolerance, since their grid frames differ).

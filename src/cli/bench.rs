@@ -60,7 +60,7 @@ pub struct BenchArgs {
     /// has them) and print, per loop (accelerator walk, candidate tests, ray tree, lights), the
     /// share of the lane slots its SIMD groups ran that did work: how much of an iteration's cost
     /// lanes that are done or masked pay. The timed frames run without the counters.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["peer", "markdown", "accels"])]
     pub simd: bool,
     #[command(flatten)]
     pub ash: super::AshArgs,
