@@ -49,8 +49,7 @@ fn bvh_inv_dir(d: vec3f) -> vec3r {
 fn bvh_leaf(refs_texel: u32, count: u32, o: vec3f, d: vec3f, t_min: f32, any_hit: bool, triangles_only: bool, best: ptr<function, Hit>) -> bool {
     let refs = texel(params.grid_base.y + refs_texel);
     for (var k = 0u; k < count; k++) {
-        loop_iters += 1u;
-        simd_tick(LOOP_CANDIDATES);
+        loop_tick(LOOP_CANDIDATES);
         let r = refs[k];
         if triangles_only && prim_kind(r) != PRIM_TRIANGLE {
             continue;
@@ -80,8 +79,7 @@ fn bvh_walk_stack(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, tri
     var sp = 0u;
     var i = 0u;
     loop {
-        loop_iters += 1u;
-        simd_tick(LOOP_WALK);
+        loop_tick(LOOP_WALK);
         let n = load_bvh_node(i);
         var next = NO_HIT;
         if bvh_box(n, or, inv_d, real(t_min), real(best.t)) {
@@ -134,8 +132,7 @@ fn bvh_walk_stackless(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool,
     let step = params.grid_cell.xyz;
     var i = 0u;
     loop {
-        loop_iters += 1u;
-        simd_tick(LOOP_WALK);
+        loop_tick(LOOP_WALK);
         let n = bvh_qnode(texel(nodes + i), base, step);
         let hit = bvh_box(n, or, inv_d, real(t_min), real(best.t));
         let inner = (n.a & BVH_INNER) != 0u;

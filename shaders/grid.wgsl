@@ -103,8 +103,7 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangle
     var macro_id = NO_HIT;
     var macro_full = false;
     loop {
-        loop_iters += 1u;
-        simd_tick(LOOP_WALK);
+        loop_tick(LOOP_WALK);
         let m = macro_linear(s.cell);
         if m != macro_id {
             macro_id = m;
@@ -113,8 +112,7 @@ fn grid_walk(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool, triangle
         if macro_full {
             let range = cell_range(cell_linear(s.cell));
             for (var k = 0u; k < range.y; k++) {
-                loop_iters += 1u;
-                simd_tick(LOOP_CANDIDATES);
+                loop_tick(LOOP_CANDIDATES);
                 let r = prim_ref(range.x + k);
                 if triangles_only && prim_kind(r) != PRIM_TRIANGLE {
                     continue;

@@ -114,8 +114,7 @@ fn triangle_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, inside: b
 fn mesh_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, inside: bool, first: u32, end: u32) -> f32 {
     var best = vec2f(BIG, 0.0);
     for (var e = first; e < end; e += SHELL_EDGE_TEXELS) {
-        loop_iters += 1u;
-        simd_tick(LOOP_CANDIDATES);
+        loop_tick(LOOP_CANDIDATES);
         let d = segment_distance(o, l, dist, ftexel(e).xyz, ftexel(e + 1u).xyz);
         best = select(best, d, d.x < best.x);
     }
@@ -247,8 +246,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         var lo = dist;
         var hi = 0.0;
         for (var j = cell.w; j < cell.y; j++) {
-            loop_iters += 1u;
-            simd_tick(LOOP_CANDIDATES);
+            loop_tick(LOOP_CANDIDATES);
             let k = shell_listed(list, cell.x + j);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
@@ -273,16 +271,14 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     }
     if HAS_SPHERES {
         for (var j = 0u; j < cell.z; j++) {
-            loop_iters += 1u;
-            simd_tick(LOOP_CANDIDATES);
+            loop_tick(LOOP_CANDIDATES);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * shell_listed(list, cell.x + j));
             s = shell_combine(s, sphere_shell(f, o, l, dist, light_r, bound.xyz, bound.w).x, product);
         }
     }
     if HAS_CONES {
         for (var j = cell.z; j < cell.w; j++) {
-            loop_iters += 1u;
-            simd_tick(LOOP_CANDIDATES);
+            loop_tick(LOOP_CANDIDATES);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * shell_listed(list, cell.x + j));
             let cn = load_cone(prim_index(rec.x));
             s = shell_combine(s, cone_shell(f, o, l, dist, light_r, cn.base, cn.r0, cn.axis, cn.r1).x, product);
@@ -290,8 +286,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     }
     if HAS_TRIANGLES {
         for (var j = cell.w; j < cell.y; j++) {
-            loop_iters += 1u;
-            simd_tick(LOOP_CANDIDATES);
+            loop_tick(LOOP_CANDIDATES);
             let k = shell_listed(list, cell.x + j);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
@@ -304,8 +299,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
             let tc = clamp(dot(bound.xyz - o, l), 0.0, dist);
             let near = length(bound.xyz - (o + tc * l)) < bound.w + light_r;
             for (var i = first; i < select(first, rec.y, direct && near); i++) {
-                loop_iters += 1u;
-                simd_tick(LOOP_CANDIDATES);
+                loop_tick(LOOP_CANDIDATES);
                 let tri = load_triangle(i);
                 inside = inside || intersect_triangle(o, l, tri.p0, tri.p1, tri.p2, 0.0, dist - gap).x != MISS;
             }
@@ -345,8 +339,7 @@ fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
         let rotate = params.shadow.z != 0u;
         var seen = 0.0;
         for (var i = tile.pass_range.x; i < min(k, tile.pass_range.y); i++) {
-            loop_iters += 1u;
-            simd_tick(LOOP_LIGHTS);
+            loop_tick(LOOP_LIGHTS);
             let x = bundle_point(i, bundle_seed, rotate);
             seen += ray_visibility(o, c + r * (x.x * fr.u + x.y * fr.v), gap);
         }

@@ -7,14 +7,17 @@ var<private> ray_counts: vec4u;
 var<private> loop_iters: u32;
 // 1 if this invocation's eye ray hit something (written as the output's alpha), else 0.
 var<private> eye_hit: f32;
-// SIMD efficiency (`Variant::simd_stats`; `irt bench --simd`), per loop of layout::SIMD_LOOPS:
-// the iterations this lane was active in, and (counted by one active lane, `simd_elect`) the
-// iterations its SIMD group ran, masked lanes included.
+// SIMD efficiency (`Variant::simd_stats`; `irt bench --simd`), per loop of layout::SIMD_LOOPS
+// (a vec4 each: there are four): the iterations this lane was active in, and (counted by one
+// active lane, `simd_elect`) the iterations its SIMD group ran, masked lanes included.
 var<private> simd_lanes: vec4u;
 var<private> simd_groups: vec4u;
 
-// One iteration of loop `k` (a LOOP_* constant); nothing unless the variant counts.
-fn simd_tick(k: u32) {
+// One iteration of tracing loop `k` (a LOOP_* constant): the loop meter, and the SIMD counters
+// where the variant has them. Every tracing loop calls it, so the lanes' counts sum to the meter
+// (tests/simd_counters.rs); the dispatch modes' own loops (modes.wgsl) count the meter alone.
+fn loop_tick(k: u32) {
+    loop_iters += 1u;
     if SIMD_STATS {
         simd_lanes[k] += 1u;
         if simd_elect() {
@@ -157,8 +160,7 @@ fn shade_local(sf: Surface, m: Material, e: vec3f) -> vec3f {
         c = shade_ambient(m, sf.n, e, ia, sf.inside);
     }
     for (var i = 0u; i < params.image.w; i++) {
-        loop_iters += 1u;
-        simd_tick(LOOP_LIGHTS);
+        loop_tick(LOOP_LIGHTS);
         let light = params.lights[i];
         let to_light = light.position_radius.xyz - sf.p;
         let l = normalize(to_light);
@@ -193,8 +195,7 @@ struct Shaded {
 
 fn shade_ray(o: vec3f, d: vec3f, eye_ray: bool) -> Shaded {
     let h = trace_closest(o, d, 0.0, BIG);
-    loop_iters += 1u;
-    simd_tick(LOOP_RAY_TREE);
+    loop_tick(LOOP_RAY_TREE);
     if h.prim == NO_HIT {
         return Shaded(select(vec3f(0.0), params.background.rgb, tile.pass_range.z != 0u), false, Surface(), Material());
     }
@@ -310,8 +311,8 @@ fn trace_pixel(x: u32, y: u32) {
     }
     if SIMD_STATS {
         for (var k = 0u; k < 4u; k++) {
-            stats_add64(4u + 4u * k, simd_lanes[k]);
-            stats_add64(6u + 4u * k, simd_groups[k]);
+            stats_add64(STATS_SIMD_AT + 4u * k, simd_lanes[k]);
+            stats_add64(STATS_SIMD_AT + 4u * k + 2u, simd_groups[k]);
         }
     }
     if (flags & FRAME_WRITE) != 0u && tile.pass_range.w != 0u {

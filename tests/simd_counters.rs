@@ -1,6 +1,7 @@
 //! The SIMD counters (`Variant::simd_stats`, `irt bench --simd`): per loop, lane-iterations a
-//! lane was active in and iterations its SIMD group ran. Checked against the loop meter, an
-//! independent count (each pixel's loop iterations, written as the output's alpha), against an
+//! lane was active in and iterations its SIMD group ran. Checked against the loop meter (the
+//! same `loop_tick` advances it, but it leaves through each pixel's output alpha and is summed on
+//! the host, where the counters go through the stats buffer's 64-bit atomics), against an
 //! all-miss frame whose value is known exactly, and across the two device paths.
 mod common;
 
@@ -35,7 +36,7 @@ fn lane_iterations_are_the_loop_meter_and_groups_bound_them() {
         let r = Renderer::new(&ctx, &scene, counting(accel)).expect("renderer");
         assert!(r.variant.simd_stats, "{what}");
         let f = r.render(&ctx, &mut |_, _| {});
-        // Every loop that advances the meter ticks one counter, so their lanes sum to it.
+        // Every tracing loop's `loop_tick` advances the meter and one counter: their lanes sum to it.
         let lanes: u64 = f.rays.simd.iter().map(|c| c.lane_iterations).sum();
         let meter = (f.loops.mean * (w * h) as f64).round() as u64;
         assert_eq!(lanes, meter, "{what}: lane-iterations against the loop meter");

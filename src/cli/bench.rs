@@ -4,6 +4,7 @@ use super::{load_scene, open_device_with, DeviceArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use irt::gpu::backend::Device;
+use irt::gpu::layout::SIMD_LOOPS;
 use irt::gpu::{CacheSetting, RenderOptions, Renderer};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -85,7 +86,7 @@ struct Measured {
     /// `--profile`: what the queries said of one frame.
     profile: Option<Profile>,
     /// `--simd`: the loops' counters of one frame, and the lanes in a SIMD group.
-    simd: Option<([irt::gpu::SimdCount; 4], u32)>,
+    simd: Option<([irt::gpu::SimdCount; SIMD_LOOPS.len()], u32)>,
 }
 
 /// The queries' view of one frame (`--profile`).
@@ -702,9 +703,9 @@ fn accel_rounds<D: Device>(
 }
 
 /// `--simd`: per loop, the share of the lane slots run that did work, and the slots a pixel paid.
-fn print_simd(loops: &[irt::gpu::SimdCount; 4], size: u32, pixels: u64) {
+fn print_simd(loops: &[irt::gpu::SimdCount; SIMD_LOOPS.len()], size: u32, pixels: u64) {
     println!("SIMD efficiency  active lanes / lanes run, per loop ({size}-lane groups; slots run per pixel)");
-    for (name, c) in irt::gpu::layout::SIMD_LOOPS.iter().zip(loops) {
+    for (name, c) in SIMD_LOOPS.iter().zip(loops) {
         match c.efficiency(size) {
             Some(e) => println!(
                 "  {name:<14} {:5.1}%  ({:.1} slots, {:.1} of them active)",

@@ -626,9 +626,9 @@ pub fn decode_output<T>(d: &[u8], out_bytes: u64, read: impl FnOnce(&[[f32; 4]],
         reflection: c[1] as u64,
         refraction: c[2] as u64,
         shadow: c[3] as u64,
-        simd: std::array::from_fn(|k| SimdCount {
-            lane_iterations: wide(4 + 4 * k),
-            group_iterations: wide(6 + 4 * k),
+        simd: std::array::from_fn(|k| {
+            let at = layout::STATS_SIMD_AT as usize + 4 * k;
+            SimdCount { lane_iterations: wide(at), group_iterations: wide(at + 2) }
         }),
     };
     match bytemuck::try_cast_slice(out) {

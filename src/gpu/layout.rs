@@ -230,15 +230,19 @@ pub const TILE_H: u32 = 2;
 pub const MAX_CHUNK_TILES: u32 = 16;
 
 /// The loops whose SIMD efficiency a `Variant::simd_stats` kernel counts (shaders/trace.wgsl,
-/// `simd_tick`), in the order of their counters: the accelerator's walk (BVH nodes, grid cells),
+/// `loop_tick`), in the order of their counters: the accelerator's walk (BVH nodes, grid cells),
 /// the candidates it hands out (a leaf's or a cell's primitives), the ray tree (one iteration a
 /// ray shaded) and the lights (with the soft-shadow modes' samples).
 pub const SIMD_LOOPS: [&str; 4] = ["walk", "candidates", "ray tree", "lights"];
 
-/// 32-bit words of the stats buffer (shaders/types.wgsl `stats`): the four ray counts, then per
-/// entry of [`SIMD_LOOPS`] two 64-bit counters (low word first): lane-iterations in which the
-/// lane was active, and iterations its SIMD group ran.
-pub const STATS_WORDS: u32 = 4 + 4 * SIMD_LOOPS.len() as u32;
+/// The stats buffer (shaders/types.wgsl `stats`): the four ray counts, then from word
+/// `STATS_SIMD_AT` per entry of [`SIMD_LOOPS`] two 64-bit counters (low word first):
+/// lane-iterations in which the lane was active, and iterations its SIMD group ran.
+pub const STATS_SIMD_AT: u32 = 4;
+/// 32-bit words of the stats buffer.
+pub const STATS_WORDS: u32 = STATS_SIMD_AT + 4 * SIMD_LOOPS.len() as u32;
+// The shader keeps the loops' counters in a vec4u each (shaders/trace.wgsl).
+const _: () = assert!(SIMD_LOOPS.len() == 4);
 
 /// `Tile::sample[1]` flags: the pixel's last pass writes the frame buffer …
 pub const FRAME_WRITE: u32 = 1;
@@ -878,6 +882,7 @@ pub fn wgsl_constants() -> String {
     s += &c("ORDER_DISSOLVE", ORDER_DISSOLVE);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);
     s += &c("STATS_WORDS", STATS_WORDS);
+    s += &c("STATS_SIMD_AT", STATS_SIMD_AT);
     for (k, name) in SIMD_LOOPS.iter().enumerate() {
         s += &c(&format!("LOOP_{}", name.replace(' ', "_").to_uppercase()), k as u32);
     }

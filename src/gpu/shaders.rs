@@ -169,7 +169,7 @@ impl Variant {
         s += &b("HAS_CONES", self.cones);
         s += &b("COUNT_RAYS", self.count_rays);
         s += &b("SIMD_STATS", self.simd_stats);
-        // The lane that counts a SIMD group's iteration (shaders/trace.wgsl, `simd_tick`): the
+        // The lane that counts a SIMD group's iteration (shaders/trace.wgsl, `loop_tick`): the
         // first active one, the one whose pixel (unique in a dispatch) the broadcast returns.
         // naga 30 has no subgroupElect, and takes subgroup built-ins without `enable subgroups;`
         // (it rejects the directive), checking them against the device's capabilities instead.

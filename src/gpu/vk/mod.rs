@@ -107,7 +107,7 @@ pub(crate) struct Caps {
     /// Timestamps and pipeline statistics, where `options.profile` asked and the device has them.
     pub queries: QuerySupport,
     /// Lanes of a SIMD group, where compute shaders have subgroup operations (Vulkan 1.1's
-    /// basic set; what `Variant::simd_stats` needs).
+    /// basic and ballot sets: `Variant::simd_stats`'s subgroupBroadcastFirst).
     pub subgroup_size: Option<u32>,
 }
 
@@ -487,7 +487,9 @@ impl VkContext {
                 instance.get_physical_device_properties2(pd, &mut p2);
             }
             let subgroup_size = (subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
-                && subgroup.supported_operations.contains(vk::SubgroupFeatureFlags::BASIC))
+                && subgroup
+                    .supported_operations
+                    .contains(vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::BALLOT))
             .then_some(subgroup.subgroup_size);
             let family = instance
                 .get_physical_device_queue_family_properties(pd)
