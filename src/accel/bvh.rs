@@ -111,7 +111,7 @@ fn bounds(prims: &[Prim]) -> (Aabb, Aabb) {
     (b, c)
 }
 
-/// A subtree under construction: its nodes depth-first with indices local to it.
+/// Nodes under construction, depth-first.
 type Nodes = Vec<Node>;
 
 /// Moves every index of `nodes` (a subtree) by `by` nodes.
@@ -169,7 +169,9 @@ impl Bvh {
             let kind = NodeKind::Leaf { first: 0, count: 0 };
             return Bvh { nodes: vec![Node { lo: DVec3::ZERO, hi: DVec3::ZERO, kind }], refs: vec![] };
         }
-        let nodes = build_range(&mut prims, 0, 0, split, threads.max(1));
+        // At most 2n - 1 nodes.
+        let mut nodes = Vec::with_capacity(2 * prims.len());
+        build_range(&mut nodes, &mut prims, 0, 0, split, threads.max(1));
         Bvh { nodes, refs: prims.iter().map(|p| p.r).collect() }
     }
 
@@ -263,21 +265,23 @@ impl Bvh {
     }
 }
 
-/// The subtree over `prims` (reordered in place), whose first primitive is `refs[first]`, at
-/// `depth`; `threads` threads may build it.
-fn build_range(prims: &mut [Prim], first: u32, depth: usize, split: Split, threads: usize) -> Nodes {
+/// Appends the subtree over `prims` (reordered in place), whose first primitive is
+/// `refs[first]`, at `depth`, to `out`: depth-first, its root at `out.len()`, indices absolute.
+/// `threads` threads may build it. Written in place rather than returned and concatenated: the
+/// concatenation copied every node once per level above it (a tenth of a 3M-triangle build).
+fn build_range(out: &mut Nodes, prims: &mut [Prim], first: u32, depth: usize, split: Split, threads: usize) {
     let (b, c) = bounds(prims);
     let n = prims.len();
-    let leaf = || vec![Node { lo: b.lo, hi: b.hi, kind: NodeKind::Leaf { first, count: n as u32 } }];
+    let leaf = Node { lo: b.lo, hi: b.hi, kind: NodeKind::Leaf { first, count: n as u32 } };
     if n == 1 {
-        return leaf();
+        return out.push(leaf);
     }
     let extent = c.hi - c.lo;
     let mut chosen = None;
     if split == Split::Sah && depth < SAH_DEPTH {
         if let Some((axis, cost, bin)) = sah_split(prims, &b, &c) {
             if n <= MAX_LEAF && cost >= n as f64 {
-                return leaf();
+                return out.push(leaf);
             }
             // Bins are cut at centroid coordinates; partition by the same bin function.
             let k = BINS as f64 / extent[axis];
@@ -290,7 +294,7 @@ fn build_range(prims: &mut [Prim], first: u32, depth: usize, split: Split, threa
     }
     let (axis, mid) = match chosen {
         Some(c) => c,
-        None if n <= MAX_LEAF => return leaf(),
+        None if n <= MAX_LEAF => return out.push(leaf),
         None => {
             // The object median along the largest centroid extent (ties by reference, so the
             // result does not depend on the order the primitives came in).
@@ -301,33 +305,38 @@ fn build_range(prims: &mut [Prim], first: u32, depth: usize, split: Split, threa
             (axis, n / 2)
         }
     };
+    let at = out.len();
+    out.push(leaf); // replaced below, once the children's indices are known
     let (left, right) = prims.split_at_mut(mid);
-    let (mut l, mut r) = if threads > 1 && n >= 2 * MIN_PRIMS_PER_THREAD {
+    let right_at = if threads > 1 && n >= 2 * MIN_PRIMS_PER_THREAD {
         let (lt, rt) = (threads / 2, threads - threads / 2);
-        std::thread::scope(|s| {
-            let h = s.spawn(|| build_range(right, first + mid as u32, depth + 1, split, rt));
-            let l = build_range(left, first, depth + 1, split, lt);
-            (l, h.join().expect("BVH build thread"))
-        })
+        // The right subtree on its own thread into its own nodes (from index 0), moved after
+        // the left one.
+        let mut r = std::thread::scope(|s| {
+            let h = s.spawn(|| {
+                let mut r = Vec::with_capacity(2 * right.len());
+                build_range(&mut r, right, first + mid as u32, depth + 1, split, rt);
+                r
+            });
+            build_range(out, left, first, depth + 1, split, lt);
+            h.join().expect("BVH build thread")
+        });
+        let right_at = out.len() as u32;
+        shift(&mut r, right_at);
+        out.append(&mut r);
+        right_at
     } else {
-        (
-            build_range(left, first, depth + 1, split, 1),
-            build_range(right, first + mid as u32, depth + 1, split, 1),
-        )
+        build_range(out, left, first, depth + 1, split, 1);
+        let right_at = out.len() as u32;
+        build_range(out, right, first + mid as u32, depth + 1, split, 1);
+        right_at
     };
-    let right_at = 1 + l.len() as u32;
-    let escape = right_at + r.len() as u32;
-    shift(&mut l, 1);
-    shift(&mut r, right_at);
-    let mut nodes = Vec::with_capacity(escape as usize);
-    nodes.push(Node {
+    let escape = out.len() as u32;
+    out[at] = Node {
         lo: b.lo,
         hi: b.hi,
         kind: NodeKind::Inner { axis: axis as u8, right: right_at, escape, swapped: false },
-    });
-    nodes.append(&mut l);
-    nodes.append(&mut r);
-    nodes
+    };
 }
 
 /// Moves the primitives for which `left` holds before the others (unstable), returning how
@@ -347,24 +356,26 @@ fn partition(prims: &mut [Prim], left: impl Fn(&Prim) -> bool) -> usize {
 }
 
 /// The cheapest binned split: (axis, SAH cost in primitive tests relative to this node, last
-/// bin of the left side), or `None` when every axis puts all centroids in one bin.
+/// bin of the left side), or `None` when every axis puts all centroids in one bin. The three
+/// axes are binned in one pass over the primitives (a pass each cost twice the memory traffic).
 fn sah_split(prims: &[Prim], b: &Aabb, c: &Aabb) -> Option<(usize, f64, usize)> {
     let extent = c.hi - c.lo;
     let area = b.half_area();
+    // A flat axis bins everything into bin 0 (k = 0) and is skipped below.
+    let k = DVec3::from_array(extent.to_array().map(|e| if e > 0.0 { BINS as f64 / e } else { 0.0 }));
+    let mut boxes = [[Aabb::EMPTY; BINS]; 3];
+    let mut counts = [[0usize; BINS]; 3];
+    for p in prims {
+        let f = (p.centre - c.lo) * k;
+        for (axis, f) in [f.x, f.y, f.z].into_iter().enumerate() {
+            let i = (f as usize).min(BINS - 1);
+            boxes[axis][i].grow(p.lo, p.hi);
+            counts[axis][i] += 1;
+        }
+    }
     let mut best: Option<(usize, f64, usize)> = None;
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 {
-            continue;
-        }
-        let k = BINS as f64 / extent[axis];
-        let lo = c.lo[axis];
-        let mut boxes = [Aabb::EMPTY; BINS];
-        let mut counts = [0usize; BINS];
-        for p in prims {
-            let i = (((p.centre[axis] - lo) * k) as usize).min(BINS - 1);
-            boxes[i].grow(p.lo, p.hi);
-            counts[i] += 1;
-        }
+    for axis in (0..3).filter(|&axis| extent[axis] > 0.0) {
+        let (boxes, counts) = (&boxes[axis], &counts[axis]);
         // Right-to-left sweep: area and count of bins i.. for every i.
         let mut right_area = [0.0; BINS];
         let mut right_count = [0usize; BINS];
