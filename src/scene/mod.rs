@@ -283,8 +283,8 @@ impl Scene {
             return bad(format!("{} lights given; at most {MAX_LIGHTS} are supported", self.lights.len()));
         }
         for (i, l) in self.lights.iter().enumerate() {
-            finite3(&format!("light {i} position"), l.position)?;
-            nonneg3(&format!("light {i} color"), l.color)?;
+            finite3(format_args!("light {i} position"), l.position)?;
+            nonneg3(format_args!("light {i} color"), l.color)?;
             if !(l.radius.is_finite() && l.radius >= 0.0) {
                 return bad(format!("light {i} radius {} must be finite and >= 0", l.radius));
             }
@@ -309,7 +309,7 @@ impl Scene {
         }
         let nmat = self.materials.len() as u32;
         for (i, s) in self.spheres.iter().enumerate() {
-            finite3(&format!("sphere {i} center"), s.center)?;
+            finite3(format_args!("sphere {i} center"), s.center)?;
             if !(s.radius.is_finite() && s.radius > 0.0) {
                 return bad(format!("sphere {i} radius {} must be finite and > 0", s.radius));
             }
@@ -322,7 +322,7 @@ impl Scene {
                 return bad(format!("mesh {i} uses material index {} but only {nmat} exist", m.material));
             }
             for (j, p) in m.positions.iter().enumerate() {
-                finite3(&format!("mesh {i} vertex {j}"), *p)?;
+                finite3(format_args!("mesh {i} vertex {j}"), *p)?;
             }
             if let Some(n) = &m.normals {
                 if n.len() != m.positions.len() {
@@ -333,7 +333,7 @@ impl Scene {
                     ));
                 }
                 for (j, v) in n.iter().enumerate() {
-                    finite3(&format!("mesh {i} normal {j}"), *v)?;
+                    finite3(format_args!("mesh {i} normal {j}"), *v)?;
                 }
             }
             if let Some(uv) = &m.uvs {
@@ -352,8 +352,8 @@ impl Scene {
             }
         }
         for (i, c) in self.cones.iter().enumerate() {
-            finite3(&format!("cone {i} base"), c.base)?;
-            finite3(&format!("cone {i} apex"), c.apex)?;
+            finite3(format_args!("cone {i} base"), c.base)?;
+            finite3(format_args!("cone {i} apex"), c.apex)?;
             let (r0, r1) = (c.base_radius, c.apex_radius);
             if !(r0.is_finite() && r1.is_finite() && r0 >= 0.0 && r1 >= 0.0 && r0.max(r1) > 0.0) {
                 return bad(format!("cone {i} radii {r0} and {r1} must be finite, >= 0 and not both 0"));
@@ -452,7 +452,8 @@ impl Material {
     }
 }
 
-fn finite3(what: &str, v: DVec3) -> Result<(), InvalidScene> {
+/// `what` is formatted only for the error: validation runs over every vertex of a large mesh.
+fn finite3(what: impl std::fmt::Display, v: DVec3) -> Result<(), InvalidScene> {
     if v.is_finite() {
         Ok(())
     } else {
@@ -460,7 +461,7 @@ fn finite3(what: &str, v: DVec3) -> Result<(), InvalidScene> {
     }
 }
 
-fn nonneg3(what: &str, v: DVec3) -> Result<(), InvalidScene> {
+fn nonneg3(what: impl std::fmt::Display + Copy, v: DVec3) -> Result<(), InvalidScene> {
     finite3(what, v)?;
     if v.min_element() < 0.0 {
         return Err(InvalidScene(format!("{what} ({}, {}, {}) must not be negative", v.x, v.y, v.z)));
@@ -470,7 +471,7 @@ fn nonneg3(what: &str, v: DVec3) -> Result<(), InvalidScene> {
 
 /// Reflectances are fractions: each channel in [0, 1].
 fn unit3(who: &str, v: DVec3) -> Result<(), InvalidScene> {
-    nonneg3(&format!("{who}: color"), v)?;
+    nonneg3(format_args!("{who}: color"), v)?;
     if v.max_element() > 1.0 {
         return Err(InvalidScene(format!(
             "{who}: color ({}, {}, {}) must be in [0, 1] per channel",
