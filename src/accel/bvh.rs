@@ -357,7 +357,7 @@ fn partition(prims: &mut [Prim], left: impl Fn(&Prim) -> bool) -> usize {
 
 /// The cheapest binned split: (axis, SAH cost in primitive tests relative to this node, last
 /// bin of the left side), or `None` when every axis puts all centroids in one bin. The three
-/// axes are binned in one pass over the primitives (a pass each cost twice the memory traffic).
+/// axes are binned in one pass over the primitives (a pass per axis read them three times).
 fn sah_split(prims: &[Prim], b: &Aabb, c: &Aabb) -> Option<(usize, f64, usize)> {
     let extent = c.hi - c.lo;
     let area = b.half_area();
