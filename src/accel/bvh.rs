@@ -284,9 +284,8 @@ fn build_range(out: &mut Nodes, prims: &mut [Prim], first: u32, depth: usize, sp
                 return out.push(leaf);
             }
             // Bins are cut at centroid coordinates; partition by the same bin function.
-            let k = BINS as f64 / extent[axis];
-            let lo = c.lo[axis];
-            let mid = partition(prims, |p| (((p.centre[axis] - lo) * k) as usize).min(BINS - 1) <= bin);
+            let (lo, k) = (c.lo[axis], bin_scale(extent)[axis]);
+            let mid = partition(prims, |p| bin_of(p.centre[axis], lo, k) <= bin);
             if mid > 0 && mid < n {
                 chosen = Some((axis, mid));
             }
@@ -355,20 +354,30 @@ fn partition(prims: &mut [Prim], left: impl Fn(&Prim) -> bool) -> usize {
     i
 }
 
+/// Per axis, bins per unit of centroid coordinate across a centroid box of `extent`; 0 on a flat
+/// axis, which puts everything in bin 0 (and [`sah_split`] skips).
+fn bin_scale(extent: DVec3) -> DVec3 {
+    DVec3::from_array(extent.to_array().map(|e| if e > 0.0 { BINS as f64 / e } else { 0.0 }))
+}
+
+/// The bin of centroid coordinate `x`, bins starting at `lo`, `k` of them per unit: the one
+/// function the SAH sweep bins by and the partition splits by.
+fn bin_of(x: f64, lo: f64, k: f64) -> usize {
+    (((x - lo) * k) as usize).min(BINS - 1)
+}
+
 /// The cheapest binned split: (axis, SAH cost in primitive tests relative to this node, last
 /// bin of the left side), or `None` when every axis puts all centroids in one bin. The three
 /// axes are binned in one pass over the primitives (a pass per axis read them three times).
 fn sah_split(prims: &[Prim], b: &Aabb, c: &Aabb) -> Option<(usize, f64, usize)> {
     let extent = c.hi - c.lo;
     let area = b.half_area();
-    // A flat axis bins everything into bin 0 (k = 0) and is skipped below.
-    let k = DVec3::from_array(extent.to_array().map(|e| if e > 0.0 { BINS as f64 / e } else { 0.0 }));
+    let k = bin_scale(extent);
     let mut boxes = [[Aabb::EMPTY; BINS]; 3];
     let mut counts = [[0usize; BINS]; 3];
     for p in prims {
-        let f = (p.centre - c.lo) * k;
-        for (axis, f) in [f.x, f.y, f.z].into_iter().enumerate() {
-            let i = (f as usize).min(BINS - 1);
+        for axis in 0..3 {
+            let i = bin_of(p.centre[axis], c.lo[axis], k[axis]);
             boxes[axis][i].grow(p.lo, p.hi);
             counts[axis][i] += 1;
         }
