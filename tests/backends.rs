@@ -12,7 +12,7 @@ use irt::render::{Session, Settings};
 use irt::scene::Scene;
 
 fn vk_ctx() -> VkContext {
-    VkContext::new(&AdapterChoice::Lavapipe).expect("lavapipe through ash")
+    VkContext::new(&common::adapter()).expect("lavapipe through ash (or $IRT_ADAPTER)")
 }
 
 fn load(path: &str, w: u32, h: u32) -> Scene {
@@ -433,7 +433,7 @@ fn every_scene_agrees_in_both_modes_and_precisions() {
 /// The ash path with `options` against the default ash path: the same pixels bit for bit, rays
 /// and loop meter, on scenes of every primitive kind.
 fn assert_options_keep_the_image(what: &str, options: vk::VkOptions) {
-    let (a, b) = (vk_ctx(), VkContext::with_options(&AdapterChoice::Lavapipe, options).expect(what));
+    let (a, b) = (vk_ctx(), VkContext::with_options(&common::adapter(), options).expect(what));
     let counting = RenderOptions { count_rays: true, ..Default::default() };
     let spd = RenderOptions { corner_rays: true, count_rays: true, ..Default::default() };
     let mut soft = load("scenes/default.toml", 48, 40);
@@ -481,7 +481,7 @@ fn robustness_off_writes_unchecked_spirv() {
     let (on, off) = (
         vk_ctx(),
         VkContext::with_options(
-            &AdapterChoice::Lavapipe,
+            &common::adapter(),
             vk::VkOptions { robust: false, index_checks: false, ..Default::default() },
         )
         .expect("robust off"),
@@ -502,11 +502,9 @@ fn robustness_off_writes_unchecked_spirv() {
 /// sides are multiples of the workgroup's), device time within host time.
 #[test]
 fn profile_counts_every_invocation_of_a_frame() {
-    let ctx = VkContext::with_options(
-        &AdapterChoice::Lavapipe,
-        vk::VkOptions { profile: true, ..Default::default() },
-    )
-    .expect("profile");
+    let ctx =
+        VkContext::with_options(&common::adapter(), vk::VkOptions { profile: true, ..Default::default() })
+            .expect("profile");
     let q = ctx.query_support();
     assert!(q.timestamps && q.invocations, "lavapipe has both: {}", q.describe());
     let mut soft = load("scenes/default.toml", 64, 48);
@@ -633,7 +631,7 @@ fn a_corrupted_operand_is_rejected_by_the_full_check() {
         }
     }
     let checked = VkContext::with_options(
-        &AdapterChoice::Lavapipe,
+        &common::adapter(),
         vk::VkOptions { full_spirv_check: true, ..Default::default() },
     )
     .expect("full check");
@@ -650,7 +648,7 @@ fn a_corrupted_operand_is_rejected_by_the_full_check() {
 #[test]
 fn a_missing_f64_feature_has_the_wgpu_message() {
     let ctx = VkContext::with_options(
-        &AdapterChoice::Lavapipe,
+        &common::adapter(),
         vk::VkOptions { pretend_no_f64: true, ..Default::default() },
     )
     .expect("device");

@@ -57,9 +57,15 @@ pub fn f32_round(v: DVec3) -> DVec3 {
     DVec3::new(v.x as f32 as f64, v.y as f32 as f64, v.z as f32 as f64)
 }
 
+/// The device the GPU tests run on: lavapipe, or the adapter `$IRT_ADAPTER` names (`gpu` for
+/// the best hardware GPU), so the same per-pixel checks against the reference can be run on a GPU.
+pub fn adapter() -> irt::gpu::AdapterChoice {
+    irt::gpu::AdapterChoice::from_arg_or_env(None)
+}
+
 pub fn gpu() -> irt::gpu::GpuContext {
-    irt::gpu::GpuContext::new(&irt::gpu::AdapterChoice::Lavapipe)
-        .expect("lavapipe is installed (scripts/setup.sh)")
+    irt::gpu::GpuContext::new(&adapter())
+        .expect("lavapipe is installed (scripts/setup.sh), or $IRT_ADAPTER names a device")
 }
 
 pub fn material(name: &str, kind: MaterialKind) -> Material {
