@@ -114,30 +114,85 @@ pub const SIMD_LANES: u32 = 8;
 impl LoopMeter {
     /// The meter of a `cols` x `rows` grid of per-pixel loop iterations (row-major,
     /// `iterations(i)` of pixel i, called once per pixel, block by block).
-    pub fn of(mut iterations: impl FnMut(usize) -> u32, cols: u32, rows: u32) -> Self {
-        let (bw, bh) = (layout::RENDER_TILE[0], SIMD_LANES / layout::RENDER_TILE[0]);
-        let (mut sum, mut executed, mut max) = (0u64, 0u64, 0u64);
-        for by in (0..rows).step_by(bh as usize) {
-            for bx in (0..cols).step_by(bw as usize) {
+    pub fn of(iterations: impl FnMut(usize) -> u32, cols: u32, rows: u32) -> Self {
+        MeterSums::of_rows(iterations, cols as usize, 0..rows as usize).meter(cols as u64 * rows as u64)
+    }
+}
+
+/// What a [`LoopMeter`] is made of, over a band of whole block rows, so that bands can be
+/// counted apart (on threads) and added.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct MeterSums {
+    /// Lane iterations.
+    sum: u64,
+    /// Blocks' iterations × lanes.
+    executed: u64,
+    /// The most iterations of any pixel.
+    max: u64,
+}
+
+impl MeterSums {
+    /// A SIMD group's block: 4x2 pixels of a [`layout::RENDER_TILE`] workgroup.
+    const BLOCK: [usize; 2] =
+        [layout::RENDER_TILE[0] as usize, (SIMD_LANES / layout::RENDER_TILE[0]) as usize];
+
+    /// The sums of `rows` (starting on a block row) of a grid `cols` wide.
+    fn of_rows(mut iterations: impl FnMut(usize) -> u32, cols: usize, rows: std::ops::Range<usize>) -> Self {
+        let [bw, bh] = Self::BLOCK;
+        let mut m = MeterSums::default();
+        for by in rows.clone().step_by(bh) {
+            for bx in (0..cols).step_by(bw) {
                 let mut most = 0u64;
-                for y in by..(by + bh).min(rows) {
+                for y in by..(by + bh).min(rows.end) {
                     for x in bx..(bx + bw).min(cols) {
-                        let n = iterations((y * cols + x) as usize) as u64;
-                        sum += n;
+                        let n = iterations(y * cols + x) as u64;
+                        m.sum += n;
                         most = most.max(n);
                     }
                 }
-                executed += most * SIMD_LANES as u64;
-                max = max.max(most);
+                m.executed += most * SIMD_LANES as u64;
+                m.max = m.max.max(most);
             }
         }
-        let pixels = (cols as u64 * rows as u64).max(1);
+        m
+    }
+
+    fn add(self, o: Self) -> Self {
+        MeterSums { sum: self.sum + o.sum, executed: self.executed + o.executed, max: self.max.max(o.max) }
+    }
+
+    /// The meter of these sums over `cells` pixels.
+    fn meter(self, cells: u64) -> LoopMeter {
         LoopMeter {
-            mean: sum as f64 / pixels as f64,
-            occupancy: if executed == 0 { 1.0 } else { sum as f64 / executed as f64 },
-            max: max as u32,
+            mean: self.sum as f64 / cells.max(1) as f64,
+            occupancy: if self.executed == 0 { 1.0 } else { self.sum as f64 / self.executed as f64 },
+            max: self.max as u32,
         }
     }
+}
+
+/// Output vec4s each thread of [`Bands::frame`] decodes at least. On 2 cores, the decode alone
+/// (medians): 2048² 32–38 ms on one thread, 22–26 on two; 512² 0.55 ms, 0.41–0.45 on two, but
+/// within a frame on lavapipe two threads gained nothing measurable (readback 1.88 vs 1.90 ms,
+/// 8 rounds), so a 512² frame (2^18) stays on one.
+const DECODE_PER_THREAD: usize = 1 << 18;
+
+/// `f(k, chunk)` on each `chunk` of `data` of `len` items (the k-th) on its own scoped thread,
+/// the results in order; on this thread where there is one chunk.
+fn on_threads<U: Send, T: Send>(
+    data: &mut [U],
+    len: usize,
+    f: impl Fn(usize, &mut [U]) -> T + Sync,
+) -> Vec<T> {
+    if data.len() <= len {
+        return vec![f(0, data)];
+    }
+    let f = &f;
+    std::thread::scope(|s| {
+        let workers: Vec<_> =
+            data.chunks_mut(len).enumerate().map(|(k, c)| s.spawn(move || f(k, c))).collect();
+        workers.into_iter().map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+    })
 }
 
 /// What [`Renderer::with_progress`] reports: the stage, and how far it is (`done` of `total`).
@@ -205,28 +260,51 @@ impl Bands {
     }
 
     /// The frame of the output buffer `out`, in one pass over it: the host side of a frame is
-    /// bound by reading the 4 MiB of a 512² output (separate passes for the hits, the meter and
-    /// the pixels took 2.7 ms a frame on the Intel machine, this one pass 1.9; docs/performance.md).
+    /// bound by reading the output (16 bytes an eye ray; separate passes for the hits, the meter
+    /// and the pixels took 2.7 ms a 512² frame on the Intel machine, this one pass 1.9), and on a
+    /// GPU the host side is most of a frame, so bands of rows are decoded on all cores
+    /// (docs/performance.md, "The host's share on a GPU").
     pub fn frame(&self, out: &[[f32; 4]], rays: RayCounts) -> Frame {
-        let cols = self.grid_size[0];
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        self.frame_on(out, rays, cores.min(out.len() / DECODE_PER_THREAD))
+    }
+
+    /// [`Bands::frame`] decoded in `threads` bands of rows.
+    fn frame_on(&self, out: &[[f32; 4]], rays: RayCounts, threads: usize) -> Frame {
+        let cols = self.grid_size[0] as usize;
+        let rows = out.len() / cols.max(1);
         let (w, h) = (self.width as usize, self.height as usize);
-        let direct = cols as usize == w;
-        let mut pixels = if direct { vec![[0.0f32; 3]; out.len()] } else { Vec::new() };
-        let mut eye_hits = 0u64;
-        // Alpha: 2 × loop iterations + eye hit (trace.wgsl).
-        let loops = LoopMeter::of(
-            |i| {
-                let p = &out[i];
-                let meter = p[3] as u32;
-                eye_hits += (meter & 1) as u64;
-                if direct {
-                    pixels[i] = [p[0], p[1], p[2]];
-                }
-                meter >> 1
-            },
-            cols,
-            out.len() as u32 / cols.max(1),
-        );
+        let direct = cols == w;
+        // Alpha: 2 × loop iterations + eye hit (trace.wgsl). Rows `r` of the output (starting
+        // on a block row), their pixels into `px` where the output is the image.
+        let decode = |r: std::ops::Range<usize>, px: &mut [[f32; 3]]| {
+            let band = &out[r.start * cols..r.end * cols];
+            let mut hits = 0u64;
+            let sums = MeterSums::of_rows(
+                |i| {
+                    let p = &band[i];
+                    let meter = p[3] as u32;
+                    hits += (meter & 1) as u64;
+                    if direct {
+                        px[i] = [p[0], p[1], p[2]];
+                    }
+                    meter >> 1
+                },
+                cols,
+                0..r.len(),
+            );
+            (sums, hits)
+        };
+        let mut pixels = vec![[0.0f32; 3]; if direct { out.len() } else { 0 }];
+        let band = rows.div_ceil(threads.max(1)).next_multiple_of(MeterSums::BLOCK[1]);
+        let parts = if direct {
+            on_threads(&mut pixels, band * cols, |k, px| decode(k * band..((k + 1) * band).min(rows), px))
+        } else {
+            vec![decode(0..rows, &mut [])]
+        };
+        let (sums, eye_hits) =
+            parts.into_iter().fold((MeterSums::default(), 0), |(m, n), (pm, pn)| (m.add(pm), n + pn));
+        let loops = sums.meter((cols * rows) as u64);
         let max_loop_iterations = loops.max;
         if max_loop_iterations > LAVAPIPE_LOOP_LIMIT / 2 {
             log::warn!(
@@ -235,7 +313,7 @@ impl Bands {
             );
         }
         if !direct {
-            let at = |x: usize, y: usize| out[y * cols as usize + x];
+            let at = |x: usize, y: usize| out[y * cols + x];
             pixels = (0..w * h)
                 .map(|i| {
                     let (x, y) = (i % w, i / w);
@@ -392,5 +470,31 @@ mod tests {
     fn loop_meter_counts_blocks_by_their_busiest_lane() {
         let m = LoopMeter::of(|i| i as u32, 8, 2);
         assert_eq!(m, LoopMeter { mean: 120.0 / 16.0, occupancy: 120.0 / (8.0 * 26.0), max: 15 });
+    }
+
+    /// A frame decoded in bands on threads is the frame of one pass: pixels, eye hits and loop
+    /// meter, on 333 rows (the last band short, its last block row half) and 1 to 4 bands.
+    #[test]
+    fn a_frame_decoded_in_bands_equals_one_pass() {
+        let (w, h) = (1000u32, 333u32);
+        let out: Vec<[f32; 4]> = (0..w * h)
+            .map(|i| {
+                let iterations = (i.wrapping_mul(7919) >> 3) % 97;
+                [i as f32, (i % 5) as f32, 0.5, (2 * iterations + (i % 3 == 0) as u32) as f32]
+            })
+            .collect();
+        let bands = Bands { width: w, height: h, grid_size: [w, h], passes: vec![], deal: 0 };
+        let meter = LoopMeter::of(|i| out[i][3] as u32 >> 1, w, h);
+        let hits = out.iter().filter(|p| p[3] as u32 & 1 == 1).count() as u64;
+        let pixels: Vec<[f32; 3]> = out.iter().map(|p| [p[0], p[1], p[2]]).collect();
+        for threads in 1..=4 {
+            let f = bands.frame_on(&out, RayCounts::default(), threads);
+            assert_eq!(
+                (f.loops, f.max_loop_iterations, f.eye_hits),
+                (meter, meter.max, hits),
+                "{threads} bands"
+            );
+            assert!(f.image.pixels == pixels, "{threads} bands: pixels");
+        }
     }
 }
