@@ -263,7 +263,7 @@ impl Bands {
     /// bound by reading the output (16 bytes an eye ray; separate passes for the hits, the meter
     /// and the pixels took 2.7 ms a 512² frame on the Intel machine, this one pass 1.9), and on a
     /// GPU the host side is most of a frame, so bands of rows are decoded on all cores
-    /// (docs/performance.md, "The host's share on a GPU").
+    /// (docs/performance.md, "On a GPU").
     pub fn frame(&self, out: &[[f32; 4]], rays: RayCounts) -> Frame {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         self.frame_on(out, rays, cores.min(out.len() / DECODE_PER_THREAD))
