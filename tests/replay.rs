@@ -191,7 +191,7 @@ fn study_arguments_parse() {
 #[test]
 fn a_replay_on_ash_reports_what_wgpu_reports() {
     let ctx = common::gpu();
-    let vk = irt::gpu::vk::VkContext::new(&irt::gpu::AdapterChoice::Lavapipe).expect("lavapipe through ash");
+    let vk = irt::gpu::vk::VkContext::new(&common::adapter()).expect("the same adapter through ash");
     let path = CameraPath::parse_str(PATH, "test path").unwrap();
     for mode in [frameless(128), Mode::conventional()] {
         let settings = Settings { mode, max_samples: 1, ..Settings::default() };

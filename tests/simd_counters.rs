@@ -8,7 +8,7 @@ mod common;
 use irt::accel::AccelChoice;
 use irt::gpu::backend::Device;
 use irt::gpu::vk::{VkContext, VkRenderer};
-use irt::gpu::{AdapterChoice, RenderOptions, Renderer};
+use irt::gpu::{RenderOptions, Renderer};
 use irt::scene::Scene;
 
 fn load(path: &str, w: u32, h: u32) -> Scene {
@@ -80,7 +80,7 @@ fn an_all_miss_frame_keeps_every_lane_busy() {
 #[test]
 fn counters_leave_the_image_alone_and_agree_across_paths() {
     let ctx = common::gpu();
-    let vk = VkContext::new(&AdapterChoice::Lavapipe).expect("lavapipe through ash");
+    let vk = VkContext::new(&common::adapter()).expect("the same adapter through ash");
     assert_eq!(vk.subgroup_size(), ctx.subgroup_size());
     let scene = load("scenes/default.toml", 64, 48);
     let plain = Renderer::new(&ctx, &scene, RenderOptions::default()).expect("renderer");
