@@ -265,8 +265,12 @@ impl Bands {
     /// GPU the host side is most of a frame, so bands of rows are decoded on all cores
     /// (docs/performance.md, "On a GPU").
     pub fn frame(&self, out: &[[f32; 4]], rays: RayCounts) -> Frame {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        self.frame_on(out, rays, cores.min(out.len() / DECODE_PER_THREAD))
+        // Asked only where bands could help: on Linux it reads the cgroup's CPU quota.
+        let threads = match out.len() / DECODE_PER_THREAD {
+            0 | 1 => 1,
+            most => std::thread::available_parallelism().map_or(1, |n| n.get()).min(most),
+        };
+        self.frame_on(out, rays, threads)
     }
 
     /// [`Bands::frame`] decoded in `threads` bands of rows.
