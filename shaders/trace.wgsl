@@ -346,27 +346,17 @@ fn eye_direction_at(p: vec2f) -> vec3f {
 }
 
 // The headless bands: one invocation per pixel of `tile.rect`, in tiles of RENDER_TILE_W x
-// RENDER_TILE_H (layout::RENDER_TILE: 4x2-pixel SIMD groups on lavapipe). With `tile.work.x`
-// = n > 0 the tiles are dealt (Dispatch::dealt): lavapipe hands each of its n threads a
-// contiguous run of c = work.w workgroups, so workgroup g traces tile (g mod c)·n + g div c of
-// work.z tiles in rows of work.y, and every thread's tiles spread over the whole rect instead of
-// one thread taking the sky and the other the objects.
+// RENDER_TILE_H (layout::RENDER_TILE: 4x2-pixel SIMD groups on lavapipe). Rows of tiles are
+// dealt to tile.work.x = n threads (Dispatch::dealt): lavapipe hands each of its n threads a
+// contiguous run of workgroups, here one z-slice, so workgroup (x, y, z) traces tile
+// (x, y·n + z) and every thread's rows spread over the whole rect instead of one thread taking
+// the sky and the other the objects. No divides: lavapipe has none for vectors.
 @compute @workgroup_size(RENDER_TILE_W, RENDER_TILE_H, 1)
 fn render(
-    @builtin(global_invocation_id) gid: vec3u,
     @builtin(workgroup_id) wg: vec3u,
     @builtin(local_invocation_id) lid: vec3u,
 ) {
-    var p = gid.xy;
-    let n = tile.work.x;
-    if n > 0u {
-        let c = tile.work.w;
-        let t = (wg.x % c) * n + wg.x / c;
-        if t >= tile.work.z {
-            return;
-        }
-        p = vec2u(t % tile.work.y, t / tile.work.y) * vec2u(RENDER_TILE_W, RENDER_TILE_H) + lid.xy;
-    }
+    let p = vec2u(wg.x, wg.y * tile.work.x + wg.z) * vec2u(RENDER_TILE_W, RENDER_TILE_H) + lid.xy;
     if p.x >= tile.rect.z || p.y >= tile.rect.w {
         return;
     }

@@ -41,29 +41,21 @@ impl Dispatch {
         Dispatch { entry: entry.to_string(), tile, groups: [rect[2].div_ceil(8), rect[3].div_ceil(8), 1] }
     }
 
-    /// The `render` entry point over `tile.rect` with its tiles (`layout::RENDER_TILE`) dealt
-    /// round-robin to `threads` workers (see shaders/trace.wgsl): lavapipe splits a dispatch's
-    /// workgroups into one contiguous run per thread. `threads` ≤ 1, or more tiles than one
-    /// dispatch row holds: the tiles in order, one workgroup each.
+    /// The `render` entry point over `tile.rect` with its rows of tiles (`layout::RENDER_TILE`)
+    /// dealt round-robin to `threads` workers (see shaders/trace.wgsl): lavapipe splits a
+    /// dispatch's workgroups into one contiguous run per thread (x fastest, z slowest), so
+    /// workgroup (x, y, z) traces tile (x, y · threads + z) and the z-th thread takes every
+    /// `threads`-th row of tiles over the whole rect. Multiplies only: lavapipe has no vector
+    /// integer divide, and a per-tile divide cost every pixel (docs/performance.md). `threads` ≤ 1:
+    /// the tiles in order.
     pub fn dealt(tile: Tile, threads: u32) -> Self {
         let [tw, th] = super::layout::RENDER_TILE;
         let (nx, ny) = (tile.rect[2].div_ceil(tw), tile.rect[3].div_ceil(th));
-        let tiles = nx * ny;
-        let run = tiles.div_ceil(threads.max(1));
-        if threads <= 1 || run * threads > MAX_GROUPS {
-            return Dispatch {
-                entry: "render".into(),
-                tile: Tile { work: [0; 4], ..tile },
-                groups: [nx, ny, 1],
-            };
-        }
-        let tile = Tile { work: [threads, nx, tiles, run], ..tile };
-        Dispatch { entry: "render".into(), tile, groups: [run * threads, 1, 1] }
+        let n = threads.max(1);
+        let tile = Tile { work: [n, 0, 0, 0], ..tile };
+        Dispatch { entry: "render".into(), tile, groups: [nx, ny.div_ceil(n), n] }
     }
 }
-
-/// Workgroups one dispatch dimension may hold (Vulkan's guaranteed minimum, lavapipe's limit).
-pub const MAX_GROUPS: u32 = 65_535;
 
 /// How many threads a device deals the band renderer's tiles to: lavapipe's pool
 /// (`LP_NUM_THREADS`, else one thread per core); 0 for a GPU, whose scheduler balances itself and
@@ -379,39 +371,38 @@ mod tests {
     use super::*;
 
     /// The shader's dealing (shaders/trace.wgsl, `render`) reaches every tile exactly once, and
-    /// each thread's contiguous run of workgroups spreads over the rect.
+    /// each thread's contiguous run of workgroups (lavapipe's split of the linear workgroup
+    /// index) spreads over the rect: every n-th row of tiles.
     #[test]
     fn dealt_tiles_cover_the_rect_once() {
-        for (w, h) in [(512, 32), (131, 67), (8, 8), (1, 1), (1000, 16)] {
-            for threads in [2, 3, 4, 7, 16] {
+        let [tw, th] = crate::gpu::layout::RENDER_TILE;
+        for (w, h) in [(512, 32), (131, 67), (8, 8), (1, 1), (1000, 16), (512, 512)] {
+            for threads in [0, 1, 2, 3, 4, 7, 16] {
                 let d = Dispatch::dealt(Tile::whole([0, 0, w, h]), threads);
-                let [n, nx, tiles, run] = d.tile.work;
-                let [tw, th] = crate::gpu::layout::RENDER_TILE;
-                assert_eq!((n, nx, tiles), (threads, w.div_ceil(tw), w.div_ceil(tw) * h.div_ceil(th)));
-                assert_eq!(d.groups, [run * threads, 1, 1]);
-                let mut seen = vec![0u32; tiles as usize];
-                let mut first_run = Vec::new();
-                for g in 0..d.groups[0] {
-                    let t = (g % run) * n + g / run;
-                    if t < tiles {
-                        seen[t as usize] += 1;
-                        if g < run {
-                            first_run.push(t);
-                        }
+                let n = d.tile.work[0];
+                let (nx, ny) = (w.div_ceil(tw), h.div_ceil(th));
+                assert_eq!((n, d.groups[0], d.groups[2]), (threads.max(1), nx, threads.max(1)));
+                let [gx, gy, gz] = d.groups;
+                let run = (gx * gy * gz / n) as usize;
+                let mut seen = vec![0u32; (nx * ny) as usize];
+                let mut runs = vec![Vec::new(); n as usize];
+                for g in 0..gx * gy * gz {
+                    let (x, y, z) = (g % gx, g / gx % gy, g / (gx * gy));
+                    let row = y * n + z;
+                    if row < ny {
+                        seen[(row * nx + x) as usize] += 1;
+                        runs[g as usize / run].push(row);
                     }
                 }
                 assert!(seen.iter().all(|&c| c == 1), "{w}x{h}, {threads} threads: {seen:?}");
-                // The first thread's tiles: every n-th, from the first tile to near the last.
-                if tiles >= 2 * threads {
-                    assert!(*first_run.last().unwrap() + n >= tiles, "{w}x{h}, {threads}: {first_run:?}");
+                // Thread k's rows: k, k + n, … to near the last row.
+                for (k, rows) in runs.iter().enumerate() {
+                    assert!(rows.iter().all(|&r| r % n == k as u32), "{w}x{h}, {threads}: {runs:?}");
+                    if ny >= 2 * n {
+                        assert!(rows.last().unwrap() + n >= ny, "{w}x{h}, {threads}: {runs:?}");
+                    }
                 }
             }
         }
-        // One thread, or too many tiles for one dispatch row: in order.
-        let [tw, th] = crate::gpu::layout::RENDER_TILE;
-        let one = Dispatch::dealt(Tile::whole([0, 0, 64, 64]), 1);
-        assert_eq!((one.tile.work, one.groups), ([0; 4], [64 / tw, 64 / th, 1]));
-        let huge = Dispatch::dealt(Tile::whole([0, 0, 8 * 1024, 8 * 1024]), 2);
-        assert_eq!((huge.tile.work[0], huge.groups), (0, [8 * 1024 / tw, 8 * 1024 / th, 1]));
     }
 }

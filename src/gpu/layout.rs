@@ -194,8 +194,8 @@ pub struct Tile {
     /// their share of the light to the output) and whether it is the last (which updates the
     /// frame buffer). See [`Tile::whole`].
     pub pass_range: [u32; 4],
-    /// `render`: threads the 8x8 tiles are dealt to (0: in order), tiles per row, tiles, tiles per
-    /// thread (`backend::Dispatch::dealt`). `render_queue`: chunks in the boundary array, tiles
+    /// `render`: threads the rows of tiles are dealt to (1: in order; `backend::Dispatch::dealt`),
+    /// unused ×3. `render_queue`: chunks in the boundary array, tiles
     /// per workgroup (its budget), tile columns, unused. `render_slice`: first position, positions, [`ORDER_TABLE`] or
     /// [`ORDER_DISSOLVE`], the dissolve's bits.
     pub work: [u32; 4],
