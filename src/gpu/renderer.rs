@@ -8,6 +8,7 @@ use super::GpuContext;
 use crate::accel::{Accel, AccelChoice};
 use crate::image::Image;
 use crate::scene::{Scene, ShadowMode};
+use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -16,6 +17,11 @@ use std::time::{Duration, Instant};
 /// and wait, and with one of lavapipe's threads idle until the other is done: 16 bands of 32
 /// rows cost 5–32% of a 512² frame against one (docs/performance.md, "One dispatch a frame").
 pub const BAND_PIXELS: u32 = 1 << 18;
+
+/// [`BAND_PIXELS`] on a GPU: a GPU traces a 1024² band in a fraction of the submit and wait
+/// that each band costs on the host (an H200: 16 bands of a 2048² frame took 2.1 ms of device
+/// time in all), so its bands are 16 times larger.
+pub const GPU_BAND_PIXELS: u32 = 1 << 22;
 
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RenderOptions {
@@ -220,6 +226,8 @@ pub struct Bands {
     /// Each band's tiles dealt round-robin to this many device threads ([`Dispatch::dealt`];
     /// 0: in order).
     pub deal: u32,
+    /// Eye rays per band, in whole rows ([`BAND_PIXELS`], or [`GPU_BAND_PIXELS`] on a GPU).
+    pub band_pixels: u32,
 }
 
 impl Bands {
@@ -228,14 +236,14 @@ impl Bands {
         self.grid_size[0] as u64 * self.grid_size[1] as u64
     }
 
-    /// A frame: the counters zeroed, then bands of [`BAND_PIXELS`] eye rays, every pass of a band
+    /// A frame: the counters zeroed, then bands of `band_pixels` eye rays, every pass of a band
     /// before the next, with a progress mark (rows done) after each band.
     pub fn recording(&self) -> Recording {
         let [cols, rows] = self.grid_size;
         let mut commands = vec![Command::ResetCounts];
         let mut y = 0;
         while y < rows {
-            let band = (BAND_PIXELS / cols.max(1)).max(1).min(rows - y);
+            let band = (self.band_pixels / cols.max(1)).max(1).min(rows - y);
             for &pass in &self.passes {
                 let tile = Tile { rect: [0, y, cols, band], pass_range: pass, ..Tile::default() };
                 commands.push(Command::Dispatch(Dispatch::dealt(tile, self.deal)));
@@ -281,7 +289,7 @@ impl Bands {
         let direct = cols == w;
         // Alpha: 2 × loop iterations + eye hit (trace.wgsl). Rows `r` of the output (starting
         // on a block row), their pixels into `px` where the output is the image.
-        let decode = |r: std::ops::Range<usize>, px: &mut [[f32; 3]]| {
+        let decode = |r: std::ops::Range<usize>, px: &mut [MaybeUninit<[f32; 3]>]| {
             let band = &out[r.start * cols..r.end * cols];
             let mut hits = 0u64;
             let sums = MeterSums::of_rows(
@@ -290,7 +298,7 @@ impl Bands {
                     let meter = p[3] as u32;
                     hits += (meter & 1) as u64;
                     if direct {
-                        px[i] = [p[0], p[1], p[2]];
+                        px[i].write([p[0], p[1], p[2]]);
                     }
                     meter >> 1
                 },
@@ -299,13 +307,20 @@ impl Bands {
             );
             (sums, hits)
         };
-        let mut pixels = vec![[0.0f32; 3]; if direct { out.len() } else { 0 }];
+        // Not zeroed first: every pixel is written once (a 512² image's zeroing was 2% of an
+        // all-miss frame's time on lavapipe, and more of a GPU frame's host side).
+        let n = if direct { rows * cols } else { 0 };
+        let mut pixels: Vec<[f32; 3]> = Vec::with_capacity(n);
         let band = rows.div_ceil(threads.max(1)).next_multiple_of(MeterSums::BLOCK[1]);
         let parts = if direct {
-            on_threads(&mut pixels, band * cols, |k, px| decode(k * band..((k + 1) * band).min(rows), px))
+            let px = &mut pixels.spare_capacity_mut()[..n];
+            on_threads(px, band * cols, |k, px| decode(k * band..((k + 1) * band).min(rows), px))
         } else {
             vec![decode(0..rows, &mut [])]
         };
+        // SAFETY: the bands are the rows 0..rows, each decoded over the pixels of its rows, and
+        // `MeterSums::of_rows` visits every index of its rows once, so all `n` are initialised.
+        unsafe { pixels.set_len(n) };
         let (sums, eye_hits) =
             parts.into_iter().fold((MeterSums::default(), 0), |(m, n), (pm, pn)| (m.add(pm), n + pn));
         let loops = sums.meter((cols * rows) as u64);
@@ -370,7 +385,7 @@ pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> P
     } else {
         Variant { f64: opts.f64, simd_stats: opts.simd_stats, ..Variant::for_scene(scene, opts.count_rays) }
     };
-    let bands = Bands { width, height, grid_size, passes: passes(scene), deal: 0 };
+    let bands = Bands { width, height, grid_size, passes: passes(scene), deal: 0, band_pixels: BAND_PIXELS };
     Prepared { accel, packed, params, variant, bands, grid_build }
 }
 
@@ -390,6 +405,7 @@ impl<D: Device> Renderer<D> {
         let Prepared { accel, packed, params, variant, mut bands, grid_build } =
             prepare(scene, opts, progress);
         bands.deal = opts.deal.unwrap_or_else(|| super::backend::dealing_threads(ctx));
+        bands.band_pixels = if ctx.is_cpu() { BAND_PIXELS } else { GPU_BAND_PIXELS };
         let gpu_scene = ctx.upload(packed, params, opts.max_scene_rows)?;
         let t2 = Instant::now();
         let dispatcher =
@@ -439,7 +455,7 @@ impl<D: Device> Renderer<D> {
         Ok((median(times), median(readbacks)))
     }
 
-    /// Traces every eye ray, in bands of [`BAND_PIXELS`] eye rays; `progress(rows_done, rows)` after
+    /// Traces every eye ray, in bands ([`BAND_PIXELS`] eye rays; [`GPU_BAND_PIXELS`] on a GPU); `progress(rows_done, rows)` after
     /// each.
     pub fn try_render(&self, ctx: &D, progress: &mut dyn FnMut(u32, u32)) -> Result<Frame, D::Error> {
         let frame = self.bands.render(&self.kernel(ctx), progress)?;
@@ -478,6 +494,36 @@ mod tests {
 
     /// A frame decoded in bands on threads is the frame of one pass: pixels, eye hits and loop
     /// meter, on 333 rows (the last band short, its last block row half) and 1 to 4 bands.
+    /// A frame's bands are whole rows of at most `band_pixels` eye rays, cover every row once
+    /// in order, and end with a progress mark each: 16 bands for a 2048² frame on lavapipe, one
+    /// on a GPU.
+    #[test]
+    fn bands_are_whole_rows_covering_the_frame() {
+        for (side, band_pixels, count) in
+            [(2048, BAND_PIXELS, 16), (2048, GPU_BAND_PIXELS, 1), (1000, BAND_PIXELS, 4)]
+        {
+            let bands = Bands {
+                width: side,
+                height: side,
+                grid_size: [side, side],
+                passes: vec![[0, u32::MAX, 1, 1]],
+                deal: 2,
+                band_pixels,
+            };
+            let rec = bands.recording();
+            let mut next = 0;
+            for d in rec.dispatches() {
+                let [x, y, w, h] = d.tile.rect;
+                assert_eq!((x, y, w), (0, next, side));
+                assert!(h * side <= band_pixels.max(side), "{side}², band of {h} rows");
+                next += h;
+            }
+            assert_eq!((next, rec.dispatches().count()), (side, count), "{side}², {band_pixels}");
+            let marks = rec.commands.iter().filter(|c| matches!(c, Command::Progress { .. })).count();
+            assert_eq!(marks, count);
+        }
+    }
+
     #[test]
     fn a_frame_decoded_in_bands_equals_one_pass() {
         let (w, h) = (1000u32, 333u32);
@@ -487,7 +533,14 @@ mod tests {
                 [i as f32, (i % 5) as f32, 0.5, (2 * iterations + (i % 3 == 0) as u32) as f32]
             })
             .collect();
-        let bands = Bands { width: w, height: h, grid_size: [w, h], passes: vec![], deal: 0 };
+        let bands = Bands {
+            width: w,
+            height: h,
+            grid_size: [w, h],
+            passes: vec![],
+            deal: 0,
+            band_pixels: BAND_PIXELS,
+        };
         let meter = LoopMeter::of(|i| out[i][3] as u32 >> 1, w, h);
         let hits = out.iter().filter(|p| p[3] as u32 & 1 == 1).count() as u64;
         let pixels: Vec<[f32; 3]> = out.iter().map(|p| [p[0], p[1], p[2]]).collect();
