@@ -229,31 +229,44 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
     loop {
         let s = shade_ray(ray.o, ray.d, ray.depth == 1u);
         total += ray.w * s.c;
+        // The next ray: the refracted one where there is one, with the reflected one pushed
+        // behind it, else the reflected one, else the top of the stack. The order pushing both
+        // and popping the refracted one gave, with one push site instead of two and no push
+        // and pop for a single child: a stack slot is a per-lane scatter or gather of 10 words.
+        var next = false;
+        var child = ray;
         if s.hit && ray.depth < max_depth {
             let sf = s.sf;
             let k = reflectance(s.m, sf.n, -ray.d, sf.inside);
             let w_s = ray.w * k.ks;
             if max(max(w_s.x, w_s.y), w_s.z) > cutoff {
                 let r = reflect_dir(ray.d, sf.n);
-                stack[sp] = PendingRay(offset_origin(sf, r), ray.depth + 1u, r, w_s);
-                sp += 1u;
+                child = PendingRay(offset_origin(sf, r), ray.depth + 1u, r, w_s);
+                next = true;
                 ray_counts.y += 1u;
             }
             let w_t = ray.w * k.kt;
             if k.kt > 0.0 && max(max(w_t.x, w_t.y), w_t.z) > cutoff {
                 let t = refract_dir(ray.d, sf.n, select(1.0 / s.m.eta, s.m.eta, sf.inside));
                 if t.w != 0.0 {
-                    stack[sp] = PendingRay(offset_origin(sf, t.xyz), ray.depth + 1u, t.xyz, w_t);
-                    sp += 1u;
+                    if next {
+                        stack[sp] = child;
+                        sp += 1u;
+                    }
+                    child = PendingRay(offset_origin(sf, t.xyz), ray.depth + 1u, t.xyz, w_t);
+                    next = true;
                     ray_counts.z += 1u;
                 }
             }
         }
-        if sp == 0u {
-            break;
+        if !next {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            child = stack[sp];
         }
-        sp -= 1u;
-        ray = stack[sp];
+        ray = child;
     }
     return total;
 }
