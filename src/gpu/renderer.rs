@@ -178,10 +178,18 @@ impl MeterSums {
 }
 
 /// Output vec4s each thread of [`Bands::frame`] decodes at least. On 2 cores, the decode alone
-/// (medians): 2048² 32–38 ms on one thread, 22–26 on two; 512² 0.55 ms, 0.41–0.45 on two, but
-/// within a frame on lavapipe two threads gained nothing measurable (readback 1.88 vs 1.90 ms,
-/// 8 rounds), so a 512² frame (2^18) stays on one.
-const DECODE_PER_THREAD: usize = 1 << 18;
+/// (medians): 2048² 32–38 ms on one thread, 22–26 on two; 512² 0.55 ms, 0.41–0.45 on two
+/// (within a frame on lavapipe nothing measurable either way). On an H200's 16-core host a 512²
+/// frame on four threads took 1.0–1.4 ms against 1.7–2.2 on one (docs/performance.md, "On a
+/// GPU").
+const DECODE_PER_THREAD: usize = 1 << 16;
+
+/// The cores [`Bands::frame`] may decode on, asked once (on Linux std reads the cgroup's CPU
+/// quota for it).
+fn decode_cores() -> usize {
+    static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
 
 /// `f(k, chunk)` on each `chunk` of `data` of `len` items (the k-th) on its own scoped thread,
 /// the results in order; on this thread where there is one chunk.
@@ -273,11 +281,7 @@ impl Bands {
     /// GPU the host side is most of a frame, so bands of rows are decoded on all cores
     /// (docs/performance.md, "On a GPU").
     pub fn frame(&self, out: &[[f32; 4]], rays: RayCounts) -> Frame {
-        // Asked only where bands could help: on Linux it reads the cgroup's CPU quota.
-        let threads = match out.len() / DECODE_PER_THREAD {
-            0 | 1 => 1,
-            most => std::thread::available_parallelism().map_or(1, |n| n.get()).min(most),
-        };
+        let threads = (out.len() / DECODE_PER_THREAD).clamp(1, decode_cores());
         self.frame_on(out, rays, threads)
     }
 
