@@ -9,7 +9,9 @@ irt=${CARGO_TARGET_DIR:-target}/release/irt
 machine_header() {
     local cpu
     cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
-    echo "Machine: ${cpu}, $(nproc) cores, $(free -g | awk '/Mem:/{print $2}') GiB; $(date -u +%Y-%m-%d); command: \`$1\`"
+    local driver
+    driver=$("$irt" info 2>/dev/null | sed -n 's/^irt uses: .* — driver //p')
+    echo "Machine: ${cpu}, $(nproc) cores, $(free -g | awk '/Mem:/{print $2}') GiB; driver: ${driver:-unknown}; $(date -u +%Y-%m-%d); command: \`$1\`"
 }
 
 # table_header SCRIPT FIRST_FRAME_COLUMN
