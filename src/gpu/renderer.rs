@@ -18,9 +18,10 @@ use std::time::{Duration, Instant};
 /// rows cost 5–32% of a 512² frame against one (docs/performance.md, "One dispatch a frame").
 pub const BAND_PIXELS: u32 = 1 << 18;
 
-/// [`BAND_PIXELS`] on a GPU: a GPU traces a 1024² band in a fraction of the submit and wait
-/// that each band costs on the host (an H200: 16 bands of a 2048² frame took 2.1 ms of device
-/// time in all), so its bands are 16 times larger.
+/// [`BAND_PIXELS`] on a GPU, 16 times larger: a GPU traces a band of 2^18 eye rays in less time
+/// than its submit and wait cost the host, and one large dispatch fills it better (an H200: a
+/// 2048² frame as one dispatch took 0.86 ms of device time against 2.1 ms as 16 bands;
+/// docs/performance.md, "On a GPU").
 pub const GPU_BAND_PIXELS: u32 = 1 << 22;
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -231,8 +232,8 @@ pub struct Bands {
     pub grid_size: [u32; 2],
     /// The `Tile::pass` of each pass over the image (one unless a bundle is split).
     pub passes: Vec<[u32; 4]>,
-    /// Each band's tiles dealt round-robin to this many device threads ([`Dispatch::dealt`];
-    /// 0: in order).
+    /// Each band's rows of tiles dealt round-robin to this many device threads
+    /// ([`Dispatch::dealt`]; 0 or 1: in order).
     pub deal: u32,
     /// Eye rays per band, in whole rows ([`BAND_PIXELS`], or [`GPU_BAND_PIXELS`] on a GPU).
     pub band_pixels: u32,
