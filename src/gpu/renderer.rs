@@ -44,7 +44,7 @@ pub struct RenderOptions {
     pub max_scene_rows: Option<u32>,
     /// The accelerator: the grid, a BVH, or chosen per scene (`--accel`).
     pub accel: AccelChoice,
-    /// Deal each band's tiles to this many device threads (0: in order); `None`: the device's
+    /// Deal each band's rows of tiles to this many device threads (0 or 1: in order); `None`: the device's
     /// (`backend::dealing_threads`).
     pub deal: Option<u32>,
 }
