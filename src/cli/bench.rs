@@ -457,10 +457,7 @@ impl Job<'_> {
         drop(counting);
         let simd = if self.simd {
             let size = ctx.subgroup_size().ok_or_else(|| {
-                anyhow::anyhow!(
-                    "{}: --simd needs subgroup operations in compute shaders and one SIMD group size",
-                    ctx.adapter_name()
-                )
+                anyhow::anyhow!(irt::gpu::context::no_subgroups_message(ctx.adapter_name()))
             })?;
             let counting = Renderer::new(ctx, scene, RenderOptions { simd_stats: true, ..opts })
                 .map_err(anyhow::Error::msg)?;

@@ -15,9 +15,13 @@ pub fn no_f64_message(adapter: &str) -> String {
     format!("{adapter} has no f64 shader support (SHADER_F64): use --precision f32")
 }
 
-/// Why a `Variant::simd_stats` kernel cannot run on `adapter`.
+/// Why the SIMD counters cannot run on `adapter`: a `Variant::simd_stats` kernel needs subgroup
+/// operations in compute shaders, and `irt bench --simd` also one SIMD group size to count lanes.
 pub fn no_subgroups_message(adapter: &str) -> String {
-    format!("{adapter} has no subgroup operations in compute shaders, which the SIMD counters (--simd) need")
+    format!(
+        "{adapter} lacks what the SIMD counters (--simd) need: subgroup operations in compute shaders, \
+         with one SIMD group size"
+    )
 }
 
 /// (major, minor) of the first "Mesa X.Y" in a driver string.
