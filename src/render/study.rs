@@ -307,11 +307,14 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
 
     // ---- Conventional schedules -------------------------------------------------------------
     if part("schedules") {
+        let threads = match crate::gpu::backend::dealing_threads(&ctx) {
+            0 => "a GPU, no thread count of its own".to_string(),
+            n => format!("lavapipe runs {n} threads"),
+        };
         let mut t = head(&format!(
             "Conventional frame time: the mean of {frames} frames per configuration, the configurations taking \
              turns frame by frame (so a passing load hits all alike), the camera moving along the path; P = the \
-             workers the schedule is built for (lavapipe runs {} threads).",
-            std::thread::available_parallelism().map_or(2, |n| n.get())
+             workers the schedule is built for ({threads})."
         ));
         let ps = [2u32, 8, 32];
         t += "| scene | size | schedule | frame ms, P = 2 | P = 8 | P = 32 |\n|---|---|---|---|---|---|\n";
@@ -333,7 +336,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             for (i, schedule) in Schedule::ALL.iter().enumerate() {
                 let cells: Vec<String> = runners[i * ps.len()..(i + 1) * ps.len()]
                     .iter()
-                    .map(|r| format!("{:.0}", r.s_per_pixel() * n as f64 * 1e3))
+                    .map(|r| ms(r.s_per_pixel() * n as f64))
                     .collect();
                 let _ = writeln!(
                     t,
