@@ -233,7 +233,7 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
         // behind it, else the reflected one, else the top of the stack. The order pushing both
         // and popping the refracted one gave, with one push site instead of two and no push
         // and pop for a single child: a stack slot is a per-lane scatter or gather of 10 words.
-        var next = false;
+        var has_child = false;
         var child = ray;
         if s.hit && ray.depth < max_depth {
             let sf = s.sf;
@@ -242,24 +242,24 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
             if max(max(w_s.x, w_s.y), w_s.z) > cutoff {
                 let r = reflect_dir(ray.d, sf.n);
                 child = PendingRay(offset_origin(sf, r), ray.depth + 1u, r, w_s);
-                next = true;
+                has_child = true;
                 ray_counts.y += 1u;
             }
             let w_t = ray.w * k.kt;
             if k.kt > 0.0 && max(max(w_t.x, w_t.y), w_t.z) > cutoff {
                 let t = refract_dir(ray.d, sf.n, select(1.0 / s.m.eta, s.m.eta, sf.inside));
                 if t.w != 0.0 {
-                    if next {
+                    if has_child {
                         stack[sp] = child;
                         sp += 1u;
                     }
                     child = PendingRay(offset_origin(sf, t.xyz), ray.depth + 1u, t.xyz, w_t);
-                    next = true;
+                    has_child = true;
                     ray_counts.z += 1u;
                 }
             }
         }
-        if !next {
+        if !has_child {
             if sp == 0u {
                 break;
             }

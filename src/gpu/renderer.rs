@@ -18,10 +18,10 @@ use std::time::{Duration, Instant};
 /// rows cost 5–32% of a 512² frame against one (docs/performance.md, "One dispatch a frame").
 pub const BAND_PIXELS: u32 = 1 << 18;
 
-/// [`BAND_PIXELS`] on a GPU, 16 times larger: a GPU traces a band of 2^18 eye rays in less time
-/// than its submit and wait cost the host, and one large dispatch fills it better (an H200: a
-/// 2048² frame as one dispatch took 0.86 ms of device time against 2.1 ms as 16 bands;
-/// docs/performance.md, "On a GPU").
+/// [`BAND_PIXELS`] on a GPU, 16 times larger: a GPU traces a band of 2^18 eye rays in about the
+/// time its submit and wait cost the host (an H200: 0.061 ms of device time, 0.058 ms of host
+/// overhead), and one large dispatch fills it better (a 2048² frame as one dispatch: 0.86 ms of
+/// device time against 2.1 ms as 16 bands; docs/performance.md, "On a GPU").
 pub const GPU_BAND_PIXELS: u32 = 1 << 22;
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -192,21 +192,21 @@ fn decode_cores() -> usize {
     *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
-/// `f(k, chunk)` on each `chunk` of `data` of `len` items (the k-th) on its own scoped thread,
-/// the results in order; on this thread where there is one chunk.
+/// `f(k, chunk)` on each `chunk` of `data` of `len` items (the k-th), the results in order: the
+/// first chunk on this thread, each other on a scoped thread of its own.
 fn on_threads<U: Send, T: Send>(
     data: &mut [U],
     len: usize,
     f: impl Fn(usize, &mut [U]) -> T + Sync,
 ) -> Vec<T> {
-    if data.len() <= len {
-        return vec![f(0, data)];
-    }
     let f = &f;
+    let (first, rest) = data.split_at_mut(len.min(data.len()));
     std::thread::scope(|s| {
         let workers: Vec<_> =
-            data.chunks_mut(len).enumerate().map(|(k, c)| s.spawn(move || f(k, c))).collect();
-        workers.into_iter().map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+            rest.chunks_mut(len.max(1)).enumerate().map(|(k, c)| s.spawn(move || f(k + 1, c))).collect();
+        let mut out = vec![f(0, first)];
+        out.extend(workers.into_iter().map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e))));
+        out
     })
 }
 
