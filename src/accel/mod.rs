@@ -72,9 +72,14 @@ impl Accel {
         Accel::Bvh(bvh_for(scene, walk), walk)
     }
 
-    /// Builds what `choice` asks for.
-    pub fn choose(scene: &Scene, choice: AccelChoice, progress: &(dyn Fn(usize, usize) + Sync)) -> Accel {
-        Self::build(scene, choice.resolve(scene), progress)
+    /// Builds what `choice` asks for `planned` tracing.
+    pub fn choose(
+        scene: &Scene,
+        choice: AccelChoice,
+        planned: Planned,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Accel {
+        Self::build(scene, choice.resolve(scene, planned), progress)
     }
 
     pub fn kind(&self) -> AccelKind {
@@ -136,8 +141,7 @@ pub enum AccelChoice {
     Bvh,
     /// The BVH walked with a stack ([`BvhWalk::Stack`]; for measuring, docs/performance.md).
     BvhStack,
-    /// The default: it picks the BVH on 16 of the 18 scenes of docs/performance.md's table, where
-    /// the BVH won on 16 ([`auto`]).
+    /// The default: the BVH, unless a large scene's build cannot pay for itself ([`auto`]).
     #[default]
     Auto,
 }
@@ -150,38 +154,71 @@ impl AccelChoice {
         ("auto", AccelChoice::Auto),
     ];
 
-    /// The accelerator to build for `scene`.
-    pub fn resolve(self, scene: &Scene) -> AccelKind {
+    /// The accelerator to build for `scene` and the tracing `planned`.
+    pub fn resolve(self, scene: &Scene, planned: Planned) -> AccelKind {
         match self {
             AccelChoice::Grid => AccelKind::Grid,
             AccelChoice::Bvh => AccelKind::Bvh(BvhWalk::Stackless),
             AccelChoice::BvhStack => AccelKind::Bvh(BvhWalk::Stack),
-            AccelChoice::Auto => auto(scene),
+            AccelChoice::Auto => auto(scene, planned),
         }
     }
 }
 
-/// Above this many primitives `--accel auto` keeps the grid: a BVH build holds about 80 bytes
-/// per primitive at once and runs O(n log n) on the CPU, where the grid's holds a few and is
-/// linear (docs/performance.md, "Grid vs BVH", measured at 1M triangles).
+/// Up to this many primitives `--accel auto` always takes the BVH: its build is then under a
+/// second on two cores, and it traced every scene of docs/performance.md's table faster.
 pub const AUTO_GRID_ABOVE: usize = 1 << 21;
 
-/// `--accel auto`'s rule (docs/performance.md, "Grid vs BVH"): the BVH, unless the scene has more
-/// than [`AUTO_GRID_ABOVE`] primitives. With compact nodes and the storage-image scene texture
-/// the BVH beat the grid on all 18 scenes of the table, by 1.11x (SPD jacks) and 1.21x (4096
-/// evenly scattered spheres, the grid's own case, which the grid won before) up to 8.3x; an
-/// earlier rule that read the grid's occupancy to find the scenes the grid won has no such
-/// scene left to find.
-pub fn auto(scene: &Scene) -> AccelKind {
-    auto_for(scene.primitive_count())
+/// How much tracing one build of the accelerator serves: what `--accel auto` weighs a BVH's
+/// build against on large scenes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Planned {
+    /// Frames until the user stops (a viewer, a benchmark): the build is paid once.
+    #[default]
+    Open,
+    /// This many eye rays in all (one picture, a sequence), then the process ends.
+    EyeRays(u64),
 }
 
-/// [`auto`] for a scene of `primitives`.
-pub fn auto_for(primitives: usize) -> AccelKind {
-    if primitives > AUTO_GRID_ABOVE {
-        AccelKind::Grid
-    } else {
+impl Planned {
+    /// `frames` pictures of `width` x `height`.
+    pub fn pictures(frames: u64, width: u32, height: u32) -> Planned {
+        Planned::EyeRays(frames.saturating_mul(width as u64 * height as u64))
+    }
+}
+
+/// `--accel auto`'s rule (docs/performance.md, "Grid vs BVH" and "Large scenes: the BVH
+/// unless the build cannot pay"): the BVH, which traced every scene of the table faster (by
+/// 1.06x on SPD jacks up to 9.6x on the stadium, 2.3x on a 3M-triangle terrain). Past
+/// [`AUTO_GRID_ABOVE`] primitives its build (0.9 µs a primitive on two cores against the grid's
+/// 0.36, packing included) is weighed against what it saves, about as much per eye ray as the
+/// build costs per primitive on the terrain: the grid when fewer eye rays are planned than the
+/// scene has primitives (a one-off picture of a huge mesh), or when primitives move (a BVH is
+/// rebuilt whole at every frame, where the grid re-inserts only the moving ones).
+pub fn auto(scene: &Scene, planned: Planned) -> AccelKind {
+    let moving = scene.motions.iter().any(|m| !matches!(m.target, crate::scene::Target::Light(_)));
+    let (n, kind) = (scene.primitive_count(), auto_for(scene.primitive_count(), moving, planned));
+    if kind == AccelKind::Grid {
+        let why =
+            if moving { "its primitives move" } else { "fewer eye rays are planned than it has primitives" };
+        log::info!(
+            "--accel auto: the grid for this scene of {n} primitives, since {why}: a BVH's build would \
+             cost more than it saves (--accel bvh to build one anyway)"
+        );
+    }
+    kind
+}
+
+/// [`auto`] for a scene of `primitives`, some of them `moving` or not.
+pub fn auto_for(primitives: usize, moving: bool, planned: Planned) -> AccelKind {
+    let build_pays = match planned {
+        Planned::Open => true,
+        Planned::EyeRays(n) => n >= primitives as u64,
+    };
+    if primitives <= AUTO_GRID_ABOVE || (build_pays && !moving) {
         AccelKind::Bvh(BvhWalk::default())
+    } else {
+        AccelKind::Grid
     }
 }
 

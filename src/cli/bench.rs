@@ -3,6 +3,8 @@
 use super::{load_scene, open_device_with, DeviceArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
+// A benchmark times steady frames: `--accel auto` chooses as it would for a viewer.
+use irt::accel::Planned;
 use irt::gpu::backend::Device;
 use irt::gpu::layout::SIMD_LOOPS;
 use irt::gpu::{CacheSetting, RenderOptions, Renderer};
@@ -280,7 +282,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let builds: Vec<Duration> = (0..5)
         .map(|_| {
             let t = Instant::now();
-            std::hint::black_box(irt::accel::Accel::choose(&scene, scene_args.accel, &|_, _| {}));
+            std::hint::black_box(irt::accel::Accel::choose(
+                &scene,
+                scene_args.accel,
+                Planned::Open,
+                &|_, _| {},
+            ));
             t.elapsed()
         })
         .collect();
@@ -635,7 +642,7 @@ fn accel_rounds<D: Device>(
     let mut rays = Vec::new();
     let mut builds = Vec::new();
     for &accel in accels {
-        let kind = accel.resolve(scene);
+        let kind = accel.resolve(scene, Planned::Open);
         let times: Vec<Duration> = (0..3)
             .map(|_| {
                 let t = Instant::now();
@@ -664,7 +671,7 @@ fn accel_rounds<D: Device>(
     }
     let mrays: Vec<f64> =
         times.into_iter().zip(&rays).map(|(t, &n)| n as f64 / median(t).as_secs_f64() / 1e6).collect();
-    let auto = match AccelChoice::Auto.resolve(scene) {
+    let auto = match AccelChoice::Auto.resolve(scene, Planned::Open) {
         irt::accel::AccelKind::Grid => "grid",
         irt::accel::AccelKind::Bvh(_) => "bvh",
     };
