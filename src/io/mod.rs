@@ -26,7 +26,7 @@ use std::path::Path;
 pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
 /// Loader limits on counts, well inside what the GPU records can index (`PrimRef` has 30 bits),
 /// so that a typo (an icosphere in a loop, a runaway generator) is an error and not a hang.
-pub const MAX_SPHERES: usize = 1 << 22;
+pub const MAX_SPHERES: usize = 1 << 24;
 pub const MAX_TRIANGLES: usize = 1 << 24;
 pub const MAX_VERTICES: usize = 1 << 24;
 pub const MAX_CONES: usize = 1 << 22;
@@ -109,10 +109,11 @@ pub const FORMATS: &[Format] = &[
         parse: gltf::parse,
         model: Some(gltf_model),
     },
+    // NFF is read line by line, not into a tree: its limit is its own (src/io/nff.rs).
     Format {
         name: "NFF",
         extensions: &["nff"],
-        max_bytes: MAX_SCENE_FILE_BYTES,
+        max_bytes: nff::MAX_FILE_BYTES,
         parse: parse_nff,
         model: None,
     },

@@ -22,6 +22,11 @@ pub const METAL_KD_OVER_KS: f64 = 0.1;
 /// Largest Ks turned into a clear coat: `eta` grows without bound as Ks approaches 1.
 pub const MAX_COAT_KS: f64 = 0.98;
 pub const COMMANDS: &str = "v, b, l, f, c, s, p, pp";
+/// Bytes an NFF file may have: what the largest scene irt takes needs as text. NFF is parsed
+/// command by command into the scene, with no document tree in between, so unlike TOML it may
+/// be as large as its counts allow: a triangle (`p 3` and three vertex lines) takes about 100
+/// bytes, a sphere about 50 (SPD's balls at size 7, 5.4M spheres, is 258 MB).
+pub const MAX_FILE_BYTES: u64 = MAX_TRIANGLES as u64 * 128;
 
 /// Parses and validates an NFF scene; `origin` names the source in error messages.
 pub fn parse_str(src: &str, origin: &str) -> Result<Scene, LoadError> {

@@ -40,13 +40,14 @@ impl Generator {
     }
 
     fn fits(self, size: u32) -> bool {
-        // Bytes per primitive of the NFF text, rounded up: "s x y z r" and "p 3" + 3 vertices.
+        // Bytes per primitive of the NFF text, rounded up: "s x y z r" and "p 3" + 3 vertices;
+        // a triangle's three vertices count against the vertex limit too (NFF shares none).
         let (limit, bytes) = match self {
             Generator::Balls => (super::MAX_SPHERES as u64, 48),
-            Generator::Tetra => (super::MAX_TRIANGLES as u64, 100),
+            Generator::Tetra => ((super::MAX_TRIANGLES as u64).min(super::MAX_VERTICES as u64 / 3), 100),
         };
         self.primitives(size)
-            .is_some_and(|n| n <= limit && n.saturating_mul(bytes) <= super::MAX_SCENE_FILE_BYTES)
+            .is_some_and(|n| n <= limit && n.saturating_mul(bytes) <= super::nff::MAX_FILE_BYTES)
     }
 
     /// The NFF text of this database at `size` (SPD's `-s`), or why not.
@@ -356,11 +357,13 @@ mod tests {
     fn counts_and_limits() {
         assert_eq!(Generator::Balls.primitives(4), Some(7381));
         assert_eq!(Generator::Tetra.primitives(10), Some(1 << 20));
-        // The largest sizes still load: 597 871 spheres, 1 048 576 triangles.
-        assert_eq!(Generator::Balls.max_size(), 6);
-        assert_eq!(Generator::Tetra.max_size(), 10);
-        let err = Generator::Balls.nff(7).unwrap_err();
-        assert!(err.contains("1 to 6") && err.contains("5380840"), "{err}");
+        // The largest sizes still load: 5 380 840 spheres, 4 194 304 triangles (size 12's 16.8M
+        // triangles would have 50M vertices, past the loader's limit).
+        assert_eq!(Generator::Balls.max_size(), 7);
+        assert_eq!(Generator::Tetra.max_size(), 11);
+        let err = Generator::Balls.nff(8).unwrap_err();
+        assert!(err.contains("1 to 7") && err.contains("48427561"), "{err}");
+        assert!(Generator::Tetra.nff(12).unwrap_err().contains("1 to 11"));
         assert!(Generator::Tetra.nff(0).is_err());
         let scene = crate::io::nff::parse_str(&Generator::Tetra.nff(3).unwrap(), "tetra_s3").unwrap();
         assert_eq!(scene.triangle_count(), 64);
