@@ -195,14 +195,13 @@ fn accel_names_parse_and_bad_ones_are_errors() {
 }
 
 /// `--accel auto` (accel::auto): the BVH, which won on every scene of docs/performance.md's
-/// "Grid vs BVH" table (the evenly scattered random spheres, the grid's own case, included), for
-/// any tracing that is planned; past `AUTO_GRID_ABOVE` primitives the grid only where the BVH's
-/// build cannot pay for itself: fewer eye rays planned than primitives, or primitives that move.
+/// "Grid vs BVH" table (the evenly scattered random spheres, the grid's own case, included) and
+/// on the largest SPD scenes; the grid only past `AUTO_GRID_ABOVE` primitives when some of them
+/// move (a BVH would be rebuilt whole at every frame).
 #[test]
-fn auto_picks_the_bvh_unless_a_large_build_cannot_pay() {
-    use irt::accel::{auto_for, AccelKind, BvhWalk, Planned, AUTO_GRID_ABOVE};
+fn auto_picks_the_bvh_unless_a_large_scene_moves() {
+    use irt::accel::{auto_for, AccelKind, BvhWalk, AUTO_GRID_ABOVE};
     let bvh = AccelKind::Bvh(BvhWalk::Stackless);
-    let one_picture = Planned::pictures(1, 512, 512);
     for name in [
         "accel/random_spheres.nff",
         "accel/stadium.nff",
@@ -214,27 +213,23 @@ fn auto_picks_the_bvh_unless_a_large_build_cannot_pay() {
         "cones.toml",
         "animated.toml",
     ] {
-        let scene = scene_file(name);
-        for planned in [Planned::Open, one_picture, Planned::EyeRays(1)] {
-            assert_eq!(AccelChoice::Auto.resolve(&scene, planned), bvh, "{name} {planned:?}");
-        }
+        assert_eq!(AccelChoice::Auto.resolve(&scene_file(name)), bvh, "{name}");
     }
-    assert_eq!(AccelChoice::Auto.resolve(&irt::scene::default_scene(), Planned::Open), bvh, "default");
+    assert_eq!(AccelChoice::Auto.resolve(&irt::scene::default_scene()), bvh, "default");
     let (n, big) = (AUTO_GRID_ABOVE, AUTO_GRID_ABOVE + 1);
-    // Up to the threshold the BVH whatever is planned; past it, open-ended tracing (a viewer, a
-    // benchmark) still takes it...
-    assert_eq!(auto_for(n, true, Planned::EyeRays(1)), bvh);
-    assert_eq!(auto_for(big, false, Planned::Open), bvh);
-    // ... and so does a planned job of at least as many eye rays as primitives,
-    assert_eq!(auto_for(big, false, Planned::EyeRays(big as u64)), bvh);
-    assert_eq!(auto_for(big, false, Planned::pictures(10, 1024, 1024)), bvh);
-    // but one 512x512 picture (262 144 eye rays) keeps the grid, and so do moving primitives,
-    // whose BVH would be rebuilt whole at every frame.
-    assert_eq!(auto_for(big, false, Planned::EyeRays(big as u64 - 1)), AccelKind::Grid);
-    assert_eq!(auto_for(big, false, one_picture), AccelKind::Grid);
-    assert_eq!(auto_for(big, true, Planned::Open), AccelKind::Grid);
-    assert_eq!(Planned::pictures(u64::MAX, 2, 2), Planned::EyeRays(u64::MAX), "saturates");
+    assert_eq!([auto_for(n, true), auto_for(big, false)], [bvh, bvh]);
+    assert_eq!(auto_for(big, true), AccelKind::Grid);
     assert_eq!(AccelChoice::default(), AccelChoice::Auto);
+    // A scene past the limit: moving spheres and a mesh keep it on the grid, a moving light
+    // alone does not, and neither does a still of it (what `irt render --time` traces).
+    let mut scene = scene_file("animated.toml");
+    let s = scene.spheres[0].clone();
+    scene.spheres.resize(AUTO_GRID_ABOVE + 1, s);
+    assert_eq!(AccelChoice::Auto.resolve(&scene), AccelKind::Grid);
+    assert_eq!(AccelChoice::Auto.resolve(&scene.at(0.0)), bvh, "a still");
+    scene.motions.retain(|m| matches!(m.target, irt::scene::Target::Light(_)));
+    assert!(!scene.motions.is_empty());
+    assert_eq!(AccelChoice::Auto.resolve(&scene), bvh, "only the light moves");
 }
 
 /// The renderer builds what the choice resolves to, and the kernel walks what was packed.

@@ -72,14 +72,9 @@ impl Accel {
         Accel::Bvh(bvh_for(scene, walk), walk)
     }
 
-    /// Builds what `choice` asks for `planned` tracing.
-    pub fn choose(
-        scene: &Scene,
-        choice: AccelChoice,
-        planned: Planned,
-        progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> Accel {
-        Self::build(scene, choice.resolve(scene, planned), progress)
+    /// Builds what `choice` asks for.
+    pub fn choose(scene: &Scene, choice: AccelChoice, progress: &(dyn Fn(usize, usize) + Sync)) -> Accel {
+        Self::build(scene, choice.resolve(scene), progress)
     }
 
     pub fn kind(&self) -> AccelKind {
@@ -141,7 +136,7 @@ pub enum AccelChoice {
     Bvh,
     /// The BVH walked with a stack ([`BvhWalk::Stack`]; for measuring, docs/performance.md).
     BvhStack,
-    /// The default: the BVH, unless a large scene's build cannot pay for itself ([`auto`]).
+    /// The default: the BVH, unless a large scene's primitives move ([`auto`]).
     #[default]
     Auto,
 }
@@ -154,71 +149,47 @@ impl AccelChoice {
         ("auto", AccelChoice::Auto),
     ];
 
-    /// The accelerator to build for `scene` and the tracing `planned`.
-    pub fn resolve(self, scene: &Scene, planned: Planned) -> AccelKind {
+    /// The accelerator to build for `scene`.
+    pub fn resolve(self, scene: &Scene) -> AccelKind {
         match self {
             AccelChoice::Grid => AccelKind::Grid,
             AccelChoice::Bvh => AccelKind::Bvh(BvhWalk::Stackless),
             AccelChoice::BvhStack => AccelKind::Bvh(BvhWalk::Stack),
-            AccelChoice::Auto => auto(scene, planned),
+            AccelChoice::Auto => auto(scene),
         }
     }
 }
 
-/// Up to this many primitives `--accel auto` always takes the BVH: its build is then under a
-/// second on two cores, and it traced every scene of docs/performance.md's table faster.
+/// Past this many primitives `--accel auto` keeps the grid for scenes whose primitives move: a
+/// BVH is rebuilt whole at every frame (0.6 s a million primitives on two cores), where the
+/// grid re-inserts only the moving ones.
 pub const AUTO_GRID_ABOVE: usize = 1 << 21;
 
-/// How much tracing one build of the accelerator serves: what `--accel auto` weighs a BVH's
-/// build against on large scenes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Planned {
-    /// Frames until the user stops (a viewer, a benchmark): the build is paid once.
-    #[default]
-    Open,
-    /// This many eye rays in all (one picture, a sequence), then the process ends.
-    EyeRays(u64),
-}
-
-impl Planned {
-    /// `frames` pictures of `width` x `height`.
-    pub fn pictures(frames: u64, width: u32, height: u32) -> Planned {
-        Planned::EyeRays(frames.saturating_mul(width as u64 * height as u64))
-    }
-}
-
-/// `--accel auto`'s rule (docs/performance.md, "Grid vs BVH" and "Large scenes: the BVH
-/// unless the build cannot pay"): the BVH, which traced every scene of the table faster (by
-/// 1.06x on SPD jacks up to 9.6x on the stadium, 2.3x on a 3M-triangle terrain). Past
-/// [`AUTO_GRID_ABOVE`] primitives its build (0.9 µs a primitive on two cores against the grid's
-/// 0.36, packing included) is weighed against what it saves, about as much per eye ray as the
-/// build costs per primitive on the terrain: the grid when fewer eye rays are planned than the
-/// scene has primitives (a one-off picture of a huge mesh), or when primitives move (a BVH is
-/// rebuilt whole at every frame, where the grid re-inserts only the moving ones).
-pub fn auto(scene: &Scene, planned: Planned) -> AccelKind {
+/// `--accel auto`'s rule (docs/performance.md, "Grid vs BVH" and "Large scenes: the BVH"): the
+/// BVH, which traced every scene measured faster than the grid, by 1.06x (SPD jacks) to 9.6x
+/// (the stadium) and 30x on SPD balls at size 7 (5.4M spheres), unless the scene has more than
+/// [`AUTO_GRID_ABOVE`] primitives and some of them move. Its build costs more than the grid's
+/// (a one-off picture of a 3M-triangle terrain waits 1.3 s longer), but a grid's frame has no
+/// such bound: the one picture of balls size 7 takes 22 s with the grid, 11 with the BVH.
+pub fn auto(scene: &Scene) -> AccelKind {
     let moving = scene.motions.iter().any(|m| !matches!(m.target, crate::scene::Target::Light(_)));
-    let (n, kind) = (scene.primitive_count(), auto_for(scene.primitive_count(), moving, planned));
+    let n = scene.primitive_count();
+    let kind = auto_for(n, moving);
     if kind == AccelKind::Grid {
-        let why =
-            if moving { "its primitives move" } else { "fewer eye rays are planned than it has primitives" };
         log::info!(
-            "--accel auto: the grid for this scene of {n} primitives, since {why}: a BVH's build would \
-             cost more than it saves (--accel bvh to build one anyway)"
+            "--accel auto: the grid for this scene of {n} primitives, since some of them move: a BVH \
+             would be rebuilt whole at every frame (--accel bvh to build one anyway)"
         );
     }
     kind
 }
 
 /// [`auto`] for a scene of `primitives`, some of them `moving` or not.
-pub fn auto_for(primitives: usize, moving: bool, planned: Planned) -> AccelKind {
-    let build_pays = match planned {
-        Planned::Open => true,
-        Planned::EyeRays(n) => n >= primitives as u64,
-    };
-    if primitives <= AUTO_GRID_ABOVE || (build_pays && !moving) {
-        AccelKind::Bvh(BvhWalk::default())
-    } else {
+pub fn auto_for(primitives: usize, moving: bool) -> AccelKind {
+    if primitives > AUTO_GRID_ABOVE && moving {
         AccelKind::Grid
+    } else {
+        AccelKind::Bvh(BvhWalk::default())
     }
 }
 

@@ -3,8 +3,6 @@
 use super::{load_scene, open_device_with, DeviceArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-// A benchmark times steady frames: `--accel auto` chooses as it would for a viewer.
-use irt::accel::Planned;
 use irt::gpu::backend::Device;
 use irt::gpu::layout::SIMD_LOOPS;
 use irt::gpu::{CacheSetting, RenderOptions, Renderer};
@@ -282,12 +280,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let builds: Vec<Duration> = (0..5)
         .map(|_| {
             let t = Instant::now();
-            std::hint::black_box(irt::accel::Accel::choose(
-                &scene,
-                scene_args.accel,
-                Planned::Open,
-                &|_, _| {},
-            ));
+            std::hint::black_box(irt::accel::Accel::choose(&scene, scene_args.accel, &|_, _| {}));
             t.elapsed()
         })
         .collect();
@@ -642,7 +635,7 @@ fn accel_rounds<D: Device>(
     let mut rays = Vec::new();
     let mut builds = Vec::new();
     for &accel in accels {
-        let kind = accel.resolve(scene, Planned::Open);
+        let kind = accel.resolve(scene);
         let times: Vec<Duration> = (0..3)
             .map(|_| {
                 let t = Instant::now();
@@ -671,7 +664,7 @@ fn accel_rounds<D: Device>(
     }
     let mrays: Vec<f64> =
         times.into_iter().zip(&rays).map(|(t, &n)| n as f64 / median(t).as_secs_f64() / 1e6).collect();
-    let auto = match AccelChoice::Auto.resolve(scene, Planned::Open) {
+    let auto = match AccelChoice::Auto.resolve(scene) {
         irt::accel::AccelKind::Grid => "grid",
         irt::accel::AccelKind::Bvh(_) => "bvh",
     };

@@ -169,9 +169,9 @@ pub struct SceneArgs {
     pub precision: String,
     /// Accelerator: grid (the paper's uniform grid with macro-cells), bvh (a binned-SAH BVH
     /// walked without a stack, by escape links), bvh-stack (the same BVH walked with a stack,
-    /// near child first; for measuring), or auto (the BVH; past 2^21 primitives the grid where
-    /// the BVH's build would cost more than it saves: a picture of fewer pixels than the scene
-    /// has primitives, or primitives that move; docs/performance.md, "Grid vs BVH").
+    /// near child first; for measuring), or auto (the BVH; the grid only for scenes past 2^21
+    /// primitives some of which move, where a BVH is rebuilt every frame; docs/performance.md,
+    /// "Grid vs BVH").
     #[arg(long, value_name = "ACCEL", default_value_t = irt::accel::AccelChoice::default())]
     pub accel: irt::accel::AccelChoice,
 }

@@ -3,12 +3,10 @@
 use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
-use irt::accel::Planned;
 use irt::gpu::backend::Device;
 use irt::gpu::{RenderOptions, Renderer};
 use irt::image::{Image, OutputFormat};
 use irt::render::{ModeArgs, Session, Settings};
-use irt::scene::Scene;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -86,7 +84,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         if args.stats {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
-        let settings = one_picture(&args, mode, &scene, 1);
+        let settings = one_picture(&args, mode);
         return match args.backend {
             super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
             super::Backend::Ash => one_pass(
@@ -118,7 +116,7 @@ fn bands<D: Device>(
     scene: &irt::scene::Scene,
     how: &str,
 ) -> Result<()> {
-    let opts = options(args, scene);
+    let opts = options(args);
     let h = scene.camera.height;
     let setup = super::setup_bar(scene.primitive_count());
     let renderer = Renderer::with_progress(ctx, scene, opts, &|stage, done, total| {
@@ -152,17 +150,10 @@ fn bands<D: Device>(
     Ok(())
 }
 
-/// The settings of `frames` headless pictures of `scene` in `mode`: one sample, the scene
-/// arguments' precision and accelerator (`--mode`, and the frames of `--frames`).
-pub fn one_picture(args: &RenderArgs, mode: irt::render::Mode, scene: &Scene, frames: u64) -> Settings {
-    Settings {
-        mode,
-        f64: args.scene.f64(),
-        accel: args.scene.accel,
-        planned: Planned::pictures(frames, scene.camera.width, scene.camera.height),
-        max_samples: 1,
-        ..Settings::default()
-    }
+/// The settings of a headless picture in `mode`: one sample, the scene arguments' precision and
+/// accelerator (`--mode`, and each frame of `--frames`).
+pub fn one_picture(args: &RenderArgs, mode: irt::render::Mode) -> Settings {
+    Settings { mode, f64: args.scene.f64(), accel: args.scene.accel, max_samples: 1, ..Settings::default() }
 }
 
 /// One complete frame (conventional) or pass (frameless) of an interactive mode, on `ctx`'s path.
@@ -186,13 +177,12 @@ fn one_pass<D: Device>(
     write(args, format, &image, scene, elapsed, ctx.adapter_name(), &how)
 }
 
-fn options(args: &RenderArgs, scene: &Scene) -> RenderOptions {
+fn options(args: &RenderArgs) -> RenderOptions {
     RenderOptions {
         count_rays: args.stats,
         corner_rays: args.spd_rules,
         f64: args.scene.f64(),
         accel: args.scene.accel,
-        planned: Planned::pictures(1, scene.camera.width, scene.camera.height),
         ..Default::default()
     }
 }

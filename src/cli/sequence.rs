@@ -37,7 +37,7 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
         log::warn!("the scene has no motion: every frame will be the same picture");
     }
     let mode = mode.unwrap_or(Mode::Conventional { schedule: Schedule::Plain, workers: 0 });
-    let settings = super::render::one_picture(args, mode, scene, frames.len() as u64);
+    let settings = super::render::one_picture(args, mode);
     let job = Job { args, scene, frames, pattern, format, settings };
     match args.backend {
         super::Backend::Wgpu => job.run(&super::open_device(&args.device)?),

@@ -5,7 +5,7 @@ use super::dispatch::{ModeBuffers, RayCounts};
 use super::layout::{self, PackedScene, Params, Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
 use super::shaders::{Kernel, Variant};
 use super::GpuContext;
-use crate::accel::{Accel, AccelChoice, Planned};
+use crate::accel::{Accel, AccelChoice};
 use crate::image::Image;
 use crate::scene::{Scene, ShadowMode};
 use std::mem::MaybeUninit;
@@ -44,8 +44,6 @@ pub struct RenderOptions {
     pub max_scene_rows: Option<u32>,
     /// The accelerator: the grid, a BVH, or chosen per scene (`--accel`).
     pub accel: AccelChoice,
-    /// What the renderer will trace, for `--accel auto` to weigh a build against.
-    pub planned: Planned,
     /// Deal each band's rows of tiles to this many device threads (0 or 1: in order); `None`: the device's
     /// (`backend::dealing_threads`).
     pub deal: Option<u32>,
@@ -376,7 +374,7 @@ pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> P
     // An animated scene renders at time 0 here; `irt render --time` passes `scene.at(t)`.
     let scene = &*scene.posed(0.0);
     let t0 = Instant::now();
-    let accel = Accel::choose(scene, opts.accel, opts.planned, &|done, total| {
+    let accel = Accel::choose(scene, opts.accel, &|done, total| {
         progress(SetupStage::Grid, done as u64, total as u64)
     });
     let grid_build = t0.elapsed();

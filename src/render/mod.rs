@@ -112,8 +112,6 @@ pub struct Settings {
     pub waves: u32,
     /// The accelerator (`--accel`): the grid, a BVH, or chosen per scene.
     pub accel: crate::accel::AccelChoice,
-    /// What the session will trace, for `--accel auto` to weigh a build against.
-    pub planned: crate::accel::Planned,
 }
 
 impl Default for Settings {
@@ -127,7 +125,6 @@ impl Default for Settings {
             max_samples: 64,
             waves: 4,
             accel: Default::default(),
-            planned: Default::default(),
         }
     }
 }

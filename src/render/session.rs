@@ -223,7 +223,8 @@ impl<D: Device> Session<D> {
         settings.apply_to(&mut scene);
         let moving = Grid::moving_prims(&base);
         let frame = animation_frame(&base, &moving);
-        let accel = first_accel(&scene, settings.accel.resolve(&scene, settings.planned), &frame);
+        // Chosen on the scene with its motions: `auto` keeps a large scene that moves on the grid.
+        let accel = first_accel(&scene, settings.accel.resolve(&base), &frame);
         let origin = scene.camera.eye;
         let packed = layout::pack_scene(&scene, &accel, origin);
         let params = layout::params(&scene, &accel, &packed, origin);
