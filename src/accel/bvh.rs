@@ -17,6 +17,7 @@ use super::PrimRef;
 use crate::scene::Scene;
 use glam::DVec3;
 use std::fmt;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Primitives a leaf holds at most.
 pub const MAX_LEAF: usize = 4;
@@ -114,6 +115,25 @@ fn bounds(prims: &[Prim]) -> (Aabb, Aabb) {
 /// Nodes under construction, depth-first.
 type Nodes = Vec<Node>;
 
+/// Counts the primitives placed in leaves and reports them about every hundredth.
+struct Placed<'a> {
+    done: AtomicUsize,
+    total: usize,
+    report: &'a (dyn Fn(usize, usize) + Sync),
+}
+
+impl Placed<'_> {
+    /// Appends `leaf` (of `count` primitives) to `out` and counts them.
+    fn leaf(&self, out: &mut Nodes, leaf: Node, count: usize) {
+        out.push(leaf);
+        let step = (self.total / 100).max(1);
+        let before = self.done.fetch_add(count, Ordering::Relaxed);
+        if before / step != (before + count) / step {
+            (self.report)(before + count, self.total);
+        }
+    }
+}
+
 /// Moves every index of `nodes` (a subtree) by `by` nodes.
 fn shift(nodes: &mut [Node], by: u32) {
     for n in nodes {
@@ -159,9 +179,25 @@ impl Bvh {
         Self::build_with(scene, Split::Sah, threads)
     }
 
+    /// [`Bvh::build`], calling `progress(done, total)` as primitives are placed in leaves (from
+    /// any of the building threads, about every hundredth of them).
+    pub fn build_with_progress(scene: &Scene, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        Self::build_reporting(scene, Split::Sah, threads, progress)
+    }
+
     /// [`Bvh::build`] with the split rule and the number of threads given: the tree is the same
     /// for every thread count (subtrees are built independently and joined in order).
     pub fn build_with(scene: &Scene, split: Split, threads: usize) -> Bvh {
+        Self::build_reporting(scene, split, threads, &|_, _| {})
+    }
+
+    fn build_reporting(
+        scene: &Scene,
+        split: Split,
+        threads: usize,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Bvh {
         let mut prims = Vec::with_capacity(scene.primitive_count());
         Grid::for_each_bound(scene, |r, lo, hi| prims.push(Prim { lo, hi, centre: (lo + hi) * 0.5, r }));
         if prims.is_empty() {
@@ -171,7 +207,8 @@ impl Bvh {
         }
         // At most 2n - 1 nodes.
         let mut nodes = Vec::with_capacity(2 * prims.len());
-        build_range(&mut nodes, &mut prims, 0, 0, split, threads.max(1));
+        let placed = Placed { done: AtomicUsize::new(0), total: prims.len(), report: progress };
+        build_range(&mut nodes, &mut prims, 0, 0, split, threads.max(1), &placed);
         Bvh { nodes, refs: prims.iter().map(|p| p.r).collect() }
     }
 
@@ -269,19 +306,27 @@ impl Bvh {
 /// `refs[first]`, at `depth`, to `out`: depth-first, its root at `out.len()`, indices absolute.
 /// `threads` threads may build it. Written in place rather than returned and concatenated: the
 /// concatenation copied every node once per level above it (a tenth of a 3M-triangle build).
-fn build_range(out: &mut Nodes, prims: &mut [Prim], first: u32, depth: usize, split: Split, threads: usize) {
+fn build_range(
+    out: &mut Nodes,
+    prims: &mut [Prim],
+    first: u32,
+    depth: usize,
+    split: Split,
+    threads: usize,
+    placed: &Placed,
+) {
     let (b, c) = bounds(prims);
     let n = prims.len();
     let leaf = Node { lo: b.lo, hi: b.hi, kind: NodeKind::Leaf { first, count: n as u32 } };
     if n == 1 {
-        return out.push(leaf);
+        return placed.leaf(out, leaf, n);
     }
     let extent = c.hi - c.lo;
     let mut chosen = None;
     if split == Split::Sah && depth < SAH_DEPTH {
         if let Some((axis, cost, bin)) = sah_split(prims, &b, &c) {
             if n <= MAX_LEAF && cost >= n as f64 {
-                return out.push(leaf);
+                return placed.leaf(out, leaf, n);
             }
             // Bins are cut at centroid coordinates; partition by the same bin function.
             let (lo, k) = (c.lo[axis], bin_scale(extent)[axis]);
@@ -293,7 +338,7 @@ fn build_range(out: &mut Nodes, prims: &mut [Prim], first: u32, depth: usize, sp
     }
     let (axis, mid) = match chosen {
         Some(c) => c,
-        None if n <= MAX_LEAF => return out.push(leaf),
+        None if n <= MAX_LEAF => return placed.leaf(out, leaf, n),
         None => {
             // The object median along the largest centroid extent (ties by reference, so the
             // result does not depend on the order the primitives came in).
@@ -314,10 +359,10 @@ fn build_range(out: &mut Nodes, prims: &mut [Prim], first: u32, depth: usize, sp
         let mut r = std::thread::scope(|s| {
             let h = s.spawn(|| {
                 let mut r = Vec::with_capacity(2 * right.len());
-                build_range(&mut r, right, first + mid as u32, depth + 1, split, rt);
+                build_range(&mut r, right, first + mid as u32, depth + 1, split, rt, placed);
                 r
             });
-            build_range(out, left, first, depth + 1, split, lt);
+            build_range(out, left, first, depth + 1, split, lt, placed);
             h.join().expect("BVH build thread")
         });
         let right_at = out.len() as u32;
@@ -325,9 +370,9 @@ fn build_range(out: &mut Nodes, prims: &mut [Prim], first: u32, depth: usize, sp
         out.append(&mut r);
         right_at
     } else {
-        build_range(out, left, first, depth + 1, split, 1);
+        build_range(out, left, first, depth + 1, split, 1, placed);
         let right_at = out.len() as u32;
-        build_range(out, right, first + mid as u32, depth + 1, split, 1);
+        build_range(out, right, first + mid as u32, depth + 1, split, 1, placed);
         right_at
     };
     let escape = out.len() as u32;
@@ -563,6 +608,25 @@ mod tests {
             assert!(Bvh::build_with(&s, Split::Sah, threads) == one, "{threads} threads");
         }
         assert_well_formed(&one, &s);
+    }
+
+    /// The build reports every primitive placed, in about a hundred steps, from whichever
+    /// thread places them, and reporting changes nothing in the tree.
+    #[test]
+    fn the_build_reports_its_progress() {
+        let s = random_scene(6, 30_000, 5.0, DVec3::ZERO);
+        let n = s.primitive_count();
+        for threads in [1, 3] {
+            let reports = std::sync::Mutex::new(Vec::new());
+            let bvh = Bvh::build_reporting(&s, Split::Sah, threads, &|done, total| {
+                reports.lock().unwrap().push((done, total))
+            });
+            assert!(bvh == Bvh::build_with(&s, Split::Sah, threads));
+            let reports = reports.into_inner().unwrap();
+            assert!(reports.iter().all(|&(d, t)| t == n && d <= n), "{threads} threads");
+            assert_eq!(reports.iter().map(|r| r.0).max(), Some(n), "{threads} threads");
+            assert!((90..=101).contains(&reports.len()), "{} reports", reports.len());
+        }
     }
 
     /// Clusters of small spheres far apart (a teapot-in-a-stadium in miniature): the SAH puts

@@ -59,11 +59,11 @@ impl<'a> From<&'a Accel> for AccelRef<'a> {
 
 impl Accel {
     /// Builds the accelerator `kind` for `scene` (valid); `progress(done, total)` as the grid
-    /// inserts primitives (the BVH reports nothing).
+    /// inserts primitives or the BVH places them in leaves.
     pub fn build(scene: &Scene, kind: AccelKind, progress: &(dyn Fn(usize, usize) + Sync)) -> Accel {
         match kind {
             AccelKind::Grid => Accel::Grid(Grid::build_with_progress(scene, progress)),
-            AccelKind::Bvh(walk) => Accel::bvh(scene, walk),
+            AccelKind::Bvh(walk) => Accel::Bvh(bvh_with_progress(scene, walk, progress), walk),
         }
     }
 
@@ -114,7 +114,12 @@ impl Accel {
 /// order, so its tree is ordered towards the camera's eye ([`Bvh::ordered_towards`]); the stack
 /// walk orders them per ray and keeps the builder's order.
 pub fn bvh_for(scene: &Scene, walk: BvhWalk) -> Bvh {
-    let bvh = Bvh::build(scene);
+    bvh_with_progress(scene, walk, &|_, _| {})
+}
+
+/// [`bvh_for`], calling `progress(done, total)` as the build places primitives in leaves.
+pub fn bvh_with_progress(scene: &Scene, walk: BvhWalk, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
+    let bvh = Bvh::build_with_progress(scene, progress);
     match walk {
         BvhWalk::Stackless => bvh.ordered_towards(scene.camera.eye),
         BvhWalk::Stack => bvh,

@@ -223,7 +223,7 @@ pub fn setup_bar(primitives: usize) -> indicatif::ProgressBar {
         .expect("valid template")
         .progress_chars("=> "),
     );
-    bar.set_message("building the grid");
+    bar.set_message("building the accelerator");
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     bar
 }
@@ -231,7 +231,12 @@ pub fn setup_bar(primitives: usize) -> indicatif::ProgressBar {
 /// The progress callback that drives [`setup_bar`].
 pub fn show_setup(bar: &indicatif::ProgressBar, stage: irt::gpu::SetupStage, done: u64, total: u64) {
     match stage {
-        irt::gpu::SetupStage::Grid => {
+        irt::gpu::SetupStage::Grid | irt::gpu::SetupStage::Bvh => {
+            bar.set_message(if stage == irt::gpu::SetupStage::Grid {
+                "building the grid"
+            } else {
+                "building the BVH"
+            });
             bar.set_length(total);
             bar.set_position(done);
         }

@@ -5,7 +5,7 @@ use super::dispatch::{ModeBuffers, RayCounts};
 use super::layout::{self, PackedScene, Params, Tile, BUNDLE_SAMPLES_PER_PASS, LAVAPIPE_LOOP_LIMIT};
 use super::shaders::{Kernel, Variant};
 use super::GpuContext;
-use crate::accel::{Accel, AccelChoice};
+use crate::accel::{Accel, AccelChoice, AccelKind};
 use crate::image::Image;
 use crate::scene::{Scene, ShadowMode};
 use std::mem::MaybeUninit;
@@ -218,6 +218,8 @@ pub type SetupProgress<'a> = &'a (dyn Fn(SetupStage, u64, u64) + Sync);
 pub enum SetupStage {
     /// Inserting primitives into the grid (`done` of `total` primitives).
     Grid,
+    /// Building the BVH (`done` of `total` primitives placed in leaves).
+    Bvh,
     /// Packing and uploading the scene texture (reported once, `0` of `1`).
     Upload,
 }
@@ -368,15 +370,18 @@ pub struct Prepared {
     pub grid_build: Duration,
 }
 
-/// Builds the accelerator `opts.accel` resolves to (reporting a grid's progress), packs the scene relative to the eye and picks the variant:
+/// Builds the accelerator `opts.accel` resolves to (reporting its progress), packs the scene relative to the eye and picks the variant:
 /// everything of a band renderer's setup that no device is needed for.
 pub fn prepare(scene: &Scene, opts: RenderOptions, progress: SetupProgress) -> Prepared {
     // An animated scene renders at time 0 here; `irt render --time` passes `scene.at(t)`.
     let scene = &*scene.posed(0.0);
     let t0 = Instant::now();
-    let accel = Accel::choose(scene, opts.accel, &|done, total| {
-        progress(SetupStage::Grid, done as u64, total as u64)
-    });
+    let kind = opts.accel.resolve(scene);
+    let stage = match kind {
+        AccelKind::Grid => SetupStage::Grid,
+        AccelKind::Bvh(_) => SetupStage::Bvh,
+    };
+    let accel = Accel::build(scene, kind, &|done, total| progress(stage, done as u64, total as u64));
     let grid_build = t0.elapsed();
     progress(SetupStage::Upload, 0, 1);
     let (width, height) = (scene.camera.width, scene.camera.height);
