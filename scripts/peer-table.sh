@@ -5,7 +5,7 @@
 # the native Rust one over irt's grid and over irt's BVH and, when this irt was built with
 # `--features embree` (`irt info` says so), Embree 3; PEERS overrides the list (e.g.
 # PEERS=native,embree,embree-fast). About a minute per peer on 2 cores.
-# ACCEL (default auto, irt's default: the BVH up to 2^21 primitives) sets irt's --accel;
+# ACCEL (default auto, irt's default: the BVH unless a scene past 2^21 primitives moves) sets irt's --accel;
 # ACCEL=grid compares irt's grid walk with the `native` peer's.
 #   scripts/peer-table.sh [SCENE...]   (default: the default scene and the small SPD scenes)
 set -euo pipefail
