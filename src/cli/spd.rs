@@ -9,7 +9,7 @@ use std::path::PathBuf;
 #[derive(Args)]
 #[command(after_help = "Examples:\n  irt spd balls --size 6 --out balls_s6.nff   # 597 871 spheres\n  \
 irt spd tetra --size 10 --out tetra_s10.nff # 1 048 576 triangles\n  \
-irt spd balls --size 7 --out balls_s7.nff   # 5 380 840 spheres, 258 MB\n  irt bench balls_s6.nff --peer native-bvh\n\n\
+irt spd balls --size 7 --out balls_s7.nff   # 5 380 840 spheres, 228 MB\n  irt bench balls_s6.nff --peer native-bvh\n\n\
 Sizes 1, 2 and 4 of balls and 4 of tetra are the files in scenes/spd/, byte for byte.")]
 pub struct SpdArgs {
     /// Which database.

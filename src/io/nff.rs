@@ -25,7 +25,7 @@ pub const COMMANDS: &str = "v, b, l, f, c, s, p, pp";
 /// Bytes an NFF file may have: what the largest scene irt takes needs as text. NFF is parsed
 /// command by command into the scene, with no document tree in between, so unlike TOML it may
 /// be as large as its counts allow: a triangle (`p 3` and three vertex lines) takes about 100
-/// bytes, a sphere about 50 (SPD's balls at size 7, 5.4M spheres, is 258 MB).
+/// bytes, a sphere about 42 (SPD's balls at size 7, 5.4M spheres, is 228 MB).
 pub const MAX_FILE_BYTES: u64 = MAX_TRIANGLES as u64 * 128;
 
 /// Parses and validates an NFF scene; `origin` names the source in error messages.
