@@ -155,10 +155,10 @@ fn spd_writes_a_scalable_database_that_loads() {
     let scene = irt::io::load(&path).unwrap();
     assert_eq!((scene.triangle_count(), scene.lights.len()), (64, 1));
     // Past what irt loads: refused before anything is generated, with the range.
-    let big = tmp("balls_s7.nff");
+    let big = tmp("balls_s8.nff");
     fails_with(
-        &irt(&["spd", "balls", "--size", "7", "--out", big.to_str().unwrap()]),
-        &["balls size 7", "1 to 6"],
+        &irt(&["spd", "balls", "--size", "8", "--out", big.to_str().unwrap()]),
+        &["balls size 8", "1 to 7"],
     );
     assert!(!big.exists());
     fails_with(&irt(&["spd", "mount", "--out", big.to_str().unwrap()]), &["mount"]);
