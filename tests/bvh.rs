@@ -158,6 +158,68 @@ fn a_session_reorders_its_bvh_for_a_far_eye_and_draws_the_same_picture() {
     assert!(session(&ctx, &scene, AccelChoice::Grid).bvh_ordered_for().is_none());
 }
 
+/// A viewer's session of a scene past `BACKGROUND_BVH_ABOVE` primitives traces the grid while
+/// its BVH builds on another thread, then adopts it: from then on it draws what a session that
+/// built the BVH first draws, bit for bit, and before it what a grid session draws. A geometry
+/// change while the BVH builds drops it (it would no longer fit).
+#[test]
+fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
+    use irt::accel::AccelKind;
+    use irt::io::stage::{stage, Model};
+    use irt::render::session::BACKGROUND_BVH_ABOVE;
+    let ctx = common::gpu();
+    let model = Model {
+        meshes: vec![irt::io::shapes::terrain(740, 3, false).into_mesh(0)],
+        materials: vec![irt::scene::Material::new(
+            "terrain",
+            irt::scene::MaterialKind::Diffuse { color: glam::DVec3::splat(0.8) },
+        )],
+        textures: vec![],
+        motions: vec![],
+    };
+    let scene = sized(stage(model), 40, 30);
+    assert!(scene.primitive_count() > BACKGROUND_BVH_ABOVE);
+    let settings = Settings {
+        mode: Mode::Conventional { schedule: Schedule::Plain, workers: 0 },
+        max_samples: 1,
+        ..Settings::default()
+    };
+    let picture = |s: &mut Session| {
+        s.complete_pass(&ctx);
+        s.read_image(&ctx)
+    };
+    let same = |a: &irt::image::Image, b: &irt::image::Image| a.pixels == b.pixels;
+
+    let mut viewer = Session::new_interactive(&ctx, &scene, settings.clone()).unwrap();
+    assert!(viewer.bvh_pending());
+    assert_eq!(viewer.accel.kind(), AccelKind::Grid);
+    let before = picture(&mut viewer);
+    assert!(same(&before, &picture(&mut session(&ctx, &scene, AccelChoice::Grid))), "the grid's picture");
+    let started = std::time::Instant::now();
+    while !viewer.adopt_bvh(&ctx).unwrap() {
+        assert!(started.elapsed().as_secs() < 120, "the background build never finished");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(!viewer.bvh_pending() && !viewer.adopt_bvh(&ctx).unwrap());
+    assert_eq!(viewer.accel.kind(), AccelKind::Bvh(irt::accel::BvhWalk::Stackless));
+    let after = picture(&mut viewer);
+    let mut built_first = Session::new(&ctx, &scene, settings.clone()).unwrap();
+    assert_eq!(built_first.accel.kind(), AccelKind::Bvh(irt::accel::BvhWalk::Stackless));
+    assert!(same(&after, &picture(&mut built_first)), "the adopted BVH's picture");
+    let diff = irt::metrics::compare(&before, &after);
+    assert!(diff.bad_pixels == 0.0, "grid and BVH pictures: {diff}");
+
+    // Named accelerators are built before the first frame, and an edit that moves geometry drops
+    // a build in flight.
+    let named = Settings { accel: AccelChoice::Bvh, ..settings.clone() };
+    assert!(!Session::new_interactive(&ctx, &scene, named).unwrap().bvh_pending());
+    let mut edited = Session::new_interactive(&ctx, &scene, settings).unwrap();
+    let mut moved = scene.clone();
+    moved.meshes[0].positions.iter_mut().for_each(|p| p.y += 0.01);
+    edited.set_scene(&ctx, &moved).unwrap();
+    assert!(!edited.bvh_pending() && edited.accel.kind() == AccelKind::Grid);
+}
+
 /// A moving scene with the BVH: the session rebuilds the tree at every time (no refit yet), and
 /// its image matches the reference of the posed scene and the grid session's.
 #[test]

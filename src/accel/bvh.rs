@@ -69,6 +69,40 @@ pub struct Bvh {
     pub refs: Vec<PrimRef>,
 }
 
+/// What a build reads from a scene: every primitive's box, gathered ([`BvhInput::of`]) so that
+/// the build itself needs no scene and can run on another thread (the viewer's background
+/// build, `render::Session::new_interactive`).
+pub struct BvhInput(Vec<Prim>);
+
+impl BvhInput {
+    /// The boxes of `scene`'s spheres, triangles and cones.
+    pub fn of(scene: &Scene) -> BvhInput {
+        let mut prims = Vec::with_capacity(scene.primitive_count());
+        Grid::for_each_bound(scene, |r, lo, hi| prims.push(Prim { lo, hi, centre: (lo + hi) * 0.5, r }));
+        BvhInput(prims)
+    }
+
+    /// [`Bvh::build`] of these boxes.
+    pub fn build(self) -> Bvh {
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        self.build_reporting(Split::Sah, threads, &|_, _| {})
+    }
+
+    fn build_reporting(self, split: Split, threads: usize, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
+        let mut prims = self.0;
+        if prims.is_empty() {
+            // One empty leaf, so the shader's walk needs no special case.
+            let kind = NodeKind::Leaf { first: 0, count: 0 };
+            return Bvh { nodes: vec![Node { lo: DVec3::ZERO, hi: DVec3::ZERO, kind }], refs: vec![] };
+        }
+        // At most 2n - 1 nodes.
+        let mut nodes = Vec::with_capacity(2 * prims.len());
+        let placed = Placed { done: AtomicUsize::new(0), total: prims.len(), report: progress };
+        build_range(&mut nodes, &mut prims, 0, 0, split, threads.max(1), &placed);
+        Bvh { nodes, refs: prims.iter().map(|p| p.r).collect() }
+    }
+}
+
 /// A primitive as the builder sees it.
 #[derive(Clone, Copy)]
 struct Prim {
@@ -198,18 +232,7 @@ impl Bvh {
         threads: usize,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Bvh {
-        let mut prims = Vec::with_capacity(scene.primitive_count());
-        Grid::for_each_bound(scene, |r, lo, hi| prims.push(Prim { lo, hi, centre: (lo + hi) * 0.5, r }));
-        if prims.is_empty() {
-            // One empty leaf, so the shader's walk needs no special case.
-            let kind = NodeKind::Leaf { first: 0, count: 0 };
-            return Bvh { nodes: vec![Node { lo: DVec3::ZERO, hi: DVec3::ZERO, kind }], refs: vec![] };
-        }
-        // At most 2n - 1 nodes.
-        let mut nodes = Vec::with_capacity(2 * prims.len());
-        let placed = Placed { done: AtomicUsize::new(0), total: prims.len(), report: progress };
-        build_range(&mut nodes, &mut prims, 0, 0, split, threads.max(1), &placed);
-        Bvh { nodes, refs: prims.iter().map(|p| p.r).collect() }
+        BvhInput::of(scene).build_reporting(split, threads, progress)
     }
 
     /// Expected cost of a ray through the root box by the surface-area heuristic, in units of

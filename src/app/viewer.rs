@@ -377,7 +377,7 @@ impl Viewer {
             Mode::Conventional { .. } => args.frameless(),
             Mode::Frameless { .. } => args.conventional(),
         };
-        let mut session = Session::new(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
+        let mut session = Session::new_interactive(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
         let playback = scene.is_animated().then(|| Playback::new(scene.duration(), args.time, args.paused));
         let mut last_update = None;
         if let Some(p) = playback {
@@ -411,7 +411,7 @@ impl Viewer {
             egui_wgpu::Renderer::new(&ctx.device, hud_format, egui_wgpu::RendererOptions::default());
         let now = Instant::now();
         let ages = AgeTracker::new(session.pass_len(), 0.0);
-        let v = Viewer {
+        let mut v = Viewer {
             args: args.clone(),
             window,
             instance,
@@ -460,6 +460,14 @@ impl Viewer {
                 ""
             }
         );
+        if v.session.bvh_pending() {
+            v.say(format!(
+                "{} primitives: the grid is traced while the BVH builds",
+                v.session.scene().primitive_count()
+            ));
+            // Until it is adopted: `say`'s message would be gone after a few seconds.
+            v.status_until = None;
+        }
         Ok(v)
     }
 
@@ -1038,6 +1046,21 @@ impl Viewer {
             self.check_gpu()?;
             self.waves_in_flight = 0;
             self.dirty = true;
+        }
+
+        // A large scene's BVH, built on another thread while the grid was traced.
+        match self.session.adopt_bvh(&self.ctx) {
+            Ok(true) => {
+                self.say("the BVH is built: it is traced from now on");
+                self.waves_in_flight = 0;
+                self.dirty = true;
+            }
+            Ok(false) => {}
+            Err(e) => self.say(format!("could not use the BVH built in the background: {e}")),
+        }
+        if self.session.bvh_pending() && self.retry_at.is_none() {
+            // Look again shortly, even with nothing left to trace.
+            self.retry_at = Some(now + Duration::from_millis(100));
         }
 
         // Edits: the light being dragged follows the cursor (conventional: between frames, so
