@@ -26,7 +26,10 @@ fn main() -> anyhow::Result<()> {
     let triangles = scene.triangle_count();
     let loaded_mib = peak_mib();
     let ctx = GpuContext::new(&irt::gpu::AdapterChoice::from_arg_or_env(None))?;
-    let renderer = Renderer::new(&ctx, &scene, RenderOptions::default()).map_err(anyhow::Error::msg)?;
+    // The table is the grid's (its columns say so); `--accel auto` builds a BVH for these since
+    // 2026-12-04, measured apart in docs/large-models.md, "Which accelerator".
+    let opts = RenderOptions { accel: irt::accel::AccelChoice::Grid, ..Default::default() };
+    let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
     let t = Instant::now();
     renderer.render(&ctx, &mut |_, _| {});
     let first = t.elapsed();

@@ -29,5 +29,5 @@ done
 echo
 f="$dir/terrain-10M.ply"
 target/release/examples/ply_speed write "$f" 10000000 > /dev/null
-/usr/bin/time -f "irt render of 10M triangles (640x480): %e s wall, %M KiB peak" \
-    $irt render "$f" --out "$dir/out.png" 2>&1 | grep -E "loaded|set up|wrote|wall" | sed 's/^/    /'
+/usr/bin/time -f "irt render --accel grid of 10M triangles (640x480): %e s wall, %M KiB peak" \
+    $irt render "$f" --accel grid --out "$dir/out.png" 2>&1 | grep -E "loaded|set up|wrote|wall" | sed 's/^/    /'
