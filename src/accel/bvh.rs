@@ -84,8 +84,13 @@ impl BvhInput {
 
     /// [`Bvh::build`] of these boxes.
     pub fn build(self) -> Bvh {
+        self.build_with_progress(&|_, _| {})
+    }
+
+    /// [`Bvh::build_with_progress`] of these boxes.
+    pub fn build_with_progress(self, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
         let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-        self.build_reporting(Split::Sah, threads, &|_, _| {})
+        self.build_reporting(Split::Sah, threads, progress)
     }
 
     fn build_reporting(self, split: Split, threads: usize, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
@@ -209,30 +214,19 @@ impl fmt::Display for BvhStats {
 impl Bvh {
     /// The binned-SAH hierarchy over every sphere, triangle and cone of `scene`, on all cores.
     pub fn build(scene: &Scene) -> Bvh {
-        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-        Self::build_with(scene, Split::Sah, threads)
+        BvhInput::of(scene).build()
     }
 
     /// [`Bvh::build`], calling `progress(done, total)` as primitives are placed in leaves (from
     /// any of the building threads, about every hundredth of them).
     pub fn build_with_progress(scene: &Scene, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
-        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-        Self::build_reporting(scene, Split::Sah, threads, progress)
+        BvhInput::of(scene).build_with_progress(progress)
     }
 
     /// [`Bvh::build`] with the split rule and the number of threads given: the tree is the same
     /// for every thread count (subtrees are built independently and joined in order).
     pub fn build_with(scene: &Scene, split: Split, threads: usize) -> Bvh {
-        Self::build_reporting(scene, split, threads, &|_, _| {})
-    }
-
-    fn build_reporting(
-        scene: &Scene,
-        split: Split,
-        threads: usize,
-        progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> Bvh {
-        BvhInput::of(scene).build_reporting(split, threads, progress)
+        BvhInput::of(scene).build_reporting(split, threads, &|_, _| {})
     }
 
     /// Expected cost of a ray through the root box by the surface-area heuristic, in units of
@@ -641,7 +635,7 @@ mod tests {
         let n = s.primitive_count();
         for threads in [1, 3] {
             let reports = std::sync::Mutex::new(Vec::new());
-            let bvh = Bvh::build_reporting(&s, Split::Sah, threads, &|done, total| {
+            let bvh = BvhInput::of(&s).build_reporting(Split::Sah, threads, &|done, total| {
                 reports.lock().unwrap().push((done, total))
             });
             assert!(bvh == Bvh::build_with(&s, Split::Sah, threads));

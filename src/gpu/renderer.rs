@@ -502,8 +502,6 @@ mod tests {
         assert_eq!(m, LoopMeter { mean: 120.0 / 16.0, occupancy: 120.0 / (8.0 * 26.0), max: 15 });
     }
 
-    /// A frame decoded in bands on threads is the frame of one pass: pixels, eye hits and loop
-    /// meter, on 333 rows (the last band short, its last block row half) and 1 to 4 bands.
     /// A frame's bands are whole rows of at most `band_pixels` eye rays, cover every row once
     /// in order, and end with a progress mark each: 16 bands for a 2048² frame on lavapipe, one
     /// on a GPU.
@@ -534,6 +532,8 @@ mod tests {
         }
     }
 
+    /// A frame decoded in bands on threads is the frame of one pass: pixels, eye hits and loop
+    /// meter, on 333 rows (the last band short, its last block row half) and 1 to 4 bands.
     #[test]
     fn a_frame_decoded_in_bands_equals_one_pass() {
         let (w, h) = (1000u32, 333u32);
