@@ -2,7 +2,9 @@
 # Makes sure a Vulkan driver fit for irt is present: Mesa's lavapipe (Vulkan on the CPU), Mesa >= 24.
 # Mesa 22.3 (Debian 12's stock package) runs irt's kernels 2-4x slower than 25.0 (../LAVAPIPE notes,
 # docs/performance.md), so on Debian 12 the driver comes from the machine's own mirror's
-# bookworm-backports suite. Safe to run again: it changes nothing when a new enough driver is there.
+# bookworm-backports suite. Newer is not faster: Debian 13's backports (Mesa 26.1.6, LLVM 19) run irt
+# 1.1-1.4x slower than 25.0.7, so elsewhere the distribution's own package is kept (docs/performance.md,
+# "A newer lavapipe"). Safe to run again: it changes nothing when a new enough driver is there.
 # Also installs what the window tests use (Xvfb, xdotool) when missing.
 # Optional: `--with-embree` (or IRT_WITH_EMBREE=1) also installs libembree-dev, for the Embree
 # benchmark peer (`cargo build --release --features embree`); not installed by default.
