@@ -161,7 +161,8 @@ fn a_session_reorders_its_bvh_for_a_far_eye_and_draws_the_same_picture() {
 /// A viewer's session of a scene past `BACKGROUND_BVH_ABOVE` primitives traces the grid while
 /// its BVH builds on another thread, then adopts it: from then on it draws what a session that
 /// built the BVH first draws, bit for bit, and before it what a grid session draws. A geometry
-/// change while the BVH builds drops it (it would no longer fit).
+/// edit goes back to the grid and builds the edited scene's BVH behind it (one in flight, which
+/// would no longer fit, is given up).
 #[test]
 fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
     use irt::accel::AccelKind;
@@ -209,15 +210,32 @@ fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
     let diff = irt::metrics::compare(&before, &after);
     assert!(diff.bad_pixels == 0.0, "grid and BVH pictures: {diff}");
 
-    // Named accelerators are built before the first frame, and an edit that moves geometry drops
-    // a build in flight.
+    // An edit that moves geometry: back to the grid at once (no BVH rebuilt before the next
+    // frame), the edited scene's BVH built behind it and adopted, as at the start.
+    let mut moved = scene.clone();
+    moved.meshes[0].positions.iter_mut().for_each(|p| p.y += 0.01);
+    viewer.set_scene(&ctx, &moved).unwrap();
+    assert!(viewer.bvh_pending() && viewer.accel.kind() == AccelKind::Grid);
+    let edited_grid = picture(&mut viewer);
+    assert!(
+        same(&edited_grid, &picture(&mut session(&ctx, &moved, AccelChoice::Grid))),
+        "the edit's grid picture"
+    );
+    let started = std::time::Instant::now();
+    while !viewer.adopt_bvh(&ctx).unwrap() {
+        assert!(started.elapsed().as_secs() < 120, "the edit's background build never finished");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let mut moved_first = Session::new(&ctx, &moved, settings.clone()).unwrap();
+    assert!(same(&picture(&mut viewer), &picture(&mut moved_first)), "the edit's adopted BVH");
+
+    // Named accelerators are built before the first frame; an edit while a build is in flight
+    // gives it up and starts the edited scene's.
     let named = Settings { accel: AccelChoice::Bvh, ..settings.clone() };
     assert!(!Session::new_interactive(&ctx, &scene, named).unwrap().bvh_pending());
     let mut edited = Session::new_interactive(&ctx, &scene, settings).unwrap();
-    let mut moved = scene.clone();
-    moved.meshes[0].positions.iter_mut().for_each(|p| p.y += 0.01);
     edited.set_scene(&ctx, &moved).unwrap();
-    assert!(!edited.bvh_pending() && edited.accel.kind() == AccelKind::Grid);
+    assert!(edited.bvh_pending() && edited.accel.kind() == AccelKind::Grid);
 }
 
 /// A moving scene with the BVH: the session rebuilds the tree at every time (no refit yet), and

@@ -17,7 +17,7 @@ use super::PrimRef;
 use crate::scene::Scene;
 use glam::DVec3;
 use std::fmt;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Primitives a leaf holds at most.
 pub const MAX_LEAF: usize = 4;
@@ -89,23 +89,42 @@ impl BvhInput {
 
     /// [`Bvh::build_with_progress`] of these boxes.
     pub fn build_with_progress(self, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
-        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-        self.build_reporting(Split::Sah, threads, progress)
+        self.build_reporting(Split::Sah, build_threads(), progress, &AtomicBool::new(false))
+            .expect("a build nobody cancels ends")
     }
 
-    fn build_reporting(self, split: Split, threads: usize, progress: &(dyn Fn(usize, usize) + Sync)) -> Bvh {
+    /// [`BvhInput::build`], given up (`None`) soon after `cancel` is set: a background build
+    /// whose scene was edited meanwhile stops instead of holding a core and the boxes' memory to
+    /// its end (`render::Session`).
+    pub fn build_unless(self, cancel: &AtomicBool) -> Option<Bvh> {
+        self.build_reporting(Split::Sah, build_threads(), &|_, _| {}, cancel)
+    }
+
+    fn build_reporting(
+        self,
+        split: Split,
+        threads: usize,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        cancel: &AtomicBool,
+    ) -> Option<Bvh> {
         let mut prims = self.0;
         if prims.is_empty() {
             // One empty leaf, so the shader's walk needs no special case.
             let kind = NodeKind::Leaf { first: 0, count: 0 };
-            return Bvh { nodes: vec![Node { lo: DVec3::ZERO, hi: DVec3::ZERO, kind }], refs: vec![] };
+            return Some(Bvh { nodes: vec![Node { lo: DVec3::ZERO, hi: DVec3::ZERO, kind }], refs: vec![] });
         }
         // At most 2n - 1 nodes.
         let mut nodes = Vec::with_capacity(2 * prims.len());
-        let placed = Placed { done: AtomicUsize::new(0), total: prims.len(), report: progress };
+        let placed = Placed { done: AtomicUsize::new(0), total: prims.len(), report: progress, cancel };
         build_range(&mut nodes, &mut prims, 0, 0, split, threads.max(1), &placed);
-        Bvh { nodes, refs: prims.iter().map(|p| p.r).collect() }
+        // A cancelled build's nodes are a partial tree: dropped, never returned.
+        (!placed.cancelled()).then(|| Bvh { nodes, refs: prims.iter().map(|p| p.r).collect() })
     }
+}
+
+/// Threads a build may use: one a core.
+fn build_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |t| t.get())
 }
 
 /// A primitive as the builder sees it.
@@ -154,14 +173,20 @@ fn bounds(prims: &[Prim]) -> (Aabb, Aabb) {
 /// Nodes under construction, depth-first.
 type Nodes = Vec<Node>;
 
-/// Counts the primitives placed in leaves and reports them about every hundredth.
+/// Counts the primitives placed in leaves and reports them about every hundredth; carries the
+/// flag that gives the build up.
 struct Placed<'a> {
     done: AtomicUsize,
     total: usize,
     report: &'a (dyn Fn(usize, usize) + Sync),
+    cancel: &'a AtomicBool,
 }
 
 impl Placed<'_> {
+    fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+
     /// Appends `leaf` (of `count` primitives) to `out` and counts them.
     fn leaf(&self, out: &mut Nodes, leaf: Node, count: usize) {
         out.push(leaf);
@@ -226,7 +251,9 @@ impl Bvh {
     /// [`Bvh::build`] with the split rule and the number of threads given: the tree is the same
     /// for every thread count (subtrees are built independently and joined in order).
     pub fn build_with(scene: &Scene, split: Split, threads: usize) -> Bvh {
-        BvhInput::of(scene).build_reporting(split, threads, &|_, _| {})
+        BvhInput::of(scene)
+            .build_reporting(split, threads, &|_, _| {}, &AtomicBool::new(false))
+            .expect("a build nobody cancels ends")
     }
 
     /// Expected cost of a ray through the root box by the surface-area heuristic, in units of
@@ -332,6 +359,10 @@ fn build_range(
     threads: usize,
     placed: &Placed,
 ) {
+    if placed.cancelled() {
+        // Checked at every node: each thread stops once the node it is binning is done.
+        return;
+    }
     let (b, c) = bounds(prims);
     let n = prims.len();
     let leaf = Node { lo: b.lo, hi: b.hi, kind: NodeKind::Leaf { first, count: n as u32 } };
@@ -633,16 +664,44 @@ mod tests {
     fn the_build_reports_its_progress() {
         let s = random_scene(6, 30_000, 5.0, DVec3::ZERO);
         let n = s.primitive_count();
+        let no = AtomicBool::new(false);
         for threads in [1, 3] {
             let reports = std::sync::Mutex::new(Vec::new());
-            let bvh = BvhInput::of(&s).build_reporting(Split::Sah, threads, &|done, total| {
-                reports.lock().unwrap().push((done, total))
-            });
+            let bvh = BvhInput::of(&s)
+                .build_reporting(
+                    Split::Sah,
+                    threads,
+                    &|done, total| reports.lock().unwrap().push((done, total)),
+                    &no,
+                )
+                .unwrap();
             assert!(bvh == Bvh::build_with(&s, Split::Sah, threads));
             let reports = reports.into_inner().unwrap();
             assert!(reports.iter().all(|&(d, t)| t == n && d <= n), "{threads} threads");
             assert_eq!(reports.iter().map(|r| r.0).max(), Some(n), "{threads} threads");
             assert!((90..=101).contains(&reports.len()), "{} reports", reports.len());
+        }
+    }
+
+    /// A build cancelled before it starts returns nothing; one cancelled at its first progress
+    /// report (a hundredth of the primitives placed) stops placing them soon after, on one
+    /// thread or several, and returns nothing either.
+    #[test]
+    fn a_cancelled_build_stops_and_returns_nothing() {
+        let s = random_scene(6, 30_000, 5.0, DVec3::ZERO);
+        let n = s.primitive_count();
+        assert!(BvhInput::of(&s).build_unless(&AtomicBool::new(true)).is_none());
+        for threads in [1, 3] {
+            let cancel = AtomicBool::new(false);
+            let most = AtomicUsize::new(0);
+            let report = |done: usize, _| {
+                cancel.store(true, Ordering::Relaxed);
+                most.fetch_max(done, Ordering::Relaxed);
+            };
+            assert!(BvhInput::of(&s).build_reporting(Split::Sah, threads, &report, &cancel).is_none());
+            // Each thread finishes at most the node it is in: a few leaves past the 1% report.
+            let placed = most.into_inner();
+            assert!(placed < n / 10, "{threads} threads: {placed} of {n} placed after the cancel");
         }
     }
 

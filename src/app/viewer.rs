@@ -254,6 +254,8 @@ struct Viewer {
     ages: AgeTracker,
     status: String,
     status_until: Option<Instant>,
+    /// The HUD says that the grid is traced while a BVH builds (`Session::bvh_pending`).
+    bvh_announced: bool,
     gpu_error: Arc<Mutex<Option<String>>>,
     picker: Picker,
     selection: Option<Selection>,
@@ -441,6 +443,7 @@ impl Viewer {
             ages,
             status: String::new(),
             status_until: None,
+            bvh_announced: false,
             gpu_error,
             picker: Picker::default(),
             selection: None,
@@ -460,14 +463,7 @@ impl Viewer {
                 ""
             }
         );
-        if v.session.bvh_pending() {
-            v.say(format!(
-                "{} primitives: the grid is traced while the BVH builds",
-                v.session.scene().primitive_count()
-            ));
-            // Until it is adopted: `say`'s message would be gone after a few seconds.
-            v.status_until = None;
-        }
+        v.announce_bvh();
         Ok(v)
     }
 
@@ -476,6 +472,21 @@ impl Viewer {
             Some(msg) => Err(anyhow!(msg)),
             None => Ok(()),
         }
+    }
+
+    /// Says, until it is adopted, that a BVH is being built behind the grid: at the start, and
+    /// again after an edit of a large scene's geometry starts a new one.
+    fn announce_bvh(&mut self) {
+        let pending = self.session.bvh_pending();
+        if pending && !self.bvh_announced {
+            self.say(format!(
+                "{} primitives: the grid is traced while the BVH builds",
+                self.session.scene().primitive_count()
+            ));
+            // Until it is adopted: `say`'s message would be gone after a few seconds.
+            self.status_until = None;
+        }
+        self.bvh_announced = pending;
     }
 
     fn say(&mut self, msg: impl Into<String>) {
@@ -1058,6 +1069,7 @@ impl Viewer {
             Ok(false) => {}
             Err(e) => self.say(format!("could not use the BVH built in the background: {e}")),
         }
+        self.announce_bvh();
         if self.session.bvh_pending() && self.retry_at.is_none() {
             // Look again shortly, even with nothing left to trace.
             self.retry_at = Some(now + Duration::from_millis(100));

@@ -25,6 +25,8 @@ use crate::gpu::GpuContext;
 use crate::image::Image;
 use crate::scene::{Camera, Scene};
 use glam::DVec3;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Tiles a workgroup of the conventional queue traces before it exits (plus at most one
@@ -174,9 +176,41 @@ pub struct Session<D: Device = GpuContext> {
     reorder_cost: Duration,
     /// Opened by [`Session::new_interactive`]: a rebuild for new settings opens the same way.
     interactive: bool,
-    /// The BVH being built on another thread while the grid is traced, and the eye it is
-    /// ordered towards ([`Session::adopt_bvh`]).
-    pending: Option<(std::thread::JoinHandle<Bvh>, DVec3)>,
+    /// The BVH being built on another thread while the grid is traced ([`Session::adopt_bvh`]).
+    pending: Option<PendingBvh>,
+}
+
+/// A BVH being built on its own thread, ordered towards `eye`. Dropped (the scene's geometry
+/// was edited, or the session closed), it tells the build to stop.
+struct PendingBvh {
+    handle: Option<std::thread::JoinHandle<Option<Bvh>>>,
+    eye: DVec3,
+    cancel: Arc<AtomicBool>,
+}
+
+impl PendingBvh {
+    /// Starts building `scene`'s BVH, ordered towards its eye.
+    fn start(scene: &Scene) -> Result<PendingBvh, String> {
+        let (input, eye) = (BvhInput::of(scene), scene.camera.eye);
+        let cancel = Arc::new(AtomicBool::new(false));
+        let flag = cancel.clone();
+        let build = move || input.build_unless(&flag).map(|b| b.ordered_towards(eye));
+        let handle = std::thread::Builder::new()
+            .name("irt-bvh".into())
+            .spawn(build)
+            .map_err(|e| format!("starting the BVH build thread: {e}"))?;
+        Ok(PendingBvh { handle: Some(handle), eye, cancel })
+    }
+
+    fn is_finished(&self) -> bool {
+        self.handle.as_ref().is_none_or(|h| h.is_finished())
+    }
+}
+
+impl Drop for PendingBvh {
+    fn drop(&mut self) {
+        self.cancel.store(true, Ordering::Relaxed);
+    }
 }
 
 /// Past this many primitives an interactive session whose `auto` accelerator is the BVH first
@@ -249,10 +283,7 @@ impl<D: Device> Session<D> {
         let frame = animation_frame(&base, &moving);
         // Chosen on the scene with its motions: `auto` keeps a large scene that moves on the grid.
         let kind = settings.accel.resolve(&base);
-        let background = interactive
-            && settings.accel == AccelChoice::Auto
-            && kind == AccelKind::Bvh(BvhWalk::Stackless)
-            && scene.primitive_count() > BACKGROUND_BVH_ABOVE;
+        let background = interactive && builds_bvh_in_background(&settings, &base, &scene);
         let kind = if background { AccelKind::Grid } else { kind };
         let accel = first_accel(&scene, kind, &frame);
         let origin = scene.camera.eye;
@@ -299,13 +330,7 @@ impl<D: Device> Session<D> {
         if background {
             // Started once the grid is set up, so that the two builds do not share the cores
             // before the first frame (at 16M triangles that took the grid's set-up from 5 to 15 s).
-            let (input, eye) = (BvhInput::of(&s.scene), s.scene.camera.eye);
-            let build = move || input.build().ordered_towards(eye);
-            let handle = std::thread::Builder::new()
-                .name("irt-bvh".into())
-                .spawn(build)
-                .map_err(|e| format!("starting the BVH build thread: {e}"))?;
-            s.pending = Some((handle, eye));
+            s.pending = Some(PendingBvh::start(&s.scene)?);
         }
         Ok(s)
     }
@@ -373,11 +398,22 @@ impl<D: Device> Session<D> {
         let moved = scene.spheres != self.scene.spheres
             || scene.cones != self.scene.cones
             || scene.meshes != self.scene.meshes;
+        // An edit to a large scene that a viewer traces by a BVH built in the background: the
+        // grid again at once (at 16M triangles a BVH rebuild would hold the window 10 s), and a
+        // new BVH behind it. A new time (`motion`) updates the accelerator in place.
+        let behind = moved
+            && !motion
+            && self.interactive
+            && builds_bvh_in_background(&self.settings, &self.base, &scene);
         if moved {
-            // A BVH being built for the old geometry no longer fits: the grid goes on.
+            // A BVH being built for the old geometry no longer fits: it is given up.
             self.pending = None;
             let t = Instant::now();
-            self.accel = self.reaccel(&scene, motion);
+            self.accel = if behind {
+                first_accel(&scene, AccelKind::Grid, &self.frame)
+            } else {
+                self.reaccel(&scene, motion)
+            };
             report.grid = Some(t.elapsed());
         }
         let t = Instant::now();
@@ -390,7 +426,9 @@ impl<D: Device> Session<D> {
         report.reallocated = new_texture;
         let variant = Variant { f64: self.settings.f64, ..Variant::for_scene(&scene, false) };
         let layered = D::layered(&self.gpu_scene);
-        if (Variant { layered, accel: self.variant.accel, ..variant }) != self.variant {
+        // The accelerator may have changed too (a background BVH given up for the grid).
+        let accel = layout::accel_code(&D::params(&self.gpu_scene));
+        if (Variant { layered, accel, ..variant }) != self.variant {
             let fresh = make_dispatcher(ctx, &self.gpu_scene, variant, self.capacity)?;
             ctx.copy_frame(&fresh, &self.dispatcher)?;
             self.dispatcher = fresh;
@@ -404,6 +442,9 @@ impl<D: Device> Session<D> {
         self.passes = crate::gpu::renderer::passes(&scene);
         self.scene = scene;
         self.restart();
+        if behind {
+            self.pending = Some(PendingBvh::start(&self.scene)?);
+        }
         Ok(report)
     }
 
@@ -411,11 +452,15 @@ impl<D: Device> Session<D> {
     /// uploads it and compiles its kernel, keeping the frame buffer (the picture is the same).
     /// True when it was adopted now; false while it is building, or when there is none.
     pub fn adopt_bvh(&mut self, ctx: &D) -> Result<bool, String> {
-        if !self.pending.as_ref().is_some_and(|(h, _)| h.is_finished()) {
+        if !self.pending.as_ref().is_some_and(PendingBvh::is_finished) {
             return Ok(false);
         }
-        let (handle, eye) = self.pending.take().expect("checked");
-        let bvh = handle.join().map_err(|_| "the BVH build thread panicked".to_string())?;
+        let mut pending = self.pending.take().expect("checked");
+        let eye = pending.eye;
+        let built = pending.handle.take().expect("joined once").join();
+        let bvh = built
+            .map_err(|_| "the BVH build thread panicked".to_string())?
+            .ok_or("the BVH build was cancelled")?;
         let t = Instant::now();
         self.accel = Accel::Bvh(bvh, BvhWalk::Stackless);
         self.ordered_eye = eye;
@@ -529,6 +574,9 @@ impl<D: Device> Session<D> {
             || settings.light_radius != self.settings.light_radius
             || settings.f64 != self.settings.f64;
         if rebuild {
+            // A BVH building for the old settings would share the cores with the new set-up
+            // (at 16M triangles that took it from 5 to 14 s): given up first.
+            self.pending = None;
             let base = Scene { camera: self.scene.camera.clone(), ..self.base.clone() };
             let mut fresh = Session::open(ctx, &base, settings.clone(), self.interactive)?;
             fresh.base.camera = self.base.camera.clone();
@@ -873,6 +921,15 @@ impl Session<GpuContext> {
 
 /// A session's first accelerator: a grid in the animation's frame (`Grid::update` then moves only
 /// what moves) or fitted to a still scene; a BVH fitted either way.
+/// Whether a viewer's session over `scene` (posed from `base`, with `settings` applied) traces
+/// the grid while its BVH builds on another thread: `auto` picks the BVH and the scene is past
+/// [`BACKGROUND_BVH_ABOVE`] primitives.
+fn builds_bvh_in_background(settings: &Settings, base: &Scene, scene: &Scene) -> bool {
+    settings.accel == AccelChoice::Auto
+        && settings.accel.resolve(base) == AccelKind::Bvh(BvhWalk::Stackless)
+        && scene.primitive_count() > BACKGROUND_BVH_ABOVE
+}
+
 fn first_accel(scene: &Scene, kind: AccelKind, frame: &Option<(Frame, DVec3, DVec3)>) -> Accel {
     match (kind, frame) {
         (AccelKind::Grid, Some((f, ..))) => Accel::Grid(Grid::build_in(scene, *f)),
