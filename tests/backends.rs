@@ -666,3 +666,40 @@ fn a_missing_f64_feature_has_the_wgpu_message() {
         .try_render(&ctx, &mut |_, _| {})
         .expect("f32");
 }
+
+/// A viewer's session of a large scene on the ash path: the grid first, then the BVH built in
+/// the background, adopted by writing only its section into the scene image from a row in the
+/// middle (`VkScene::update_from`), draws what the wgpu path draws, bit for bit, before and after.
+#[test]
+fn a_background_bvh_written_into_the_ash_scene_image_draws_what_wgpu_draws() {
+    use irt::render::session::{Adoption, BACKGROUND_BVH_ABOVE};
+    let (ctx, vk) = (gpu(), vk_ctx());
+    let model = irt::io::stage::Model {
+        meshes: vec![irt::io::shapes::terrain(740, 3, false).into_mesh(0)],
+        materials: vec![material("terrain", irt::scene::MaterialKind::Diffuse { color: DVec3::splat(0.8) })],
+        textures: vec![],
+        motions: vec![],
+    };
+    let mut scene = irt::io::stage::stage(model);
+    (scene.camera.width, scene.camera.height) = (40, 30);
+    assert!(scene.primitive_count() > BACKGROUND_BVH_ABOVE);
+    let settings = Settings { max_samples: 1, ..Settings::default() };
+    let mut a = Session::new_interactive(&ctx, &scene, settings.clone()).unwrap();
+    let mut b = Session::new_interactive(&vk, &scene, settings).unwrap();
+    let both = |a: &mut Session, b: &mut Session<VkContext>, what: &str| {
+        a.complete_pass(&ctx);
+        b.try_complete_pass(&vk).unwrap();
+        assert_images(what, &a.read_image(&ctx), &b.try_read_image(&vk).unwrap());
+    };
+    both(&mut a, &mut b, "the grid");
+    let started = std::time::Instant::now();
+    let (mut ha, mut hb) = (None, None);
+    while ha.is_none() || hb.is_none() {
+        assert!(started.elapsed().as_secs() < 120, "the background builds never finished");
+        ha = ha.or(a.adopt_bvh(&ctx).unwrap());
+        hb = hb.or(b.adopt_bvh(&vk).unwrap());
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert_eq!((ha, hb), (Some(Adoption::SectionWritten), Some(Adoption::SectionWritten)));
+    both(&mut a, &mut b, "the adopted BVH");
+}

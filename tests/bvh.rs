@@ -167,7 +167,7 @@ fn a_session_reorders_its_bvh_for_a_far_eye_and_draws_the_same_picture() {
 fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
     use irt::accel::AccelKind;
     use irt::io::stage::{stage, Model};
-    use irt::render::session::BACKGROUND_BVH_ABOVE;
+    use irt::render::session::{Adoption, BACKGROUND_BVH_ABOVE};
     let ctx = common::gpu();
     let model = Model {
         meshes: vec![irt::io::shapes::terrain(740, 3, false).into_mesh(0)],
@@ -190,18 +190,24 @@ fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
         s.read_image(&ctx)
     };
     let same = |a: &irt::image::Image, b: &irt::image::Image| a.pixels == b.pixels;
+    let adopt = |s: &mut Session| {
+        let started = std::time::Instant::now();
+        loop {
+            if let Some(how) = s.adopt_bvh(&ctx).unwrap() {
+                return how;
+            }
+            assert!(started.elapsed().as_secs() < 120, "the background build never finished");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    };
 
     let mut viewer = Session::new_interactive(&ctx, &scene, settings.clone()).unwrap();
     assert!(viewer.bvh_pending());
     assert_eq!(viewer.accel.kind(), AccelKind::Grid);
     let before = picture(&mut viewer);
     assert!(same(&before, &picture(&mut session(&ctx, &scene, AccelChoice::Grid))), "the grid's picture");
-    let started = std::time::Instant::now();
-    while !viewer.adopt_bvh(&ctx).unwrap() {
-        assert!(started.elapsed().as_secs() < 120, "the background build never finished");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    assert!(!viewer.bvh_pending() && !viewer.adopt_bvh(&ctx).unwrap());
+    assert_eq!(adopt(&mut viewer), Adoption::SectionWritten, "only the BVH's section is written");
+    assert!(!viewer.bvh_pending() && viewer.adopt_bvh(&ctx).unwrap().is_none());
     assert_eq!(viewer.accel.kind(), AccelKind::Bvh(irt::accel::BvhWalk::Stackless));
     let after = picture(&mut viewer);
     let mut built_first = Session::new(&ctx, &scene, settings.clone()).unwrap();
@@ -221,11 +227,7 @@ fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
         same(&edited_grid, &picture(&mut session(&ctx, &moved, AccelChoice::Grid))),
         "the edit's grid picture"
     );
-    let started = std::time::Instant::now();
-    while !viewer.adopt_bvh(&ctx).unwrap() {
-        assert!(started.elapsed().as_secs() < 120, "the edit's background build never finished");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
+    assert_eq!(adopt(&mut viewer), Adoption::SectionWritten);
     let mut moved_first = Session::new(&ctx, &moved, settings.clone()).unwrap();
     assert!(same(&picture(&mut viewer), &picture(&mut moved_first)), "the edit's adopted BVH");
 

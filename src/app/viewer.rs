@@ -1061,12 +1061,12 @@ impl Viewer {
 
         // A large scene's BVH, built on another thread while the grid was traced.
         match self.session.adopt_bvh(&self.ctx) {
-            Ok(true) => {
+            Ok(Some(_)) => {
                 self.say("the BVH is built: it is traced from now on");
                 self.waves_in_flight = 0;
                 self.dirty = true;
             }
-            Ok(false) => {}
+            Ok(None) => {}
             Err(e) => self.say(format!("could not use the BVH built in the background: {e}")),
         }
         self.announce_bvh();

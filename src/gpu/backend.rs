@@ -202,13 +202,15 @@ pub trait Device {
     /// Lanes of a SIMD group (what `SimdCount::efficiency` divides by), where the device runs the
     /// SIMD counters (`Variant::simd_stats`) and its groups have one size.
     fn subgroup_size(&self) -> Option<u32>;
-    /// Uploads `packed` with its frame constants (and waits for it), layered past `max_rows`
-    /// rows if given and fewer than the device's largest texture side.
+    /// Uploads `packed` with its frame constants (and waits for it) into a texture of at least
+    /// `reserve_rows` rows, layered past `max_rows` rows if given and fewer than the device's
+    /// largest texture side.
     fn upload(
         &self,
         packed: PackedScene,
         params: Params,
         max_rows: Option<u32>,
+        reserve_rows: u32,
     ) -> Result<Self::Scene, String>;
     /// Replaces `scene`'s contents: in place while they fit, else in a new texture with room to
     /// spare; returns whether the texture is new (kernels bound to it must [`Device::rebind`]).
@@ -216,6 +218,16 @@ pub trait Device {
         &self,
         scene: &mut Self::Scene,
         packed: PackedScene,
+        params: Params,
+    ) -> Result<bool, String>;
+    /// Writes `texels`, the packed scene's texels from row `from` on, in place (the rows before
+    /// stay), with `params`: a new accelerator for the same scene (`layout::swap_accel`). False,
+    /// and nothing written, when they do not fit the texture as it is.
+    fn update_scene_from(
+        &self,
+        scene: &mut Self::Scene,
+        from: u32,
+        texels: Vec<[u32; 4]>,
         params: Params,
     ) -> Result<bool, String>;
     /// The frame constants `scene` holds now.
@@ -273,8 +285,14 @@ impl Device for GpuContext {
         let (min, max) = (self.info.subgroup_min_size, self.info.subgroup_max_size);
         (self.device.features().contains(wgpu::Features::SUBGROUP) && min == max).then_some(min)
     }
-    fn upload(&self, packed: PackedScene, params: Params, max_rows: Option<u32>) -> Result<GpuScene, String> {
-        let scene = GpuScene::upload_packed_with(self, packed, params, max_rows)?;
+    fn upload(
+        &self,
+        packed: PackedScene,
+        params: Params,
+        max_rows: Option<u32>,
+        reserve_rows: u32,
+    ) -> Result<GpuScene, String> {
+        let scene = GpuScene::upload_reserving(self, packed, params, max_rows, reserve_rows)?;
         self.wait();
         Ok(scene)
     }
@@ -285,6 +303,15 @@ impl Device for GpuContext {
         params: Params,
     ) -> Result<bool, String> {
         scene.update(self, packed, params)
+    }
+    fn update_scene_from(
+        &self,
+        scene: &mut GpuScene,
+        from: u32,
+        texels: Vec<[u32; 4]>,
+        params: Params,
+    ) -> Result<bool, String> {
+        Ok(scene.update_from(self, from, texels, params))
     }
     fn params(scene: &GpuScene) -> Params {
         scene.params

@@ -68,7 +68,7 @@ impl GpuScene {
 
     /// [`Self::upload_packed_with`] into a texture of at least `reserve_rows` rows, so that
     /// later [`Self::update`]s of a growing scene (moving objects change the grid's lists) fit.
-    fn upload_reserving(
+    pub(crate) fn upload_reserving(
         ctx: &GpuContext,
         packed: PackedScene,
         params: Params,
@@ -96,7 +96,8 @@ impl GpuScene {
                 | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
-        let bytes = write_rows(ctx, &texture, packed.texels, layered) + std::mem::size_of::<Params>() as u64;
+        let bytes =
+            write_rows(ctx, &texture, 0, packed.texels, layered) + std::mem::size_of::<Params>() as u64;
         let params_buf = uniform(ctx, "params", bytemuck::bytes_of(&params));
         let view = texture.create_view(&wgpu::TextureViewDescriptor {
             dimension: Some(view_dimension(layered)),
@@ -120,12 +121,8 @@ impl GpuScene {
     /// bound to this scene must then [`Dispatcher::rebind`]).
     pub fn update(&mut self, ctx: &GpuContext, packed: PackedScene, params: Params) -> Result<bool, String> {
         let rows = packed.rows();
-        let max_side = self.max_rows.map_or(ctx.device.limits().max_texture_dimension_2d, |m| {
-            m.min(ctx.device.limits().max_texture_dimension_2d)
-        });
-        let fits = rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered;
-        if fits {
-            self.bytes = write_rows(ctx, &self.texture, packed.texels, self.layered)
+        if self.fits(ctx, rows) {
+            self.bytes = write_rows(ctx, &self.texture, 0, packed.texels, self.layered)
                 + std::mem::size_of::<Params>() as u64;
             self.write_params(ctx, params);
             return Ok(false);
@@ -134,17 +131,50 @@ impl GpuScene {
         *self = Self::upload_reserving(ctx, packed, params, self.max_rows, reserve)?;
         Ok(true)
     }
+
+    /// Whether `rows` rows fit the texture as it is (and would be layered as it is).
+    fn fits(&self, ctx: &GpuContext, rows: u32) -> bool {
+        let max_dim = ctx.device.limits().max_texture_dimension_2d;
+        let max_side = self.max_rows.map_or(max_dim, |m| m.min(max_dim));
+        rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered
+    }
+
+    /// Writes `texels`, the packed scene's texels from row `from` on, in place of the texture's
+    /// (the rows before stay), with the frame constants `params`: a new accelerator for the same
+    /// scene ([`layout::swap_accel`]). False, and nothing written, when they do not fit.
+    pub fn update_from(
+        &mut self,
+        ctx: &GpuContext,
+        from: u32,
+        texels: Vec<[u32; 4]>,
+        params: Params,
+    ) -> bool {
+        if !self.fits(ctx, from + layout::rows_of(texels.len())) {
+            return false;
+        }
+        let written = write_rows(ctx, &self.texture, from, texels, self.layered);
+        self.bytes =
+            from as u64 * SCENE_TEX_WIDTH as u64 * 16 + written + std::mem::size_of::<Params>() as u64;
+        self.write_params(ctx, params);
+        true
+    }
 }
 
-/// Writes `texels` (consumed) into the first rows of `texture`. Bands of [`SCENE_LAYER_ROWS`]
+/// Writes `texels` (consumed) into the rows of `texture` from row `from` on. Bands of [`SCENE_LAYER_ROWS`]
 /// rows go from the last to the first, each followed by a wait (so wgpu's staging copy is one
 /// band) and by freeing that band's host texels, so a large scene is not held twice on the host
 /// while the device's copy fills. Returns the bytes written.
-fn write_rows(ctx: &GpuContext, texture: &wgpu::Texture, texels: Vec<[u32; 4]>, layered: bool) -> u64 {
+fn write_rows(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+    from: u32,
+    texels: Vec<[u32; 4]>,
+    layered: bool,
+) -> u64 {
     let mut data = texels;
     let rows = pad_rows(&mut data);
     let bytes = data.len() as u64 * 16;
-    for band in scene_bands(rows, layered) {
+    for band in scene_bands(from, from + rows, layered) {
         let origin = wgpu::Origin3d { x: 0, y: band.y, z: band.layer };
         let start = (band.first * SCENE_TEX_WIDTH) as usize;
         ctx.queue.write_texture(
@@ -196,13 +226,13 @@ pub fn scene_texture_extent(
 
 /// Pads `texels` to whole rows of the scene texture; returns the rows.
 pub fn pad_rows(texels: &mut Vec<[u32; 4]>) -> u32 {
-    let rows = (texels.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32;
+    let rows = layout::rows_of(texels.len());
     texels.resize((rows * SCENE_TEX_WIDTH) as usize, [0; 4]);
     rows
 }
 
-/// One upload band of the scene texture: `rows` rows from row `first` of the packed scene, at
-/// row `y` of layer `layer`.
+/// One upload band of the scene texture: `rows` rows from row `first` of the texels handed
+/// over, at row `y` of layer `layer`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SceneBand {
     pub first: u32,
@@ -211,16 +241,19 @@ pub struct SceneBand {
     pub layer: u32,
 }
 
-/// The upload bands of `rows` rows, from the last to the first (so each band's host texels can
-/// be freed once it is on the device): [`SCENE_LAYER_ROWS`] rows each, one per layer if layered.
-pub fn scene_bands(rows: u32, layered: bool) -> impl Iterator<Item = SceneBand> {
-    (0..rows.div_ceil(SCENE_LAYER_ROWS)).rev().map(move |band| {
-        let first = band * SCENE_LAYER_ROWS;
-        let rows = SCENE_LAYER_ROWS.min(rows - first);
+/// The upload bands of the packed scene's rows `from..rows`, handed over as texels that start
+/// at row `from` (`SceneBand::first` counts from there), from the last band to the first (so
+/// each band's host texels can be freed once it is on the device): at most
+/// [`SCENE_LAYER_ROWS`] rows each, none across a layer's end if layered.
+pub fn scene_bands(from: u32, rows: u32, layered: bool) -> impl Iterator<Item = SceneBand> {
+    (from / SCENE_LAYER_ROWS..rows.div_ceil(SCENE_LAYER_ROWS)).rev().map(move |band| {
+        let start = (band * SCENE_LAYER_ROWS).max(from);
+        let count = ((band + 1) * SCENE_LAYER_ROWS).min(rows) - start;
+        let first = start - from;
         if layered {
-            SceneBand { first, rows, y: 0, layer: band }
+            SceneBand { first, rows: count, y: start - band * SCENE_LAYER_ROWS, layer: band }
         } else {
-            SceneBand { first, rows, y: first, layer: 0 }
+            SceneBand { first, rows: count, y: start, layer: 0 }
         }
     })
 }
@@ -641,6 +674,32 @@ pub fn decode_output<T>(d: &[u8], out_bytes: u64, read: impl FnOnce(&[[f32; 4]],
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The bands of rows `from..rows` cover each of them once, last band first, none across a
+    /// layer's end when layered; each band's `first` counts from `from`, and its `y` and
+    /// `layer` place it where the whole scene's row would go.
+    #[test]
+    fn scene_bands_cover_the_rows_from_any_row_once() {
+        let l = SCENE_LAYER_ROWS;
+        for (from, rows) in
+            [(0, 1), (0, l), (0, 2 * l + 5), (3, 4), (l - 1, l + 1), (l, 3 * l), (l + 7, 3 * l - 2)]
+        {
+            for layered in [false, true] {
+                let bands: Vec<SceneBand> = scene_bands(from, rows, layered).collect();
+                let mut covered: Vec<u32> =
+                    bands.iter().flat_map(|b| from + b.first..from + b.first + b.rows).collect();
+                assert!(bands.windows(2).all(|w| w[0].first > w[1].first), "last band first");
+                covered.sort_unstable();
+                assert_eq!(covered, (from..rows).collect::<Vec<_>>(), "{from}..{rows} layered {layered}");
+                for b in &bands {
+                    let row = from + b.first;
+                    let (y, layer) = if layered { (row % l, row / l) } else { (row, 0) };
+                    assert_eq!((b.y, b.layer), (y, layer), "{b:?} from {from}");
+                    assert!(b.rows <= l && (!layered || b.y + b.rows <= l), "{b:?}");
+                }
+            }
+        }
+    }
 
     /// Two vec4s and the counters, read in place where the bytes are aligned and through the
     /// copy where they are not: the same values either way.

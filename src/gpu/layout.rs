@@ -296,8 +296,13 @@ pub struct PackedScene {
 impl PackedScene {
     /// Rows for `texels.len()` at [`SCENE_TEX_WIDTH`] texels per row, across layers (at least 1).
     pub fn rows(&self) -> u32 {
-        (self.texels.len() as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32
+        rows_of(self.texels.len())
     }
+}
+
+/// Rows that `texels` texels take at [`SCENE_TEX_WIDTH`] a row (at least 1).
+pub fn rows_of(texels: usize) -> u32 {
+    (texels as u64).div_ceil(SCENE_TEX_WIDTH as u64).max(1) as u32
 }
 
 /// The scene texture's rows per layer, its layers, and whether it is layered, for `rows` rows on
@@ -354,20 +359,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
     };
     let (normal_tris, uv_tris) = (with(|m| m.normals.is_some()), with(|m| m.uvs.is_some()));
     let pixels = scene.textures.iter().map(|t| t.texels.len()).sum::<usize>();
-    let accel_texels = match accel {
-        AccelRef::Grid(grid) => {
-            (grid.cell_start.len() - 1).div_ceil(CELLS_PER_TEXEL as usize)
-                + grid.prim_refs.len().div_ceil(REFS_PER_TEXEL as usize)
-                + grid.macro_bits.len().div_ceil(4)
-        }
-        AccelRef::Bvh(bvh, walk) => {
-            let node_texels = match walk {
-                BvhWalk::Stack => BVH_NODE_TEXELS,
-                BvhWalk::Stackless => BVH_QNODE_TEXELS,
-            };
-            node_texels as usize * bvh.nodes.len() + bvh_leaves(bvh).count().max(1)
-        }
-    };
+    let accel_texels = accel_texels(accel);
     let bundle = match scene.trace.shadows {
         ShadowMode::Bundle { samples, .. } => samples as usize,
         _ => 0,
@@ -453,72 +445,8 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         texel[..chunk.len()].copy_from_slice(chunk);
         t.push(texel);
     }
-    let mut bvh_lattice = None;
-    let accel_base = match accel {
-        AccelRef::Grid(grid) => {
-            let cells = grid.cell_start.len() - 1;
-            let cell_base = t.len() as u32;
-            for first in (0..cells).step_by(CELLS_PER_TEXEL as usize) {
-                let mut texel = [0u32; 4];
-                for (k, c) in (first..cells.min(first + CELLS_PER_TEXEL as usize)).enumerate() {
-                    texel[2 * k] = grid.cell_start[c];
-                    texel[2 * k + 1] = grid.cell_start[c + 1] - grid.cell_start[c];
-                }
-                t.push(texel);
-            }
-            let ref_base = push_refs(&mut t, &grid.prim_refs);
-            let macro_base = t.len() as u32;
-            for chunk in grid.macro_bits.chunks(4) {
-                let mut texel = [0u32; 4];
-                texel[..chunk.len()].copy_from_slice(chunk);
-                t.push(texel);
-            }
-            [cell_base, ref_base, macro_base]
-        }
-        AccelRef::Bvh(bvh, walk) => {
-            let node_base = t.len() as u32;
-            let nodes = bvh_nodes(bvh, origin);
-            let lattice = BvhLattice::of_nodes(&nodes);
-            match walk {
-                BvhWalk::Stack => {
-                    // Its shader takes the left child for the lower centroids along `axis`.
-                    debug_assert!(
-                        bvh.nodes.iter().all(|n| !matches!(n.kind, NodeKind::Inner { swapped: true, .. })),
-                        "the stack walk's tree keeps the builder's order"
-                    );
-                    for n in nodes {
-                        let [a, b]: [[u32; 4]; 2] = bytemuck::cast(n);
-                        t.push(a);
-                        t.push(b);
-                    }
-                }
-                BvhWalk::Stackless => t.extend(nodes.iter().map(|n| quantise_node(n, &lattice))),
-            }
-            bvh_lattice = Some(lattice);
-            // One texel of references per leaf (at most `MAX_LEAF` = 4), in node order: a leaf
-            // reads its list with one fetch.
-            let ref_base = t.len() as u32;
-            for (first, count) in bvh_leaves(bvh) {
-                let mut texel = [0u32; 4];
-                for (k, r) in bvh.refs[first as usize..(first + count) as usize].iter().enumerate() {
-                    texel[k] = r.0;
-                }
-                t.push(texel);
-            }
-            if t.len() as u32 == ref_base {
-                t.push([0; 4]);
-            }
-            [node_base, ref_base, bvh.nodes.len() as u32]
-        }
-    };
-    let bundle_base = t.len() as u32;
-    if let ShadowMode::Bundle { samples, .. } = scene.trace.shadows {
-        for pair in bundle_samples(samples).chunks(2) {
-            let xy = |k: usize| pair.get(k).map_or([0, 0], |p| p.map(|v| (v as f32).to_bits()));
-            let (a, b) = (xy(0), xy(1));
-            t.push([a[0], a[1], b[0], b[1]]);
-        }
-    }
+    let (accel_base, bvh_lattice) = push_accel(&mut t, accel, origin);
+    let bundle_base = push_bundle(&mut t, scene.trace.shadows);
     let mut shell_sections = vec![];
     if let ShadowMode::Shell { .. } = scene.trace.shadows {
         for light in &scene.lights {
@@ -577,6 +505,179 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         shell_sections,
         bvh_lattice,
     }
+}
+
+/// Texels of `accel`'s section ([`push_accel`]).
+fn accel_texels(accel: AccelRef) -> usize {
+    match accel {
+        AccelRef::Grid(grid) => {
+            (grid.cell_start.len() - 1).div_ceil(CELLS_PER_TEXEL as usize)
+                + grid.prim_refs.len().div_ceil(REFS_PER_TEXEL as usize)
+                + grid.macro_bits.len().div_ceil(4)
+        }
+        AccelRef::Bvh(bvh, walk) => {
+            let node_texels = match walk {
+                BvhWalk::Stack => BVH_NODE_TEXELS,
+                BvhWalk::Stackless => BVH_QNODE_TEXELS,
+            };
+            node_texels as usize * bvh.nodes.len() + bvh_leaves(bvh).count().max(1)
+        }
+    }
+}
+
+/// An accelerator's section of the scene texture packed on its own, for [`swap_accel`] (the
+/// viewer's background BVH build packs it on its own thread): its texels, its `grid_base` words
+/// counted from its start, and a BVH's lattice.
+pub struct AccelSection {
+    texels: Vec<[u32; 4]>,
+    bases: [u32; 3],
+    /// The third base is a BVH's node count, not a texel index.
+    counted: bool,
+    lattice: Option<BvhLattice>,
+}
+
+/// `accel`'s section as [`pack_scene`] packs it, positions relative to `origin`.
+pub fn pack_accel<'a>(accel: impl Into<AccelRef<'a>>, origin: DVec3) -> AccelSection {
+    let accel = accel.into();
+    let mut texels = Vec::with_capacity(accel_texels(accel));
+    let (bases, lattice) = push_accel(&mut texels, accel, origin);
+    AccelSection { texels, bases, counted: matches!(accel, AccelRef::Bvh(..)), lattice }
+}
+
+/// What a packed scene keeps when its accelerator is swapped ([`PackedScene::prefix`]): all the
+/// texels before the accelerator's section stay on the device; the host keeps only the part of
+/// the section's first row before it, so that the new section can be written from a whole row.
+pub struct Prefix {
+    head: Vec<[u32; 4]>,
+    at: u32,
+    prim_base: [u32; 4],
+    aux_base: [u32; 4],
+}
+
+impl PackedScene {
+    /// What [`swap_accel`] needs to put another accelerator in this packing's place; `None` with
+    /// shell shadows, whose sections follow the accelerator's and point at texels by index.
+    pub fn prefix(&self) -> Option<Prefix> {
+        if !self.shell_sections.is_empty() {
+            return None;
+        }
+        let at = self.grid_base[0];
+        let row = at / SCENE_TEX_WIDTH * SCENE_TEX_WIDTH;
+        let head = self.texels[row as usize..at as usize].to_vec();
+        Some(Prefix { head, at, prim_base: self.prim_base, aux_base: self.aux_base })
+    }
+}
+
+/// Rows that `packed` needs at most with a stackless BVH over its `prims` primitives in place of
+/// its accelerator: a leaf holds at least one primitive, so there are at most 2n - 1 nodes of
+/// one texel and n texels of references (SPD balls' SAH leaves hold one sphere each: 3n).
+pub fn bvh_rows_bound(packed: &PackedScene, prims: usize) -> u32 {
+    let bundle = packed.texels.len() - packed.grid_base[3] as usize;
+    rows_of(packed.grid_base[0] as usize + 3 * prims.max(1) + bundle)
+}
+
+/// The scene of `prefix` with `section` as its accelerator: the row to write from and the packed
+/// texels from that row on (`PackedScene::texels` holding only those), the same texels
+/// [`pack_scene`] would give there, with the bases and lattice [`params`] reads.
+pub fn swap_accel(prefix: &Prefix, section: AccelSection, shadows: ShadowMode) -> (u32, PackedScene) {
+    let row = prefix.at / SCENE_TEX_WIDTH;
+    let mut t = Vec::with_capacity(prefix.head.len() + section.texels.len() + 1024);
+    t.extend_from_slice(&prefix.head);
+    t.extend_from_slice(&section.texels);
+    drop(section.texels);
+    let start = row * SCENE_TEX_WIDTH;
+    let bundle_base = start + push_bundle(&mut t, shadows);
+    let [a, b, c] = section.bases;
+    let third = if section.counted { c } else { prefix.at + c };
+    let packed = PackedScene {
+        texels: t,
+        prim_base: prefix.prim_base,
+        aux_base: prefix.aux_base,
+        grid_base: [prefix.at + a, prefix.at + b, third, bundle_base],
+        shell_sections: vec![],
+        bvh_lattice: section.lattice,
+    };
+    (row, packed)
+}
+
+/// Appends `accel`'s section to `t`: its `grid_base` words (texel indices into `t`; a BVH's
+/// third word is its node count) and, for a BVH, the lattice its nodes are quantised to. Nothing
+/// in it depends on where it lands: its links count from its own bases, so it can be packed
+/// apart ([`pack_accel`]).
+fn push_accel(t: &mut Vec<[u32; 4]>, accel: AccelRef, origin: DVec3) -> ([u32; 3], Option<BvhLattice>) {
+    let mut bvh_lattice = None;
+    let bases = match accel {
+        AccelRef::Grid(grid) => {
+            let cells = grid.cell_start.len() - 1;
+            let cell_base = t.len() as u32;
+            for first in (0..cells).step_by(CELLS_PER_TEXEL as usize) {
+                let mut texel = [0u32; 4];
+                for (k, c) in (first..cells.min(first + CELLS_PER_TEXEL as usize)).enumerate() {
+                    texel[2 * k] = grid.cell_start[c];
+                    texel[2 * k + 1] = grid.cell_start[c + 1] - grid.cell_start[c];
+                }
+                t.push(texel);
+            }
+            let ref_base = push_refs(t, &grid.prim_refs);
+            let macro_base = t.len() as u32;
+            for chunk in grid.macro_bits.chunks(4) {
+                let mut texel = [0u32; 4];
+                texel[..chunk.len()].copy_from_slice(chunk);
+                t.push(texel);
+            }
+            [cell_base, ref_base, macro_base]
+        }
+        AccelRef::Bvh(bvh, walk) => {
+            let node_base = t.len() as u32;
+            let nodes = bvh_nodes(bvh, origin);
+            let lattice = BvhLattice::of_nodes(&nodes);
+            match walk {
+                BvhWalk::Stack => {
+                    // Its shader takes the left child for the lower centroids along `axis`.
+                    debug_assert!(
+                        bvh.nodes.iter().all(|n| !matches!(n.kind, NodeKind::Inner { swapped: true, .. })),
+                        "the stack walk's tree keeps the builder's order"
+                    );
+                    for n in nodes {
+                        let [a, b]: [[u32; 4]; 2] = bytemuck::cast(n);
+                        t.push(a);
+                        t.push(b);
+                    }
+                }
+                BvhWalk::Stackless => t.extend(nodes.iter().map(|n| quantise_node(n, &lattice))),
+            }
+            bvh_lattice = Some(lattice);
+            // One texel of references per leaf (at most `MAX_LEAF` = 4), in node order: a leaf
+            // reads its list with one fetch.
+            let ref_base = t.len() as u32;
+            for (first, count) in bvh_leaves(bvh) {
+                let mut texel = [0u32; 4];
+                for (k, r) in bvh.refs[first as usize..(first + count) as usize].iter().enumerate() {
+                    texel[k] = r.0;
+                }
+                t.push(texel);
+            }
+            if t.len() as u32 == ref_base {
+                t.push([0; 4]);
+            }
+            [node_base, ref_base, bvh.nodes.len() as u32]
+        }
+    };
+    (bases, bvh_lattice)
+}
+
+/// Appends the bundle shadow mode's sample pairs (nothing in the other modes); returns where
+/// they start.
+fn push_bundle(t: &mut Vec<[u32; 4]>, shadows: ShadowMode) -> u32 {
+    let bundle_base = t.len() as u32;
+    if let ShadowMode::Bundle { samples, .. } = shadows {
+        for pair in bundle_samples(samples).chunks(2) {
+            let xy = |k: usize| pair.get(k).map_or([0, 0], |p| p.map(|v| (v as f32).to_bits()));
+            let (a, b) = (xy(0), xy(1));
+            t.push([a[0], a[1], b[0], b[1]]);
+        }
+    }
+    bundle_base
 }
 
 /// The frame constants for `scene` drawn with `grid` laid out as in `packed`, positions relative
@@ -938,6 +1039,54 @@ mod tests {
                 assert_eq!(packed.texels.capacity(), packed.texels.len());
             }
         }
+    }
+
+    /// A grid-packed scene with a BVH swapped in ([`swap_accel`]) is, from the row it is
+    /// written from, texel for texel what packing the scene with the BVH gives, with the same
+    /// bases and lattice; and back, from the BVH to a grid. Scenes with textures (their pixels
+    /// come just before the accelerator) and in the bundle shadow mode (its samples after it).
+    /// The rows a grid-packed scene reserves for its BVH hold it.
+    #[test]
+    fn a_swapped_accelerator_packs_as_the_whole_scene_would() {
+        use crate::accel::grid::Grid;
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut bundled = crate::io::load(&dir.join("spd/balls_s2.nff")).expect("scene loads");
+        bundled.trace.shadows = ShadowMode::Bundle { samples: 7, rotate: true };
+        let scenes = [default_scene(), crate::io::load(&dir.join("textured.toml")).expect("loads"), bundled];
+        for scene in &scenes {
+            let origin = scene.camera.eye + DVec3::new(0.5, -0.25, 2.0);
+            let grid = Grid::build(scene);
+            let bvh = Bvh::build(scene).ordered_towards(origin);
+            let walk = BvhWalk::Stackless;
+            for (from, to) in [
+                (AccelRef::Grid(&grid), AccelRef::Bvh(&bvh, walk)),
+                (AccelRef::Bvh(&bvh, walk), AccelRef::Grid(&grid)),
+            ] {
+                let before = pack_scene(scene, from, origin);
+                let whole = pack_scene(scene, to, origin);
+                let prefix = before.prefix().expect("no shells");
+                let (row, swapped) = swap_accel(&prefix, pack_accel(to, origin), scene.trace.shadows);
+                let start = (row * SCENE_TEX_WIDTH) as usize;
+                assert!(
+                    start <= before.grid_base[0] as usize && before.texels[..start] == whole.texels[..start]
+                );
+                assert!(swapped.texels == whole.texels[start..], "the texels from row {row}");
+                assert_eq!(
+                    (swapped.prim_base, swapped.aux_base, swapped.grid_base, swapped.bvh_lattice),
+                    (whole.prim_base, whole.aux_base, whole.grid_base, whole.bvh_lattice)
+                );
+                assert_eq!(params(scene, to, &swapped, origin), params(scene, to, &whole, origin));
+                if let AccelRef::Grid(_) = from {
+                    assert!(
+                        bvh_rows_bound(&before, scene.primitive_count()) >= whole.rows(),
+                        "room for the BVH"
+                    );
+                }
+            }
+        }
+        let mut shells = default_scene();
+        shells.trace.shadows = ShadowMode::Shell { falloff: Default::default(), combine: Default::default() };
+        assert!(pack_scene(&shells, &Grid::build(&shells), DVec3::ZERO).prefix().is_none());
     }
 
     /// Every compact node's decoded box holds its f32 box, whether the device fuses the decode's

@@ -416,7 +416,7 @@ impl<D: Device> Renderer<D> {
             prepare(scene, opts, progress);
         bands.deal = opts.deal.unwrap_or_else(|| super::backend::dealing_threads(ctx));
         bands.band_pixels = if ctx.is_cpu() { BAND_PIXELS } else { GPU_BAND_PIXELS };
-        let gpu_scene = ctx.upload(packed, params, opts.max_scene_rows)?;
+        let gpu_scene = ctx.upload(packed, params, opts.max_scene_rows, 0)?;
         let t2 = Instant::now();
         let dispatcher =
             ctx.compile(&gpu_scene, Kernel::Render, variant, bands.out_len(), &[], ModeBuffers::default())?;

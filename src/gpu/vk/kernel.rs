@@ -282,7 +282,7 @@ impl VkScene {
             };
             SceneResources { shared: shared.clone(), image, memory, view, params: params_buf, range }
         };
-        let bytes = res.write_rows(packed.texels, layered, vk::ImageLayout::UNDEFINED)?
+        let bytes = res.write_rows(0, packed.texels, layered, vk::ImageLayout::UNDEFINED)?
             + std::mem::size_of::<Params>() as u64;
         let capacity_rows = height * layers;
         Ok(VkScene { params, res: Arc::new(res), layered, bytes, capacity_rows, max_rows })
@@ -300,11 +300,8 @@ impl VkScene {
     /// must then [`VkDispatcher::rebind`]).
     pub fn update(&mut self, ctx: &VkContext, packed: PackedScene, params: Params) -> Result<bool, VkError> {
         let rows = packed.rows();
-        let max_dim = ctx.shared.caps.max_texture_dimension_2d;
-        let max_side = self.max_rows.map_or(max_dim, |m| m.min(max_dim));
-        let fits = rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered;
-        if fits {
-            self.bytes = self.res.write_rows(packed.texels, self.layered, vk::ImageLayout::GENERAL)?
+        if self.fits(ctx, rows) {
+            self.bytes = self.res.write_rows(0, packed.texels, self.layered, vk::ImageLayout::GENERAL)?
                 + std::mem::size_of::<Params>() as u64;
             self.write_params(params);
             return Ok(false);
@@ -313,16 +310,44 @@ impl VkScene {
         *self = Self::upload_reserving(ctx, packed, params, self.max_rows, reserve)?;
         Ok(true)
     }
+
+    /// Whether `rows` rows fit the image as it is (and would be layered as it is).
+    fn fits(&self, ctx: &VkContext, rows: u32) -> bool {
+        let max_dim = ctx.shared.caps.max_texture_dimension_2d;
+        let max_side = self.max_rows.map_or(max_dim, |m| m.min(max_dim));
+        rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered
+    }
+
+    /// `texels`, the packed scene's from row `from` on, in place of the image's (the rows before
+    /// stay), with `params`, as `GpuScene::update_from` does. False, and nothing written, when
+    /// they do not fit.
+    pub fn update_from(
+        &mut self,
+        ctx: &VkContext,
+        from: u32,
+        texels: Vec<[u32; 4]>,
+        params: Params,
+    ) -> Result<bool, VkError> {
+        if !self.fits(ctx, from + layout::rows_of(texels.len())) {
+            return Ok(false);
+        }
+        let written = self.res.write_rows(from, texels, self.layered, vk::ImageLayout::GENERAL)?;
+        self.bytes =
+            from as u64 * SCENE_TEX_WIDTH as u64 * 16 + written + std::mem::size_of::<Params>() as u64;
+        self.write_params(params);
+        Ok(true)
+    }
 }
 
 impl SceneResources {
-    /// Writes `texels` (consumed) into the first rows of the image, whose layout is `from`
-    /// (UNDEFINED when new, GENERAL when updated), and leaves it ready for the
+    /// Writes `texels` (consumed) into the rows of the image from row `first_row` on, whose
+    /// layout is `from` (UNDEFINED when new, GENERAL when updated), and leaves it ready for the
     /// kernels. The texels go through one host-visible staging band of [`SCENE_LAYER_ROWS`] rows
     /// at a time, from the last band to the first, each freed on the host once copied (as
     /// `GpuScene::upload_packed` does through wgpu's staging). Returns the bytes written.
     fn write_rows(
         &self,
+        first_row: u32,
         texels: Vec<[u32; 4]>,
         layered: bool,
         from: vk::ImageLayout,
@@ -339,7 +364,7 @@ impl SceneResources {
             true,
         )?;
         let mut first_band = true;
-        for band in scene_bands(rows, layered) {
+        for band in scene_bands(first_row, first_row + rows, layered) {
             let start = (band.first * SCENE_TEX_WIDTH) as usize;
             let end = start + (band.rows * SCENE_TEX_WIDTH) as usize;
             staging.write(0, bytemuck::cast_slice(&data[start..end]));

@@ -135,11 +135,26 @@ impl Device for VkContext {
     fn subgroup_size(&self) -> Option<u32> {
         self.shared.caps.subgroup_size
     }
-    fn upload(&self, packed: PackedScene, params: Params, max_rows: Option<u32>) -> Result<VkScene, String> {
-        VkScene::upload_packed_with(self, packed, params, max_rows).map_err(|e| e.to_string())
+    fn upload(
+        &self,
+        packed: PackedScene,
+        params: Params,
+        max_rows: Option<u32>,
+        reserve_rows: u32,
+    ) -> Result<VkScene, String> {
+        VkScene::upload_reserving(self, packed, params, max_rows, reserve_rows).map_err(|e| e.to_string())
     }
     fn update_scene(&self, scene: &mut VkScene, packed: PackedScene, params: Params) -> Result<bool, String> {
         scene.update(self, packed, params).map_err(|e| e.to_string())
+    }
+    fn update_scene_from(
+        &self,
+        scene: &mut VkScene,
+        from: u32,
+        texels: Vec<[u32; 4]>,
+        params: Params,
+    ) -> Result<bool, String> {
+        scene.update_from(self, from, texels, params).map_err(|e| e.to_string())
     }
     fn params(scene: &VkScene) -> Params {
         scene.params
