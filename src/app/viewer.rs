@@ -475,7 +475,7 @@ impl Viewer {
     }
 
     /// Says, until it is adopted, that a BVH is being built behind the grid: at the start, and
-    /// again after an edit of a large scene's geometry starts a new one.
+    /// again when a settings change that rebuilds the session starts a new one.
     fn announce_bvh(&mut self) {
         let pending = self.session.bvh_pending();
         if pending && !self.bvh_announced {

@@ -160,10 +160,10 @@ impl GpuScene {
     }
 }
 
-/// Writes `texels` (consumed) into the rows of `texture` from row `from` on. Bands of [`SCENE_LAYER_ROWS`]
-/// rows go from the last to the first, each followed by a wait (so wgpu's staging copy is one
-/// band) and by freeing that band's host texels, so a large scene is not held twice on the host
-/// while the device's copy fills. Returns the bytes written.
+/// Writes `texels` (consumed) into the rows of `texture` from row `from` on. Bands of
+/// [`SCENE_LAYER_ROWS`] rows go from the last to the first, each followed by a wait (so wgpu's
+/// staging copy is one band) and by freeing that band's host texels, so a large scene is not
+/// held twice on the host while the device's copy fills. Returns the bytes written.
 fn write_rows(
     ctx: &GpuContext,
     texture: &wgpu::Texture,

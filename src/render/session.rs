@@ -954,8 +954,6 @@ impl Session<GpuContext> {
     }
 }
 
-/// A session's first accelerator: a grid in the animation's frame (`Grid::update` then moves only
-/// what moves) or fitted to a still scene; a BVH fitted either way.
 /// Whether a viewer's session over `scene` (posed from `base`, with `settings` applied) traces
 /// the grid while its BVH builds on another thread: `auto` picks the BVH and the scene is past
 /// [`BACKGROUND_BVH_ABOVE`] primitives.
@@ -965,6 +963,8 @@ fn builds_bvh_in_background(settings: &Settings, base: &Scene, scene: &Scene) ->
         && scene.primitive_count() > BACKGROUND_BVH_ABOVE
 }
 
+/// A session's first accelerator: a grid in the animation's frame (`Grid::update` then moves only
+/// what moves) or fitted to a still scene; a BVH fitted either way.
 fn first_accel(scene: &Scene, kind: AccelKind, frame: &Option<(Frame, DVec3, DVec3)>) -> Accel {
     match (kind, frame) {
         (AccelKind::Grid, Some((f, ..))) => Accel::Grid(Grid::build_in(scene, *f)),
