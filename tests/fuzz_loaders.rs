@@ -23,6 +23,7 @@
 //! `tests/fuzz_corpus/{toml,nff,gltf,ply,obj}/` keeps every input that ever failed and some edge
 //! inputs; [`corpus_inputs_load_cleanly`] loads each under the same guards.
 
+#[path = "it/common.rs"]
 mod common;
 
 use common::Rng;

@@ -2,6 +2,7 @@
 //! than one layer of the scene texture holds (so the layered path is the one traced), rendered
 //! on the GPU against the f64 reference, in a stated memory bound. One test in its own binary,
 //! so that the process's peak resident memory is this scene's alone.
+#[path = "it/common.rs"]
 mod common;
 
 use glam::DVec3;

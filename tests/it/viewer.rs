@@ -4,7 +4,7 @@
 //! server and one viewer each, on a 2-core machine) and every wait has a deadline; children are
 //! killed when a test ends, however it ends.
 
-mod common;
+use crate::common;
 
 use irt::render::{Mode, Session, Settings};
 use std::io::{BufRead, BufReader};

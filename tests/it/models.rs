@@ -1,6 +1,6 @@
 //! `[[model]]`: model files (glTF here; OBJ and PLY in their own tests) placed in a TOML scene
 //! with a transform and an optional material, and the errors that can go with it.
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use irt::io::{self, stage};

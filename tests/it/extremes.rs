@@ -1,7 +1,7 @@
 //! The extreme-scene suite (issue: numerical stability): every case is traced by the GPU and by
 //! the f64 reference and must agree within the golden tolerance (`common::assert_matches_reference`,
 //! which also rejects any NaN or infinity), and every GPU pixel must encode to a value in [0, 1].
-mod common;
+use crate::common;
 
 use common::*;
 use glam::DVec3;

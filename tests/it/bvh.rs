@@ -5,7 +5,7 @@
 //! 0.25% of pixels off by more than 2/255, no NaN). The accelerator only decides which
 //! primitives a ray is tested against, so a correct BVH gives the grid's tolerance; a box that
 //! loses a primitive to rounding shows as a missing surface, far past both bounds.
-mod common;
+use crate::common;
 
 use irt::accel::AccelChoice;
 use irt::gpu::RenderOptions;

@@ -3,7 +3,7 @@
 //! same `loop_tick` advances it, but it leaves through each pixel's output alpha and is summed on
 //! the host, where the counters go through the stats buffer's 64-bit atomics), against an
 //! all-miss frame whose value is known exactly, and across the two device paths.
-mod common;
+use crate::common;
 
 use irt::accel::AccelChoice;
 use irt::gpu::backend::Device;

@@ -2,7 +2,7 @@
 //! textures as PNG files), loads back as the same scene bit for bit (compared through `{:?}`,
 //! which tells -0.0 from 0.0 and prints each f64 with the digits that identify it, and texels
 //! compared with `==`).
-mod common;
+use crate::common;
 
 use glam::{DVec2, DVec3};
 use irt::io::toml::parse_str;

@@ -1,7 +1,7 @@
 //! Watertight triangles: no ray slips through a shared edge or vertex of a closed mesh. Rays
 //! start inside closed meshes (a box, a subdivided icosphere, both far from the origin too) and
 //! aim at vertices, at points on edges and at random directions; every one must hit.
-mod common;
+use crate::common;
 
 use common::{gpu, v4, Rng};
 use glam::DVec3;

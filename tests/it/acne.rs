@@ -1,7 +1,7 @@
 //! Self-intersection: secondary rays start from robustly offset points, so a convex object lit
 //! from outside never shadows itself, at any scale or distance from the origin where its shape
 //! is representable in f32. Every lit hit (n_g·l > 0) must have s = 1: acne fraction exactly 0.
-mod common;
+use crate::common;
 
 use common::{f32_round, gpu, v4, Rng};
 use glam::DVec3;

@@ -1,6 +1,6 @@
 //! The two device paths agree (issue #12): the band renderer and readback kernels give the same
 //! bits on wgpu and on raw Vulkan through ash, and the ash path's failures are messages.
-mod common;
+use crate::common;
 
 use common::*;
 use glam::DVec3;

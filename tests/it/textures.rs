@@ -1,7 +1,7 @@
 //! Base-colour textures: the shader's sampling (shaders/texture.wgsl) against its f64 twin
 //! (`irt::reference::sample_texture`) through readback, texture coordinates at hits, and whole
 //! textured scenes against the reference.
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DVec2, DVec3};

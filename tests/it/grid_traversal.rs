@@ -4,7 +4,7 @@
 //! - the nearest hit through the grid is the brute-force nearest hit (property test over random
 //!   scenes of spheres, triangles and cones, with rays starting outside and inside the grid and
 //!   axis-parallel rays, ±0 included).
-mod common;
+use crate::common;
 
 use common::{f32_round, gpu, plane_barycentrics, scene_of, v4, Rng};
 use glam::DVec3;

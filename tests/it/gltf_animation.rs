@@ -2,7 +2,7 @@
 //! meshes at the key values and between them as the interpolation says, clamped outside; node
 //! paths become motion stages; bad channels are refused with their JSON path; an animated model
 //! keeps its motions in a TOML scene; and each pose renders on the GPU as the CPU reference does.
-mod common;
+use crate::common;
 
 use glam::{DMat4, DQuat, DVec3};
 use irt::io::{load, stage, LoadError};

@@ -3,7 +3,7 @@
 //! correctly (concave ones too), normals and texture coordinates kept, MTL materials mapped by
 //! the documented rule; a missing MTL or texture is a warning naming it; every bad input is an
 //! error at its file, line and column, never a panic.
-mod common;
+use crate::common;
 
 use glam::{DVec2, DVec3};
 use irt::io::obj::{material_kind, parse};

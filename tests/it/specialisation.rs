@@ -1,7 +1,7 @@
 //! Shader specialisation (docs/specialisation.md): the pipeline compiled for what a scene uses
 //! (primitive kinds, shadow mode) draws the same image as the uber-pipeline, which has every
 //! primitive kind and shadow mode compiled in and picks at run time.
-mod common;
+use crate::common;
 
 use irt::gpu::{RenderOptions, Renderer};
 use irt::scene::{Scene, ShadowMode};

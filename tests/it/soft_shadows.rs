@@ -1,6 +1,6 @@
 //! Soft shadows (docs/shadows.md): the shell functions through readback, point lights, bundle
 //! convergence to the ground truth, and GPU against the CPU twin of every mode.
-mod common;
+use crate::common;
 
 use common::*;
 use glam::DVec3;

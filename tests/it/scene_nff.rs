@@ -1,7 +1,7 @@
 //! The NFF loader (src/io/nff.rs, docs/nff.md): every command reaches the [`Scene`] as
 //! documented, and bad input gives an error with the file, line and column of the offending
 //! token and what was expected — never a panic.
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use irt::io::nff::parse_str;
@@ -259,7 +259,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
     #[test]
     fn edited_files_never_panic(edits in prop::collection::vec((0usize..1000, 0usize..6, 0usize..8), 1..6)) {
-        let src = include_str!("../scenes/spd/tree_s3.nff");
+        let src = include_str!("../../scenes/spd/tree_s3.nff");
         let mut tokens: Vec<String> = src.split_whitespace().map(String::from).collect();
         const ODD: [&str; 8] = ["p", "pp", "c", "-1", "0", "1e308", "nan", "3.5"];
         for (at, op, word) in edits {

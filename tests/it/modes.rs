@@ -1,7 +1,7 @@
 //! The dispatch modes (src/render): every schedule and pixel order covers every pixel exactly
 //! once on the GPU, and the conventional frame, the frameless pass and the headless bands give
 //! the same picture bit for bit.
-mod common;
+use crate::common;
 
 use irt::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
 use irt::gpu::layout::MAX_CHUNK_TILES;

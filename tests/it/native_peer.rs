@@ -8,7 +8,7 @@
 //! 160²), the 99.9th-percentile error ≤ 0.5/255, nothing non-finite. A wrong normal, a missed
 //! cell or a wrong light term changes whole regions and fails both bounds.
 
-mod common;
+use crate::common;
 
 use irt::accel::{bvh_for, BvhWalk, Grid};
 use irt::gpu::{RenderOptions, Renderer};

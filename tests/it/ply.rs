@@ -5,7 +5,7 @@
 //!
 //! The files here are written by a small encoder of the test's own (not `irt::io::ply::write`),
 //! so that the reader is checked against an independent writer.
-mod common;
+use crate::common;
 
 use glam::{DVec2, DVec3};
 use irt::image::srgb_to_linear;

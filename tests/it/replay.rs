@@ -1,7 +1,7 @@
 //! `irt replay` on lavapipe: a short replay on a tiny image is deterministic on the virtual
 //! clock, frameless reaches 90% of the screen sooner than conventional at equal cost, a resting
 //! camera has no dynamic error, and the command reports bad paths by file and line.
-mod common;
+use crate::common;
 
 use irt::render::metrics::Clock;
 use irt::render::replay::{replay, CameraPath, ReplayArgs, ReplayOptions, ReplayReport};

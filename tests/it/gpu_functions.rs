@@ -3,7 +3,7 @@
 //!
 //! Inputs are rounded to f32 before the f64 twin sees them, so the tolerances below measure the
 //! shader's own f32 arithmetic; each is stated where it is used, with why.
-mod common;
+use crate::common;
 
 use common::*;
 use glam::DVec3;

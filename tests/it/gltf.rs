@@ -1,7 +1,7 @@
 //! glTF 2.0 scenes: the Khronos samples load with what their files declare and render on the
 //! GPU as the CPU reference does; each class of bad input gives an error that names the file,
 //! the JSON object and what was expected; mutated files never panic.
-mod common;
+use crate::common;
 
 use glam::{DVec2, DVec3};
 use image::ImageEncoder;

@@ -1,7 +1,7 @@
 //! Haines' Standard Procedural Databases (scenes/spd/, NFF): every file loads with the counts its
 //! README lists and renders, and under SPD's testing rules (PAPER.md §7, docs/nff.md) the ray
 //! counts of the sphereflake land within 10% of the published ones.
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use irt::gpu::{RenderOptions, Renderer};

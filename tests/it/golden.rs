@@ -1,7 +1,7 @@
 //! GPU images against the independent f64 CPU reference, per pixel, on the scenes in `scenes/`.
 //!
 //! Metric and tolerances: `common::assert_matches_reference`.
-mod common;
+use crate::common;
 
 use irt::scene::Scene;
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! The TOML scene format: every scene file loads, every feature reaches the [`Scene`], and bad
 //! input gives an error that names the file, the line and column of the offending value, and
 //! what is wrong — never a panic.
-mod common;
+use crate::common;
 
 use glam::{DVec2, DVec3};
 use irt::io::toml::{parse_str, EMPTY_SCENE};

@@ -1,7 +1,7 @@
 //! Moving objects (scene::motion): TOML keyframes, the posed scene on the GPU against the f64
 //! reference at several times, the session's in-place updates against fresh renders, and the
 //! loader's errors.
-mod common;
+use crate::common;
 
 use irt::gpu::{RenderOptions, Renderer};
 use irt::render::{Mode, Schedule, Session, Settings};
