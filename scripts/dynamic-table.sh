@@ -1,13 +1,13 @@
 #!/bin/bash
 # The per-frame update cost of docs/dynamic.md: a static fractal terrain of N triangles
-# (examples/ply_speed) under one bouncing sphere, rendered as a 12-frame sequence at 512² with
+# (`irt-lab ply-speed`, tools/) under one bouncing sphere, rendered as a 12-frame sequence at 512² with
 # `irt render --frames`, which reports per frame what moving the sphere cost (its cells in the
 # grid updated, or with --full-rebuild the grid rebuilt over every primitive; the scene texture
 # repacked and rewritten) next to the frame's trace. Both ways in turn, per size. ~3 minutes.
 #   scripts/dynamic-table.sh [TRIANGLES...]   (default: 10k 100k 1M 4M)
 set -euo pipefail
 source "$(dirname "$0")/bench-lib.sh"
-cargo build --release --quiet --example ply_speed
+cargo build --release --quiet -p irt-tools
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 sizes=("$@")
@@ -18,7 +18,7 @@ echo
 echo "| primitives | grid | update ms / frame | grid ms | pack ms | upload ms | trace ms / frame | update / trace |"
 echo "|---|---|---|---|---|---|---|---|"
 for n in "${sizes[@]}"; do
-    target/release/examples/ply_speed write "$dir/terrain.ply" "$n" > /dev/null
+    target/release/irt-lab ply-speed write "$dir/terrain.ply" "$n" > /dev/null
     cat > "$dir/scene.toml" <<TOML
 [camera]
 eye = [0.0, 3.0, 6.5]

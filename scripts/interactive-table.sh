@@ -7,5 +7,5 @@
 set -euo pipefail
 # shellcheck source=scripts/bench-lib.sh
 source "$(dirname "$0")/bench-lib.sh"
-cargo run --release --quiet --example interactive -- --out-dir docs/interactive \
+cargo run --release --quiet -p irt-tools -- interactive --out-dir docs/interactive \
     --header "$(machine_header "scripts/interactive-table.sh${*:+ $*}")" "$@"

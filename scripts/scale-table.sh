@@ -1,11 +1,11 @@
 #!/bin/bash
 # The large-model scale table of docs/large-models.md: fractal terrains written as binary PLY
-# (examples/ply_speed), each loaded, set up and rendered at 512² in a fresh process
-# (examples/scale), plus the wall time of `irt render` itself on the largest. About 3 minutes.
+# (`irt-lab ply-speed`, tools/), each loaded, set up and rendered at 512² in a fresh process
+# (`irt-lab scale`), plus the wall time of `irt render` itself on the largest. About 3 minutes.
 #   scripts/scale-table.sh [TRIANGLES...]   (default: 1M 2M 5M 10M 16M, and 10M with normals)
 set -euo pipefail
 source "$(dirname "$0")/bench-lib.sh"
-cargo build --release --quiet --example ply_speed --example scale
+cargo build --release --quiet -p irt-tools
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 sizes=("$@")
@@ -20,14 +20,14 @@ for size in "${sizes[@]}"; do
     opt=""; normals="no"
     [[ $size == *:normals ]] && { opt=normals; normals=yes; }
     f="$dir/terrain-$n-$normals.ply"
-    target/release/examples/ply_speed write "$f" "$n" le $opt > /dev/null
-    row=$(target/release/examples/scale "$f")
-    # The example's row starts with the triangle count; the normals column goes after it.
+    target/release/irt-lab ply-speed write "$f" "$n" le $opt > /dev/null
+    row=$(target/release/irt-lab scale "$f")
+    # The harness's row starts with the triangle count; the normals column goes after it.
     echo "$row" | sed "s/^| \([^|]*\) |/| \1 | $normals |/"
     rm -f "$f"
 done
 echo
 f="$dir/terrain-10M.ply"
-target/release/examples/ply_speed write "$f" 10000000 > /dev/null
+target/release/irt-lab ply-speed write "$f" 10000000 > /dev/null
 /usr/bin/time -f "irt render --accel grid of 10M triangles (640x480): %e s wall, %M KiB peak" \
     $irt render "$f" --accel grid --out "$dir/out.png" 2>&1 | grep -E "loaded|set up|wrote|wall" | sed 's/^/    /'

@@ -6,7 +6,7 @@
 // masked leaf loop.
 
 fn load_bvh_node(i: u32) -> BvhNode {
-    let at = params.grid_base.x + i * BVH_NODE_TEXELS;
+    let at = params.accel_base.x + i * BVH_NODE_TEXELS;
     let a = texel(at);
     let b = texel(at + 1u);
     return BvhNode(bitcast<vec3f>(a.xyz), a.w, bitcast<vec3f>(b.xyz), b.w);
@@ -47,7 +47,7 @@ fn bvh_inv_dir(d: vec3f) -> vec3r {
 // A leaf's primitives against the ray: `count` (at most 4) references in the one texel
 // `refs_texel`; `best` updated; true when `any_hit` and one was hit.
 fn bvh_leaf(refs_texel: u32, count: u32, o: vec3f, d: vec3f, t_min: f32, any_hit: bool, triangles_only: bool, best: ptr<function, Hit>) -> bool {
-    let refs = texel(params.grid_base.y + refs_texel);
+    let refs = texel(params.accel_base.y + refs_texel);
     for (var k = 0u; k < count; k++) {
         loop_tick(LOOP_CANDIDATES);
         let r = refs[k];
@@ -117,7 +117,7 @@ fn bvh_qnode(q: vec4u, base: vec3f, step: vec3f) -> BvhNode {
 }
 
 // The same without a stack, over compact nodes (one texel: the box in 16-bit steps of the
-// lattice `params.grid_min + q * params.grid_cell`, then the link word; layout.rs,
+// lattice `params.accel_min + q * params.cell`, then the link word; layout.rs,
 // quantise_node): the nodes in their depth-first order, a missed inner node's subtree skipped by
 // its escape link. One fetch, a decode and a slab test per iteration; children come in a fixed
 // order, so a closest-hit ray cannot visit the near side first.
@@ -126,10 +126,10 @@ fn bvh_walk_stackless(o: vec3f, d: vec3f, t_min: f32, t_max: f32, any_hit: bool,
     let or = vec3r(o);
     let inv_d = bvh_inv_dir(d);
     // Hoisted by hand: lavapipe moves nothing out of loops.
-    let count = params.grid_base.z;
-    let nodes = params.grid_base.x;
-    let base = params.grid_min.xyz;
-    let step = params.grid_cell.xyz;
+    let count = params.accel_base.z;
+    let nodes = params.accel_base.x;
+    let base = params.accel_min.xyz;
+    let step = params.cell.xyz;
     var i = 0u;
     loop {
         loop_tick(LOOP_WALK);

@@ -22,9 +22,9 @@ fn dda_init(o_in: vec3f, d_in: vec3f, t_min_in: f32, t_max_in: f32, s: ptr<funct
     let d = vec3r(d_in);
     let t_min = real(t_min_in);
     let t_max = real(t_max_in);
-    let gmin = vec3r(params.grid_min.xyz);
-    let gmax = vec3r(params.grid_max.xyz);
-    let res = vec3i(params.grid_res.xyz);
+    let gmin = vec3r(params.accel_min.xyz);
+    let gmax = vec3r(params.accel_max.xyz);
+    let res = vec3i(params.cells.xyz);
     let moving = d_in != vec3f(0.0);
     let inv_d = select(vec3r(0.0), 1.0 / d, moving);
     let ta = (gmin - o) * inv_d;
@@ -40,14 +40,14 @@ fn dda_init(o_in: vec3f, d_in: vec3f, t_min_in: f32, t_max_in: f32, s: ptr<funct
         return false;
     }
     let p = o + d * t0;
-    let cell = clamp(vec3i(floor((p - gmin) * vec3r(params.grid_inv_cell.xyz))), vec3i(0), res - 1);
+    let cell = clamp(vec3i(floor((p - gmin) * vec3r(params.inv_cell.xyz))), vec3i(0), res - 1);
     let positive = d_in > vec3f(0.0);
-    let boundary = gmin + vec3r(cell + select(vec3i(0), vec3i(1), positive)) * vec3r(params.grid_cell.xyz);
+    let boundary = gmin + vec3r(cell + select(vec3i(0), vec3i(1), positive)) * vec3r(params.cell.xyz);
     (*s).cell = cell;
     (*s).step = select(vec3i(-1), vec3i(1), positive);
     (*s).out = select(vec3i(-1), res, positive);
     (*s).t_next = select(vec3r(real(BIG)), (boundary - o) * inv_d, moving);
-    (*s).t_delta = select(vec3r(real(BIG)), vec3r(params.grid_cell.xyz) * abs(inv_d), moving);
+    (*s).t_delta = select(vec3r(real(BIG)), vec3r(params.cell.xyz) * abs(inv_d), moving);
     (*s).t_enter = t0;
     (*s).t_leave = t1;
     return true;
@@ -77,7 +77,7 @@ fn dda_step(s: ptr<function, Dda>) -> bool {
 }
 
 fn cell_linear(c: vec3i) -> u32 {
-    let res = params.grid_res;
+    let res = params.cells;
     return u32(c.x) + res.x * (u32(c.y) + res.y * u32(c.z));
 }
 

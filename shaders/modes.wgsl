@@ -13,7 +13,7 @@ var<workgroup> wg_tile_cost: atomic<u32>;
 // could bring it near lavapipe's loop limit (its loops share one counter per invocation group
 // for the whole dispatch). The host runs waves of workgroups until the counter passes the last
 // chunk, and can cancel a frame between waves.
-// tile.work = (chunks, tile budget per workgroup, tile columns, loop budget).
+// launch.work = (chunks, tile budget per workgroup, tile columns, loop budget).
 @compute @workgroup_size(TILE_W, TILE_H, 1)
 fn render_queue(@builtin(local_invocation_id) lid: vec3u, @builtin(local_invocation_index) li: u32) {
     loop_iters = 0u;
@@ -22,15 +22,15 @@ fn render_queue(@builtin(local_invocation_id) lid: vec3u, @builtin(local_invocat
         // Every invocation's counts of the last chunk are in; one decides for all.
         workgroupBarrier();
         if li == 0u {
-            let room = atomicLoad(&wg_iters) + MAX_CHUNK_TILES * atomicLoad(&wg_tile_cost) < tile.work.w;
+            let room = atomicLoad(&wg_iters) + MAX_CHUNK_TILES * atomicLoad(&wg_tile_cost) < launch.work.w;
             // (Not `select`: it would evaluate, and so take, a chunk either way.)
             wg_chunk = NO_HIT;
-            if room && taken < tile.work.y {
+            if room && taken < launch.work.y {
                 wg_chunk = atomicAdd(&queue[0], 1u);
             }
         }
         let c = workgroupUniformLoad(&wg_chunk);
-        if c >= tile.work.x {
+        if c >= launch.work.x {
             break;
         }
         let t0 = work_buf[c];
@@ -38,8 +38,8 @@ fn render_queue(@builtin(local_invocation_id) lid: vec3u, @builtin(local_invocat
         for (var t = t0; t < t1; t++) {
             let before = loop_iters;
             loop_iters += 1u;
-            let x = (t % tile.work.z) * TILE_W + lid.x;
-            let y = (t / tile.work.z) * TILE_H + lid.y;
+            let x = (t % launch.work.z) * TILE_W + lid.x;
+            let y = (t / launch.work.z) * TILE_H + lid.y;
             if x < params.eye_grid.x && y < params.eye_grid.y {
                 trace_pixel(x, y);
             }
@@ -50,21 +50,21 @@ fn render_queue(@builtin(local_invocation_id) lid: vec3u, @builtin(local_invocat
     }
 }
 
-// Frameless mode: one invocation per position of the slice [tile.work.x, + tile.work.y) of the
-// pixel order. tile.work.z: ORDER_TABLE (work_buf holds the pixel of every position) or
-// ORDER_DISSOLVE (work_buf holds the LFSR's jump matrices, tile.work.w its bits, tile.sample.z
+// Frameless mode: one invocation per position of the slice [launch.work.x, + launch.work.y) of the
+// pixel order. launch.work.z: ORDER_TABLE (work_buf holds the pixel of every position) or
+// ORDER_DISSOLVE (work_buf holds the LFSR's jump matrices, launch.work.w its bits, launch.sample.z
 // the state at the slice's first position; state v is pixel v - 1, values past the image skip).
 @compute @workgroup_size(64, 1, 1)
 fn render_slice(@builtin(global_invocation_id) gid: vec3u) {
-    if gid.x >= tile.work.y {
+    if gid.x >= launch.work.y {
         return;
     }
     loop_iters = 0u;
     var p: u32;
-    if tile.work.z == ORDER_TABLE {
-        p = work_buf[tile.work.x + gid.x];
+    if launch.work.z == ORDER_TABLE {
+        p = work_buf[launch.work.x + gid.x];
     } else {
-        p = dissolve_jump(tile.sample.z, gid.x, tile.work.w) - 1u;
+        p = dissolve_jump(launch.sample.z, gid.x, launch.work.w) - 1u;
         if p >= params.eye_grid.x * params.eye_grid.y {
             return;
         }
@@ -91,10 +91,10 @@ fn dissolve_jump(s0: u32, k: u32, bits: u32) -> u32 {
 }
 
 // Conventional mode, once a frame is whole: its pixels (the output buffer) into the frame
-// buffer, one invocation per pixel of the tile.work.x pixels.
+// buffer, one invocation per pixel of the launch.work.x pixels.
 @compute @workgroup_size(64, 1, 1)
 fn resolve_frame(@builtin(global_invocation_id) gid: vec3u) {
-    if gid.x >= tile.work.x {
+    if gid.x >= launch.work.x {
         return;
     }
     update_frame(gid.x, out_buf[gid.x].rgb);

@@ -100,15 +100,15 @@ fn cone_material(i: u32) -> u32 {
 
 // (start, count) of grid cell `c`'s primitive references.
 fn cell_range(c: u32) -> vec2u {
-    let t = texel(params.grid_base.x + c / 2u);
+    let t = texel(params.accel_base.x + c / 2u);
     return select(t.xy, t.zw, (c & 1u) == 1u);
 }
 
 fn prim_ref(i: u32) -> u32 {
-    return texel(params.grid_base.y + i / 4u)[i % 4u];
+    return texel(params.accel_base.y + i / 4u)[i % 4u];
 }
 
 fn macro_occupied(m: u32) -> bool {
-    let word = texel(params.grid_base.z + m / 128u)[(m / 32u) % 4u];
+    let word = texel(params.accel_base.z + m / 128u)[(m / 32u) % 4u];
     return ((word >> (m % 32u)) & 1u) != 0u;
 }

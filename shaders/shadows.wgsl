@@ -6,18 +6,18 @@ var<private> pixel_id: u32;
 // the later samples of progressive refinement (fresh rotations average out).
 var<private> bundle_seed: u32;
 
-struct Frame {
+struct Basis {
     u: vec3f,
     v: vec3f,
 }
 
 // Branchless orthonormal basis around unit `n` (Duff et al. 2017): the light disc's axes, and
 // where u = 0 lies around a cone's axis (`cone_uv`, texture.wgsl).
-fn frame(n: vec3f) -> Frame {
+fn basis(n: vec3f) -> Basis {
     let sign = select(-1.0, 1.0, n.z >= 0.0);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
-    return Frame(vec3f(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), vec3f(b, sign + n.y * n.y * a, -n.y));
+    return Basis(vec3f(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), vec3f(b, sign + n.y * n.y * a, -n.y));
 }
 
 // Shell transparency for tau in [0, 1]: 0 smoothstep, 1 linear, 2 disc.
@@ -155,7 +155,7 @@ fn pixel_hash(i: u32) -> u32 {
 
 // Bundle point k on the unit disc, turned by the pixel's fixed angle when `rotate`.
 fn bundle_point(k: u32, pixel: u32, rotate: bool) -> vec2f {
-    let t = ftexel(params.grid_base.w + k / 2u);
+    let t = ftexel(params.accel_base.w + k / 2u);
     let x = select(t.xy, t.zw, (k & 1u) == 1u);
     if !rotate {
         return x;
@@ -314,7 +314,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
 }
 
 // s for `light` seen from the offset origin `o`; `l` is the unit direction to its centre. A
-// bundle is split over passes (`tile.pass`): each returns its samples' share of s. Every other
+// bundle is split over passes (`launch.pass_range`): each returns its samples' share of s. Every other
 // mode belongs wholly to the first pass.
 fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
     let c = light.position_radius.xyz;
@@ -325,7 +325,7 @@ fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
     let gap = params.trace.y * max(max(ends.x, ends.y), ends.z);
     let kind = shadow_kind();
     let bundle = kind == 1u && r != 0.0;
-    if !bundle && tile.pass_range.z == 0u {
+    if !bundle && launch.pass_range.z == 0u {
         return 0.0;
     }
     if kind == 0u || r == 0.0 {
@@ -334,11 +334,11 @@ fn light_visibility(o: vec3f, l: vec3f, light: Light) -> f32 {
         return select(1.0, 0.0, occluded(o, l, dist - gap));
     }
     if kind == 1u {
-        let fr = frame(normalize(c - o));
+        let fr = basis(normalize(c - o));
         let k = params.shadow.y;
         let rotate = params.shadow.z != 0u;
         var seen = 0.0;
-        for (var i = tile.pass_range.x; i < min(k, tile.pass_range.y); i++) {
+        for (var i = launch.pass_range.x; i < min(k, launch.pass_range.y); i++) {
             loop_tick(LOOP_LIGHTS);
             let x = bundle_point(i, bundle_seed, rotate);
             seen += ray_visibility(o, c + r * (x.x * fr.u + x.y * fr.v), gap);

@@ -3,7 +3,7 @@
 // src/reference. Item i reads STRIDE vec4s from test_in[STRIDE * i].
 
 fn item(gid: vec3u) -> u32 {
-    if gid.y != 0u || gid.x >= tile.rect.z {
+    if gid.y != 0u || gid.x >= launch.rect.z {
         return NO_HIT;
     }
     return gid.x;
@@ -240,7 +240,7 @@ fn k_shell_cell(@builtin(global_invocation_id) gid: vec3u) {
 fn k_bvh_qnode(@builtin(global_invocation_id) gid: vec3u) {
     let i = item(gid);
     if i == NO_HIT { return; }
-    let n = bvh_qnode(texel(params.grid_base.x + bitcast<u32>(test_in[i].x)), params.grid_min.xyz, params.grid_cell.xyz);
+    let n = bvh_qnode(texel(params.accel_base.x + bitcast<u32>(test_in[i].x)), params.accel_min.xyz, params.cell.xyz);
     out_buf[2u * i] = vec4f(n.lo, bitcast<f32>(n.a));
     out_buf[2u * i + 1u] = vec4f(n.hi, 0.0);
 }

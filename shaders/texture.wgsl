@@ -62,7 +62,7 @@ fn wrap_index(i: i32, n: i32, mode: u32) -> i32 {
 // u of the direction `q` around the unit axis `a`: its angle in the orthonormal frame around
 // `a` that light discs use too (`frame`, shadows.wgsl), 0..1.
 fn angle_u(q: vec3f, a: vec3f) -> f32 {
-    let e = frame(a);
+    let e = basis(a);
     return 0.5 + atan2(dot(q, e.v), dot(q, e.u)) / TAU;
 }
 

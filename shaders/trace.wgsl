@@ -156,7 +156,7 @@ fn offset_origin(sf: Surface, dir: vec3f) -> vec3f {
 fn shade_local(sf: Surface, m: Material, e: vec3f) -> vec3f {
     let ia = ambient_intensity(sf.n, params.ambient_up.xyz, params.ambient_sky.xyz, params.ambient_ground.xyz);
     var c = vec3f(0.0);
-    if tile.pass_range.z != 0u {
+    if launch.pass_range.z != 0u {
         c = shade_ambient(m, sf.n, e, ia, sf.inside);
     }
     for (var i = 0u; i < params.image.w; i++) {
@@ -197,7 +197,7 @@ fn shade_ray(o: vec3f, d: vec3f, eye_ray: bool) -> Shaded {
     let h = trace_closest(o, d, 0.0, BIG);
     loop_tick(LOOP_RAY_TREE);
     if h.prim == NO_HIT {
-        return Shaded(select(vec3f(0.0), params.background.rgb, tile.pass_range.z != 0u), false, Surface(), Material());
+        return Shaded(select(vec3f(0.0), params.background.rgb, launch.pass_range.z != 0u), false, Surface(), Material());
     }
     if eye_ray {
         eye_hit = 1.0;
@@ -278,9 +278,9 @@ fn eye_direction(px: f32, py: f32) -> vec3f {
     return normalize(params.cam_w.xyz + sx * params.cam_u.xyz + sy * params.cam_v.xyz);
 }
 
-// Pixel (x, y)'s sample `tile.sample.x`: its ray tree traced, the output written (the first pass
+// Pixel (x, y)'s sample `launch.sample.x`: its ray tree traced, the output written (the first pass
 // of a split bundle writes, later passes add), rays counted, and on the last pass the frame
-// buffer updated as `tile.sample.y` says. Every dispatch mode (modes.wgsl) ends here, so all of
+// buffer updated as `launch.sample.y` says. Every dispatch mode (modes.wgsl) ends here, so all of
 // them compute the same pixel the same way.
 fn trace_pixel(x: u32, y: u32) {
     ray_counts = vec4u(1u, 0u, 0u, 0u);
@@ -289,9 +289,9 @@ fn trace_pixel(x: u32, y: u32) {
     simd_groups = vec4u(0u);
     // One invocation per eye ray: at pixel centres, or at pixel corners (SPD's rule).
     pixel_id = y * params.eye_grid.x + x;
-    bundle_seed = pixel_id + tile.sample.x * 0x9e3779b9u;
-    let flags = tile.sample.y;
-    let at = vec2f(f32(x), f32(y)) + select(vec2f(0.5) + tile.jitter.xy, vec2f(0.0), params.eye_grid.z != 0u);
+    bundle_seed = pixel_id + launch.sample.x * 0x9e3779b9u;
+    let flags = launch.sample.y;
+    let at = vec2f(f32(x), f32(y)) + select(vec2f(0.5) + launch.jitter.xy, vec2f(0.0), params.eye_grid.z != 0u);
     // One radiance call site (lavapipe runs a branch's loops even when no lane takes it, so a
     // second call for the rare jitter pairs would cost every pixel): one sample, or the paper's
     // frameless jitter, two of four sub-pixel positions (a 2×2 pattern at ±0.25 px) per visit,
@@ -300,7 +300,7 @@ fn trace_pixel(x: u32, y: u32) {
     let n = select(1u, 2u, pairs);
     var c = vec3f(0.0);
     for (var k = 0u; k < n; k++) {
-        let off = select(vec2f(0.0), jitter_pair(2u * (tile.sample.x & 1u) + k), pairs);
+        let off = select(vec2f(0.0), jitter_pair(2u * (launch.sample.x & 1u) + k), pairs);
         c += radiance(params.eye.xyz, eye_direction_at(at + off));
     }
     c /= f32(n);
@@ -308,7 +308,7 @@ fn trace_pixel(x: u32, y: u32) {
     // the renderer checks the first against lavapipe's limit and counts the second for SPD.
     let meter = f32(2u * loop_iters + u32(eye_hit));
     var total = c;
-    if tile.pass_range.z != 0u {
+    if launch.pass_range.z != 0u {
         out_buf[pixel_id] = vec4f(c, meter);
     } else {
         let prev = out_buf[pixel_id];
@@ -328,7 +328,7 @@ fn trace_pixel(x: u32, y: u32) {
             stats_add64(STATS_SIMD_AT + 4u * k + 2u, simd_groups[k]);
         }
     }
-    if (flags & FRAME_WRITE) != 0u && tile.pass_range.w != 0u {
+    if (flags & FRAME_WRITE) != 0u && launch.pass_range.w != 0u {
         update_frame(pixel_id, total);
     }
 }
@@ -336,13 +336,13 @@ fn trace_pixel(x: u32, y: u32) {
 // Pixel `i` of the frame buffer gets a new value `c`: replaces it, is added to its samples
 // (FRAME_ACCUMULATE; alpha counts them) or blended in with weight α (FRAME_BLEND).
 fn update_frame(i: u32, c: vec3f) {
-    let flags = tile.sample.y;
+    let flags = launch.sample.y;
     let old = frame_buf[i];
     var f = vec4f(c, 1.0);
     if (flags & FRAME_ACCUMULATE) != 0u {
         f = old + f;
     } else if (flags & FRAME_BLEND) != 0u && old.a > 0.0 {
-        f = vec4f(mix(old.rgb / old.a, c, tile.jitter.z), 1.0);
+        f = vec4f(mix(old.rgb / old.a, c, launch.jitter.z), 1.0);
     }
     frame_buf[i] = f;
 }
@@ -358,9 +358,9 @@ fn eye_direction_at(p: vec2f) -> vec3f {
     return eye_direction(p.x, p.y);
 }
 
-// The headless bands: one invocation per pixel of `tile.rect`, in tiles of RENDER_TILE_W x
+// The headless bands: one invocation per pixel of `launch.rect`, in tiles of RENDER_TILE_W x
 // RENDER_TILE_H (layout::RENDER_TILE: 4x2-pixel SIMD groups on lavapipe). Rows of tiles are
-// dealt to tile.work.x = n threads (Dispatch::dealt): lavapipe hands each of its n threads a
+// dealt to launch.work.x = n threads (Dispatch::dealt): lavapipe hands each of its n threads a
 // contiguous run of workgroups, here one z-slice, so workgroup (x, y, z) traces tile
 // (x, y·n + z) and every thread's rows spread over the whole rect instead of one thread taking
 // the sky and the other the objects. No divides: lavapipe has none for vectors.
@@ -369,10 +369,10 @@ fn render(
     @builtin(workgroup_id) wg: vec3u,
     @builtin(local_invocation_id) lid: vec3u,
 ) {
-    let p = vec2u(wg.x, wg.y * tile.work.x + wg.z) * vec2u(RENDER_TILE_W, RENDER_TILE_H) + lid.xy;
-    if p.x >= tile.rect.z || p.y >= tile.rect.w {
+    let p = vec2u(wg.x, wg.y * launch.work.x + wg.z) * vec2u(RENDER_TILE_W, RENDER_TILE_H) + lid.xy;
+    if p.x >= launch.rect.z || p.y >= launch.rect.w {
         return;
     }
     loop_iters = 0u;
-    trace_pixel(tile.rect.x + p.x, tile.rect.y + p.y);
+    trace_pixel(launch.rect.x + p.x, launch.rect.y + p.y);
 }

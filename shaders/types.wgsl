@@ -1,4 +1,5 @@
-// GPU structs and bindings. Rust mirrors: src/gpu/layout.rs (tied by tests/layout.rs).
+// GPU structs and bindings. Rust mirrors: src/gpu/layout/mod.rs (structs) and src/gpu/bindings.rs
+// (the binding table), each tied to this file by a test.
 
 struct Light {
     position_radius: vec4f,
@@ -14,15 +15,15 @@ struct Params {
     ambient_ground: vec4f,
     ambient_up: vec4f,
     background: vec4f,
-    grid_min: vec4f,
-    grid_max: vec4f,
-    grid_cell: vec4f,
-    grid_inv_cell: vec4f,
-    grid_res: vec4u,
+    accel_min: vec4f,
+    accel_max: vec4f,
+    cell: vec4f,
+    inv_cell: vec4f,
+    cells: vec4u,
     macro_res: vec4u,
     prim_base: vec4u,
     aux_base: vec4u,
-    grid_base: vec4u,
+    accel_base: vec4u,
     image: vec4u,
     eye_grid: vec4u,
     trace: vec4f,
@@ -39,7 +40,7 @@ struct BvhNode {
     b: u32,
 }
 
-struct Tile {
+struct Launch {
     rect: vec4u,
     pass_range: vec4u,
     work: vec4u,
@@ -52,7 +53,7 @@ struct Tile {
 // a 2D texture or, for scenes past one layer, a 2D array.
 @group(0) @binding(2) var<storage, read_write> out_buf: array<vec4f>;
 @group(0) @binding(3) var<storage, read_write> stats: array<atomic<u32>, STATS_WORDS>;
-@group(0) @binding(4) var<uniform> tile: Tile;
+@group(0) @binding(4) var<uniform> launch: Launch;
 @group(0) @binding(5) var<storage, read> test_in: array<vec4f>;
 // The dispatch modes' inputs (shaders/modes.wgsl): the conventional mode's chunk boundaries, or
 // the frameless mode's pixel order (a table, or the dissolve's jump matrices).

@@ -53,12 +53,14 @@ fn millions_of_triangles_render_like_the_reference_within_the_memory_bound() {
     assert!(triangles > 5_500_000);
 
     let ctx = common::gpu();
-    let opts = irt::gpu::RenderOptions { max_scene_rows: Some(MAX_SCENE_ROWS), ..Default::default() };
-    let renderer = irt::gpu::Renderer::new(&ctx, &scene, opts).expect("renderer");
-    assert!(renderer.gpu_scene.layered);
-    assert!(renderer.gpu_scene.bytes > 8 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH * 16) as u64, "9 layers");
-    let gpu = renderer.render(&ctx, &mut |_, _| {}).image;
-    drop(renderer);
+    let opts =
+        irt::render::Settings { max_scene_rows: Some(MAX_SCENE_ROWS), ..irt::render::Settings::bands() };
+    // Handed over, as `irt render` hands over what it loaded: the session holds the scene once.
+    let mut session = irt::render::Session::from_scene(&ctx, scene, opts).expect("session");
+    assert!(session.device_scene().layered());
+    assert!(session.device_scene().bytes > 8 * (SCENE_LAYER_ROWS * SCENE_TEX_WIDTH * 16) as u64, "9 layers");
+    let gpu = session.picture(&ctx, &mut |_, _| {}).image;
+    let scene = session.into_scene();
     let per_triangle = peak_rss_bytes() / triangles as f64;
     println!("{triangles} triangles: peak {per_triangle:.0} bytes per triangle");
     assert!(per_triangle <= MAX_BYTES_PER_TRIANGLE, "peak {per_triangle:.0} bytes per triangle");

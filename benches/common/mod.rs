@@ -5,8 +5,10 @@
 
 use criterion::{BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use glam::DVec3;
-use irt::gpu::{GpuContext, RenderOptions, Renderer};
+use irt::gpu::GpuContext;
+use irt::render::{Session, Settings};
 use irt::scene::{Material, MaterialKind, Scene};
+use std::cell::RefCell;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -94,7 +96,7 @@ pub enum Kind {
     /// Eye rays only: the primary-shadow workload (depth 1, diffuse) without lights, shaded by
     /// the scene's ambient alone, so no shadow ray is cast.
     Eye,
-    /// `irt::peer::primary_shadow`: eye rays and one hard-shadow ray per light facing each hit.
+    /// `irt::lab::peer::primary_shadow`: eye rays and one hard-shadow ray per light facing each hit.
     EyeShadow,
     /// The scene's own settings (depth, shadows, materials).
     Full,
@@ -114,39 +116,49 @@ impl Kind {
     pub fn apply(self, scene: &Scene) -> Scene {
         match self {
             Kind::Eye => {
-                let mut s = irt::peer::primary_shadow(scene);
+                let mut s = irt::lab::peer::primary_shadow(scene);
                 s.lights.clear();
                 s.ambient = scene.ambient.clone();
                 s
             }
-            Kind::EyeShadow => irt::peer::primary_shadow(scene),
+            Kind::EyeShadow => irt::lab::peer::primary_shadow(scene),
             Kind::Full => scene.clone(),
         }
     }
 }
 
-/// A renderer past its first frame (lavapipe compiles at the first dispatch), and the rays one of
-/// its frames traces, counted by a separate counting pipeline (as `irt bench` does: the timed
-/// pipeline carries no atomics).
+/// A session of the bands past its first picture (lavapipe compiles at the first dispatch), and
+/// the rays one of its pictures traces, counted by a separate counting pipeline (as `irt bench`
+/// does: the timed pipeline carries no atomics).
 pub struct Traced {
-    pub renderer: Renderer,
+    pub session: RefCell<Session>,
     pub rays: u64,
     pub primitives: usize,
 }
 
-pub fn traced(ctx: &GpuContext, scene: &Scene) -> Traced {
-    traced_with(ctx, scene, RenderOptions::default())
+impl Traced {
+    /// One more picture (what the benches time).
+    pub fn render(&self, ctx: &GpuContext) {
+        self.session.borrow_mut().picture(ctx, &mut |_, _| {});
+    }
 }
 
-/// [`traced`] with `opts` (another accelerator).
-pub fn traced_with(ctx: &GpuContext, scene: &Scene, opts: RenderOptions) -> Traced {
-    let renderer = Renderer::new(ctx, scene, opts).expect("renderer");
-    let first = renderer.render(ctx, &mut |_, _| {});
+pub fn traced(ctx: &GpuContext, scene: &Scene) -> Traced {
+    traced_with(ctx, scene, Settings::bands())
+}
+
+/// [`traced`] with `settings` (another accelerator).
+pub fn traced_with(ctx: &GpuContext, scene: &Scene, settings: Settings) -> Traced {
+    let mut session = Session::new(ctx, scene, settings.clone()).expect("session");
+    let first = session.picture(ctx, &mut |_, _| {});
     assert_eq!(first.image.non_finite(), 0, "the bench frame has NaN/Inf values");
-    let counting =
-        Renderer::new(ctx, scene, RenderOptions { count_rays: true, ..opts }).expect("counting renderer");
-    let rays = counting.render(ctx, &mut |_, _| {}).rays.total();
-    Traced { renderer, rays, primitives: scene.primitive_count() }
+    let counting = Settings { count_rays: true, ..settings };
+    let rays = Session::new(ctx, scene, counting)
+        .expect("counting session")
+        .picture(ctx, &mut |_, _| {})
+        .rays
+        .total();
+    Traced { session: RefCell::new(session), rays, primitives: scene.primitive_count() }
 }
 
 /// One row of the summary: every timed iteration's duration (warm-up included: all are steady

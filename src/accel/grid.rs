@@ -331,13 +331,13 @@ impl Grid {
     fn build_on(scene: &Scene, threads: usize, progress: &(dyn Fn(usize, usize) + Sync)) -> Grid {
         let prims = Prims::new(scene);
         let n = prims.len();
-        let frame = Frame::fit(prims.bounds(std::slice::from_ref(&(0..n))), n);
+        let frame = Lattice::fit(prims.bounds(std::slice::from_ref(&(0..n))), n);
         Self::build_framed(&prims, frame, threads, progress)
     }
 
     /// [`Grid::build`] in a frame chosen by the caller (which must hold every primitive): what
     /// a moving scene keeps from frame to frame so that [`Grid::update`] can reuse the cells.
-    pub fn build_in(scene: &Scene, frame: Frame) -> Grid {
+    pub fn build_in(scene: &Scene, frame: Lattice) -> Grid {
         let prims = Prims::new(scene);
         let threads = std::thread::available_parallelism()
             .map_or(1, |t| t.get())
@@ -348,7 +348,7 @@ impl Grid {
 
     fn build_framed(
         prims: &Prims,
-        frame: Frame,
+        frame: Lattice,
         threads: usize,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Grid {
@@ -373,19 +373,19 @@ impl Grid {
     }
 
     /// Where this grid lies and how it is cut.
-    pub fn frame(&self) -> Frame {
-        Frame { min: self.min, max: self.max, res: self.res }
+    pub fn lattice(&self) -> Lattice {
+        Lattice { min: self.min, max: self.max, res: self.res }
     }
 
     /// The grid of `scene` in this grid's frame, reusing the cells of every primitive outside
     /// `moving` (ranges of primitive indices: spheres, then all triangles, then cones; sorted,
     /// disjoint): only the moving primitives are inserted again. Equal to
-    /// `Grid::build_in(scene, self.frame())` (a cell lists its primitives in index order either
+    /// `Grid::build_in(scene, self.lattice())` (a cell lists its primitives in index order either
     /// way) provided the other primitives are where they were when this grid was built and
     /// every primitive lies in the frame.
     pub fn update(&self, scene: &Scene, moving: &[std::ops::Range<usize>]) -> Grid {
         let prims = Prims::new(scene);
-        let frame = self.frame();
+        let frame = self.lattice();
         let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
         let total: usize = moving.iter().map(|r| r.len()).sum();
         let threads = threads.min(total.div_ceil(MIN_PRIMS_PER_THREAD)).max(1);
@@ -529,21 +529,21 @@ impl Grid {
 
 /// Where a grid lies and how it is cut into cells.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame {
+pub struct Lattice {
     pub min: DVec3,
     pub max: DVec3,
     pub res: [u32; 3],
 }
 
-impl Frame {
+impl Lattice {
     /// The frame [`Grid::build`] gives `n` primitives whose bounds are `lo`..`hi`.
-    pub fn around(lo: DVec3, hi: DVec3, n: usize) -> Frame {
+    pub fn around(lo: DVec3, hi: DVec3, n: usize) -> Lattice {
         Self::fit(Aabb { lo, hi }, n)
     }
 
-    fn fit(bounds: Aabb, n: usize) -> Frame {
+    fn fit(bounds: Aabb, n: usize) -> Lattice {
         let (min, max) = padded(bounds);
-        Frame { min, max, res: resolution(max - min, n) }
+        Lattice { min, max, res: resolution(max - min, n) }
     }
 
     /// Whether the box `lo`..`hi` lies inside the frame.
@@ -796,9 +796,9 @@ pub(in crate::accel) mod tests {
         let k = moved.cones.len();
         moved.cones[k - 5..].iter_mut().for_each(|c| (c.base, c.apex) = (pull(c.base), pull(c.apex)));
         let (lo, hi) = Grid::bounds_of(&moved, std::slice::from_ref(&(0..n))).unwrap();
-        assert!(grid.frame().holds(lo, hi), "the moved scene stays in the frame");
+        assert!(grid.lattice().holds(lo, hi), "the moved scene stays in the frame");
         let updated = grid.update(&moved, &moving);
-        let full = Grid::build_in(&moved, grid.frame());
+        let full = Grid::build_in(&moved, grid.lattice());
         assert!(updated == full, "update = build in the frame");
         assert!(updated != grid, "something moved");
         // And back: the original grid.

@@ -4,7 +4,7 @@
 use super::edit::{self, Playback, Selection, KINDS};
 use super::KEYS;
 use crate::render::metrics::AgeStats;
-use crate::render::session::UpdateReport;
+use crate::render::UpdateReport;
 use crate::render::{Mode, PixelOrder};
 use crate::scene::{Light, MaterialKind, Scene, ShadowMode};
 use glam::DVec3;
@@ -163,7 +163,7 @@ fn ms(d: Duration) -> String {
 /// "1.2 ms (grid 0.8, pack 0.1, upload 0.3)": what an update cost, in milliseconds.
 pub fn update_cost(r: &UpdateReport) -> String {
     let f = |d: Duration| format!("{:.1}", d.as_secs_f64() * 1e3);
-    let grid = match r.grid {
+    let grid = match r.accel {
         Some(g) => format!("grid {}", f(g)),
         None => "grid kept".into(),
     };

@@ -19,7 +19,7 @@ use super::hud::{self, EditView, HudRequest, HudView, Stats, SCALES, SHADOW_CHOI
 use super::ViewArgs;
 use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use crate::render::metrics::AgeTracker;
-use crate::render::session::UpdateReport;
+use crate::render::UpdateReport;
 use crate::render::{Mode, Session, Settings};
 use crate::scene::{Camera, Scene, MAX_TRACE_DEPTH};
 use anyhow::{anyhow, Context as _, Result};
@@ -376,7 +376,7 @@ impl Viewer {
         traced.camera.height = rh;
         let settings = args.settings();
         let other_mode = match settings.mode {
-            Mode::Conventional { .. } => args.frameless(),
+            Mode::Conventional { .. } | Mode::Bands => args.frameless(),
             Mode::Frameless { .. } => args.conventional(),
         };
         let mut session = Session::new_interactive(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
@@ -1135,7 +1135,7 @@ impl Viewer {
         let mut idle = false;
         let t0 = Instant::now();
         match self.session.settings().mode {
-            Mode::Conventional { .. } => {
+            Mode::Conventional { .. } | Mode::Bands => {
                 let r = self.session.step(&self.ctx);
                 idle = r.idle;
                 if !r.idle {
@@ -1269,7 +1269,7 @@ impl Viewer {
                 converged: self.session.converged(),
                 age: match settings.mode {
                     Mode::Frameless { .. } => Some(self.ages.stats((now - self.start).as_secs_f64())),
-                    Mode::Conventional { .. } => None,
+                    Mode::Conventional { .. } | Mode::Bands => None,
                 },
                 speed: self.controller.speed(self.input.speed_modifier()),
                 status: &self.status,

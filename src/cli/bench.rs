@@ -3,9 +3,10 @@
 use super::{load_scene, open_device_with, DeviceArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-use irt::gpu::backend::Device;
+use irt::gpu::device::Device;
 use irt::gpu::layout::SIMD_LOOPS;
-use irt::gpu::{CacheSetting, RenderOptions, Renderer};
+use irt::gpu::{CacheSetting, GpuError};
+use irt::render::{Session, Settings};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -33,7 +34,7 @@ pub struct BenchArgs {
     pub uber: bool,
     /// What to trace: the scene as given, or the peer-comparable work (eye rays at pixel centres,
     /// one hard-shadow ray per light facing each hit, diffuse Lambert shading, no ambient, no
-    /// reflection or refraction: `irt::peer::primary_shadow`).
+    /// reflection or refraction: `irt::lab::peer::primary_shadow`).
     #[arg(long, value_enum, default_value_t = Workload::Full)]
     pub workload: Workload,
     /// Also time peers on the same scene and rays, in the same process, rounds interleaved,
@@ -185,19 +186,19 @@ fn make_peer(
     peer: Peer,
     scene: &irt::scene::Scene,
     grid: &irt::accel::Grid,
-) -> Result<Box<dyn irt::peer::Peer>> {
+) -> Result<Box<dyn irt::lab::peer::Peer>> {
     Ok(match peer {
         Peer::Native => {
-            Box::new(irt::peer::native::NativePeer::new(scene, grid).map_err(anyhow::Error::msg)?)
+            Box::new(irt::lab::peer::native::NativePeer::new(scene, grid).map_err(anyhow::Error::msg)?)
         }
         Peer::NativeBvh => {
             // The device's tree, as its stackless walk gets it (ordered towards the eye).
             let bvh = irt::accel::bvh_for(scene, irt::accel::BvhWalk::Stackless);
-            Box::new(irt::peer::native::NativePeer::with_bvh(scene, &bvh).map_err(anyhow::Error::msg)?)
+            Box::new(irt::lab::peer::native::NativePeer::with_bvh(scene, &bvh).map_err(anyhow::Error::msg)?)
         }
         #[cfg(feature = "embree")]
         Peer::Embree | Peer::EmbreeFast | Peer::EmbreePacket => Box::new(
-            irt::peer::embree::EmbreePeer::with_options(
+            irt::lab::peer::embree::EmbreePeer::with_options(
                 scene,
                 peer != Peer::EmbreeFast,
                 peer == Peer::EmbreePacket,
@@ -252,13 +253,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
     scene_args.height = scene_args.height.or(Some(512));
     let mut scene = load_scene(&scene_args)?;
     if args.workload == Workload::PrimaryShadow {
-        scene = irt::peer::primary_shadow(&scene);
+        scene = irt::lab::peer::primary_shadow(&scene);
     }
     if !args.accels.is_empty() {
         if !args.peer.is_empty() {
             bail!("--accels times irt's accelerators against each other: drop --peer");
         }
-        let opts = RenderOptions { uber_shader: args.uber, f64: scene_args.f64(), ..Default::default() };
+        let opts = Settings { uber_shader: args.uber, f64: scene_args.f64(), ..Settings::bands() };
         let name = scene_args.name_or("default");
         let (accels, frames, markdown) = (&args.accels, args.frames, args.markdown);
         return match args.backend {
@@ -286,7 +287,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .collect();
     let grid_build = median(builds);
     let f64 = scene_args.f64();
-    let opts = RenderOptions { uber_shader: args.uber, f64, accel: scene_args.accel, ..Default::default() };
+    let opts = Settings { uber_shader: args.uber, f64, accel: scene_args.accel, ..Settings::bands() };
     if args.backend != super::Backend::Ash && args.ash.any() {
         bail!(
             "--robust, --push-tile, --profile and --spirv-val are levers of the ash path: add --backend ash"
@@ -428,7 +429,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
 struct Job<'a> {
     name: String,
     scene: &'a irt::scene::Scene,
-    opts: RenderOptions,
+    opts: Settings,
     peers: &'a [Peer],
     peer_threads: Option<usize>,
     frames: u32,
@@ -441,39 +442,36 @@ impl Job<'_> {
     /// Measures on `ctx` (opened in `open`); `None` when the peer rounds ran instead (they print
     /// their own report).
     fn on<D: Device>(&self, ctx: &D, open: Duration, cache_status: &str) -> Result<Option<Measured>> {
-        let (scene, opts) = (self.scene, self.opts);
+        let (scene, opts) = (self.scene, &self.opts);
         // Time to first frame: pipeline creation + the first dispatch (where lavapipe compiles).
         let t = Instant::now();
-        let renderer = Renderer::new(ctx, scene, opts).map_err(anyhow::Error::msg)?;
-        let first = renderer.try_render(ctx, &mut |_, _| {})?;
+        let mut session = Session::new(ctx, scene, opts.clone())?;
+        let first = session.try_picture(ctx, &mut |_, _| {})?;
         let first_frame = t.elapsed();
         if first.image.non_finite() > 0 {
             bail!("the benchmark frame contains NaN/Inf values");
         }
         // Ray counts come from a separate counting pipeline so the timed one carries no atomics.
-        let counting = Renderer::new(ctx, scene, RenderOptions { count_rays: true, ..opts })
-            .map_err(anyhow::Error::msg)?;
-        let rays = counting.try_render(ctx, &mut |_, _| {})?.rays;
-        drop(counting);
+        let counting = Settings { count_rays: true, ..opts.clone() };
+        let rays = Session::new(ctx, scene, counting)?.try_picture(ctx, &mut |_, _| {})?.rays;
         let simd = if self.simd {
-            let size = ctx.subgroup_size().ok_or_else(|| {
-                anyhow::anyhow!(irt::gpu::context::no_subgroups_message(ctx.adapter_name()))
-            })?;
-            let counting = Renderer::new(ctx, scene, RenderOptions { simd_stats: true, ..opts })
-                .map_err(anyhow::Error::msg)?;
-            Some((counting.try_render(ctx, &mut |_, _| {})?.rays.simd, size))
+            let size = ctx
+                .subgroup_size()
+                .ok_or_else(|| GpuError::NoSubgroups { adapter: ctx.adapter_name().to_string() })?;
+            let counting = Settings { simd_stats: true, ..opts.clone() };
+            Some((Session::new(ctx, scene, counting)?.try_picture(ctx, &mut |_, _| {})?.rays.simd, size))
         } else {
             None
         };
         if !self.peers.is_empty() {
             // The native peer walks irt's grid whichever accelerator the device traces.
-            let peer_grid = renderer.accel.grid().cloned().unwrap_or_else(|| irt::accel::Grid::build(scene));
+            let peer_grid = session.accel.grid().cloned().unwrap_or_else(|| irt::accel::Grid::build(scene));
             let peers =
                 self.peers.iter().map(|&p| make_peer(p, scene, &peer_grid)).collect::<Result<Vec<_>>>()?;
             peer_rounds(
                 &self.name,
                 scene,
-                &renderer,
+                &mut session,
                 ctx,
                 rays.total(),
                 &peers,
@@ -483,21 +481,19 @@ impl Job<'_> {
             )?;
             return Ok(None);
         }
-        let (frame, readback) = renderer.try_median_frame_times(ctx, self.frames)?;
+        let (frame, readback) = session.try_median_picture_times(ctx, self.frames)?;
         let overhead = if self.dispatch_overhead > 0 {
-            use irt::gpu::shaders::{Kernel, Variant};
-            let d = ctx
-                .compile(
-                    &renderer.gpu_scene,
-                    Kernel::Tests,
-                    Variant::FULL,
-                    1,
-                    &TINY_INPUT,
-                    Default::default(),
-                )
-                .map_err(anyhow::Error::msg)?;
+            use irt::gpu::shaders::{Program, Variant};
+            let d = ctx.compile(
+                session.device_scene(),
+                Program::Tests,
+                Variant::FULL,
+                1,
+                &TINY_INPUT,
+                Default::default(),
+            )?;
             let overhead =
-                irt::gpu::backend::dispatch_overhead(&ctx.bind(&d), TINY_ENTRY, self.dispatch_overhead)?;
+                irt::gpu::recording::dispatch_overhead(&ctx.bind(&d), TINY_ENTRY, self.dispatch_overhead)?;
             Some(overhead)
         } else {
             None
@@ -508,7 +504,7 @@ impl Job<'_> {
             frame,
             readback,
             rays,
-            grid: renderer.accel.summary(),
+            grid: session.accel.summary(),
             device: ctx.adapter_name().to_string(),
             driver_info: ctx.adapter_driver().to_string(),
             cache_status: cache_status.to_string(),
@@ -521,11 +517,11 @@ impl Job<'_> {
 
 /// `--profile` on the ash path: the timestamps and invocation counts of one more frame.
 fn profile(ctx: &irt::gpu::vk::VkContext, job: &Job) -> Result<Profile> {
-    let renderer = Renderer::new(ctx, job.scene, job.opts).map_err(anyhow::Error::msg)?;
-    renderer.try_render(ctx, &mut |_, _| {})?;
+    let mut session = Session::new(ctx, job.scene, job.opts.clone())?;
+    session.try_picture(ctx, &mut |_, _| {})?;
     ctx.take_samples();
-    renderer.try_render(ctx, &mut |_, _| {})?;
-    let passes = irt::gpu::renderer::passes(job.scene).len() as u64;
+    session.try_picture(ctx, &mut |_, _| {})?;
+    let passes = irt::render::modes::passes(job.scene).len() as u64;
     let (w, h) = (job.scene.camera.width as u64, job.scene.camera.height as u64);
     Ok(Profile {
         support: ctx.query_support().describe(),
@@ -547,10 +543,10 @@ const SETTLE: Duration = Duration::from_millis(40);
 fn peer_rounds<D: Device>(
     name: &str,
     scene: &irt::scene::Scene,
-    renderer: &Renderer<D>,
+    session: &mut Session<D>,
     ctx: &D,
     irt_rays: u64,
-    peers: &[Box<dyn irt::peer::Peer>],
+    peers: &[Box<dyn irt::lab::peer::Peer>],
     frames: u32,
     threads: Option<usize>,
     markdown: bool,
@@ -563,7 +559,7 @@ fn peer_rounds<D: Device>(
     for _ in 0..frames.max(1) {
         std::thread::sleep(SETTLE);
         let t = Instant::now();
-        renderer.try_render(ctx, &mut |_, _| {})?;
+        session.try_picture(ctx, &mut |_, _| {})?;
         irt_t.push(t.elapsed());
         for (p, times) in peers.iter().zip(&mut peer_t) {
             std::thread::sleep(SETTLE);
@@ -625,13 +621,13 @@ fn accel_rounds<D: Device>(
     name: &str,
     scene: &irt::scene::Scene,
     ctx: &D,
-    opts: RenderOptions,
+    opts: Settings,
     accels: &[irt::accel::AccelChoice],
     frames: u32,
     markdown: bool,
 ) -> Result<()> {
     use irt::accel::{Accel, AccelChoice};
-    let mut renderers = Vec::new();
+    let mut sessions = Vec::new();
     let mut rays = Vec::new();
     let mut builds = Vec::new();
     for &accel in accels {
@@ -644,21 +640,20 @@ fn accel_rounds<D: Device>(
             })
             .collect();
         builds.push(median(times));
-        let r = Renderer::new(ctx, scene, RenderOptions { accel, ..opts }).map_err(anyhow::Error::msg)?;
+        let mut s = Session::new(ctx, scene, Settings { accel, ..opts.clone() })?;
         // The first frame compiles (lavapipe compiles at the first dispatch).
-        if r.try_render(ctx, &mut |_, _| {})?.image.non_finite() > 0 {
+        if s.try_picture(ctx, &mut |_, _| {})?.image.non_finite() > 0 {
             bail!("the {accel} frame contains NaN/Inf values");
         }
-        let counting = Renderer::new(ctx, scene, RenderOptions { accel, count_rays: true, ..opts })
-            .map_err(anyhow::Error::msg)?;
-        rays.push(counting.try_render(ctx, &mut |_, _| {})?.rays.total());
-        renderers.push(r);
+        let mut counter = Session::new(ctx, scene, Settings { accel, count_rays: true, ..opts.clone() })?;
+        rays.push(counter.try_picture(ctx, &mut |_, _| {})?.rays.total());
+        sessions.push(s);
     }
-    let mut times = vec![Vec::new(); renderers.len()];
+    let mut times = vec![Vec::new(); sessions.len()];
     for _ in 0..frames.max(1) {
-        for (r, t) in renderers.iter().zip(&mut times) {
+        for (s, t) in sessions.iter_mut().zip(&mut times) {
             let t0 = Instant::now();
-            r.try_render(ctx, &mut |_, _| {})?;
+            s.try_picture(ctx, &mut |_, _| {})?;
             t.push(t0.elapsed());
         }
     }
@@ -686,7 +681,7 @@ fn accel_rounds<D: Device>(
     } else {
         println!("scene            {name} ({w}x{h}, {} primitives)", scene.primitive_count());
         println!("device           {} ({})", ctx.adapter_name(), ctx.adapter_driver());
-        for (i, (&accel, r)) in accels.iter().zip(&renderers).enumerate() {
+        for (i, (&accel, r)) in accels.iter().zip(&sessions).enumerate() {
             println!(
                 "{:<16} {:.2} Mrays/s ({:.2}x {}), {} rays/frame, build {:.1} ms: {}",
                 accel.to_string(),

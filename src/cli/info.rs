@@ -41,7 +41,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
     println!("  pipeline cache: {}", ctx.cache_status);
     // scripts/peer-table.sh reads this line to find out whether the Embree peer is built in.
     #[cfg(feature = "embree")]
-    match irt::peer::embree::version() {
+    match irt::lab::peer::embree::version() {
         Ok(v) => println!("  bench peers: native, embree (Embree {v})"),
         Err(e) => println!("  bench peers: native (embree built in but no device: {e})"),
     }

@@ -83,7 +83,7 @@ pub struct DeviceArgs {
     pub no_cache: bool,
 }
 
-pub use irt::gpu::backend::Backend;
+pub use irt::gpu::device::Backend;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum OnOff {
@@ -229,10 +229,10 @@ pub fn setup_bar(primitives: usize) -> indicatif::ProgressBar {
 }
 
 /// The progress callback that drives [`setup_bar`].
-pub fn show_setup(bar: &indicatif::ProgressBar, stage: irt::gpu::SetupStage, done: u64, total: u64) {
+pub fn show_setup(bar: &indicatif::ProgressBar, stage: irt::render::SetupStage, done: u64, total: u64) {
     match stage {
-        irt::gpu::SetupStage::Grid | irt::gpu::SetupStage::Bvh => {
-            bar.set_message(if stage == irt::gpu::SetupStage::Grid {
+        irt::render::SetupStage::Grid | irt::render::SetupStage::Bvh => {
+            bar.set_message(if stage == irt::render::SetupStage::Grid {
                 "building the grid"
             } else {
                 "building the BVH"
@@ -240,7 +240,7 @@ pub fn show_setup(bar: &indicatif::ProgressBar, stage: irt::gpu::SetupStage, don
             bar.set_length(total);
             bar.set_position(done);
         }
-        irt::gpu::SetupStage::Upload => bar.set_message("packing and uploading the scene"),
+        irt::render::SetupStage::Upload => bar.set_message("packing and uploading the scene"),
     }
 }
 

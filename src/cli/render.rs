@@ -3,10 +3,9 @@
 use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
-use irt::gpu::backend::Device;
-use irt::gpu::{RenderOptions, Renderer};
+use irt::gpu::device::Device;
 use irt::image::{Image, OutputFormat};
-use irt::render::{ModeArgs, Session, Settings};
+use irt::render::{Mode, ModeArgs, Picture, Session, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -97,55 +96,55 @@ pub fn run(args: RenderArgs) -> Result<()> {
         };
     }
     match args.backend {
-        super::Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, &scene, "bands"),
+        super::Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, scene, "bands"),
         super::Backend::Ash => bands(
             &super::open_vk_device(&args.device, Default::default())?,
             &args,
             format,
-            &scene,
+            scene,
             "bands, ash",
         ),
     }
 }
 
-/// The band renderer on `ctx`'s path, with a bar for the setup and one for the tracing.
+/// The bands on `ctx`'s path, with a bar for the setup and one for the tracing. The scene is
+/// handed over to the session (a large model is not held twice).
 fn bands<D: Device>(
     ctx: &D,
     args: &RenderArgs,
     format: OutputFormat,
-    scene: &irt::scene::Scene,
+    scene: irt::scene::Scene,
     how: &str,
 ) -> Result<()> {
-    let opts = options(args);
-    let h = scene.camera.height;
-    let setup = super::setup_bar(scene.primitive_count());
-    let renderer = Renderer::with_progress(ctx, scene, opts, &|stage, done, total| {
+    let settings = bands_settings(args);
+    let (h, primitives) = (scene.camera.height, scene.primitive_count());
+    let setup = super::setup_bar(primitives);
+    let mut session = Session::with_progress(ctx, scene, settings, &|stage, done, total| {
         super::show_setup(&setup, stage, done, total)
-    })
-    .map_err(anyhow::Error::msg)?;
+    })?;
     setup.finish_and_clear();
-    let t = renderer.timings;
+    let t = session.setup_timings();
     super::report(
-        scene.primitive_count(),
+        primitives,
         format!(
             "set up in {:.2} s: {} {:.2} s ({} references), packing and upload {:.2} s ({} MiB on the device)",
-            (t.grid_build + t.upload + t.pipeline).as_secs_f64(),
-            match renderer.accel.kind() {
+            (t.accel_build + t.upload + t.pipeline).as_secs_f64(),
+            match session.accel.kind() {
                 irt::accel::AccelKind::Grid => "grid",
                 irt::accel::AccelKind::Bvh(_) => "BVH",
             },
-            t.grid_build.as_secs_f64(),
-            renderer.accel.refs(),
+            t.accel_build.as_secs_f64(),
+            session.accel.refs(),
             t.upload.as_secs_f64(),
-            D::scene_bytes(&renderer.gpu_scene) >> 20
+            session.device_scene().bytes >> 20
         ),
     );
     let bar = tracing_bar(h);
     let t = Instant::now();
-    let frame = renderer.try_render(ctx, &mut |done, _| bar.set_position(done as u64))?;
+    let frame = session.try_picture(ctx, &mut |done, _| bar.set_position(done as u64))?;
     let elapsed = t.elapsed();
     bar.finish_and_clear();
-    write(args, format, &frame.image, scene, elapsed, ctx.adapter_name(), how)?;
+    write(args, format, &frame.image, session.scene(), elapsed, ctx.adapter_name(), how)?;
     print_stats(args, &frame);
     Ok(())
 }
@@ -165,7 +164,7 @@ fn one_pass<D: Device>(
     settings: Settings,
 ) -> Result<()> {
     let mode = settings.mode;
-    let mut session = Session::new(ctx, scene, settings).map_err(anyhow::Error::msg)?;
+    let mut session = Session::new(ctx, scene, settings)?;
     let t = Instant::now();
     session.try_complete_pass(ctx)?;
     let elapsed = t.elapsed();
@@ -177,13 +176,12 @@ fn one_pass<D: Device>(
     write(args, format, &image, scene, elapsed, ctx.adapter_name(), &how)
 }
 
-fn options(args: &RenderArgs) -> RenderOptions {
-    RenderOptions {
+fn bands_settings(args: &RenderArgs) -> Settings {
+    Settings {
+        mode: Mode::Bands,
         count_rays: args.stats,
         corner_rays: args.spd_rules,
-        f64: args.scene.f64(),
-        accel: args.scene.accel,
-        ..Default::default()
+        ..one_picture(args, Mode::Bands)
     }
 }
 
@@ -199,7 +197,7 @@ fn tracing_bar(rows: u32) -> indicatif::ProgressBar {
     bar
 }
 
-fn print_stats(args: &RenderArgs, frame: &irt::gpu::Frame) {
+fn print_stats(args: &RenderArgs, frame: &Picture) {
     if args.stats {
         let r = frame.rays;
         println!(

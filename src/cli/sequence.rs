@@ -4,7 +4,7 @@
 
 use super::render::RenderArgs;
 use anyhow::{bail, Context, Result};
-use irt::gpu::backend::Device;
+use irt::gpu::device::Device;
 use irt::image::OutputFormat;
 use irt::render::schedule::Schedule;
 use irt::render::{Mode, Session, Settings, UpdateReport};
@@ -121,8 +121,8 @@ struct Totals {
 impl Totals {
     fn add(&mut self, u: &UpdateReport, trace: Duration) {
         self.update += u.total();
-        self.grid += u.grid.unwrap_or_default();
-        self.rebuilds += u.grid.is_some() as u32;
+        self.grid += u.accel.unwrap_or_default();
+        self.rebuilds += u.accel.is_some() as u32;
         self.pack += u.pack;
         self.upload += u.upload;
         self.trace += trace;

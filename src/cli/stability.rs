@@ -4,7 +4,7 @@
 use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
-use irt::gpu::backend::Device;
+use irt::gpu::device::Device;
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -41,11 +41,11 @@ pub fn run(args: StabilityArgs) -> Result<()> {
         device,
         machine_line(),
         command_args(),
-        irt::stability::markdown_table(&rows)
+        irt::lab::stability::markdown_table(&rows)
     );
     print!("{table}");
     irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
-    irt::stability::plot_svg(
+    irt::lab::stability::plot_svg(
         &rows,
         &format!("GPU (f32, f64) vs f64 reference: {name}"),
         &args.out_dir.join("plot.svg"),
@@ -56,12 +56,12 @@ pub fn run(args: StabilityArgs) -> Result<()> {
 }
 
 /// Every distance on `ctx`'s path, with a bar; and the adapter's name.
-fn measure<D: Device>(ctx: &D, scene: &irt::scene::Scene) -> Result<(Vec<irt::stability::Row>, String)> {
-    let bar = indicatif::ProgressBar::new(irt::stability::DISTANCES.len() as u64);
+fn measure<D: Device>(ctx: &D, scene: &irt::scene::Scene) -> Result<(Vec<irt::lab::stability::Row>, String)> {
+    let bar = indicatif::ProgressBar::new(irt::lab::stability::DISTANCES.len() as u64);
     let mut rows = Vec::new();
-    for d in irt::stability::DISTANCES {
+    for d in irt::lab::stability::DISTANCES {
         bar.set_message(format!("{d:e}"));
-        rows.push(irt::stability::measure(ctx, scene, d).map_err(anyhow::Error::msg)?);
+        rows.push(irt::lab::stability::measure(ctx, scene, d).map_err(anyhow::Error::msg)?);
         bar.inc(1);
     }
     bar.finish_and_clear();

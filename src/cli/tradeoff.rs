@@ -3,7 +3,7 @@
 use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use irt::gpu::backend::Device;
+use irt::gpu::device::Device;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -63,7 +63,7 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     };
     eprintln!("ground truth took {:.1} s", t.elapsed().as_secs_f64());
     truth.save_png(&args.out_dir.join("ground-truth.png"))?;
-    let mut modes = if args.modes.is_empty() { irt::tradeoff::modes() } else { args.modes.clone() };
+    let mut modes = if args.modes.is_empty() { irt::lab::tradeoff::modes() } else { args.modes.clone() };
     if !modes.contains(&irt::scene::ShadowMode::Hard) {
         modes.insert(0, irt::scene::ShadowMode::Hard);
     }
@@ -94,10 +94,10 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
         args.frames,
         command_args(),
     );
-    let table = header + &irt::tradeoff::markdown_table(&rows);
+    let table = header + &irt::lab::tradeoff::markdown_table(&rows);
     print!("{table}");
     irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
-    irt::tradeoff::plot_svg(
+    irt::lab::tradeoff::plot_svg(
         &rows,
         &format!("shadow modes on {name}: error vs time"),
         &args.out_dir.join("plot.svg"),
@@ -114,9 +114,9 @@ fn measure<D: Device>(
     modes: &[irt::scene::ShadowMode],
     truth: &irt::image::Image,
     frames: u32,
-) -> Result<(Vec<irt::tradeoff::Row>, String)> {
+) -> Result<(Vec<irt::lab::tradeoff::Row>, String)> {
     let bar = indicatif::ProgressBar::new_spinner();
-    let rows = irt::tradeoff::measure_all(ctx, scene, modes, truth, frames, &mut |m| {
+    let rows = irt::lab::tradeoff::measure_all(ctx, scene, modes, truth, frames, &mut |m| {
         bar.set_message(m.to_string());
         bar.tick();
     })

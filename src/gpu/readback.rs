@@ -1,32 +1,43 @@
-//! Runs one readback kernel of `shaders/tests.wgsl` on a batch of inputs (for the unit tests of
-//! single shader functions).
+//! One shader function over a batch of inputs, read back (the unit tests of single shader
+//! functions, `shaders/tests.wgsl`), on any device path.
 
-use super::backend::{infallible, readback_recording, ComputeBackend, WgpuKernel};
-use super::dispatch::{Dispatcher, GpuScene};
-use super::shaders::{Kernel, Variant};
-use super::GpuContext;
+use super::device::{BoundKernel, Device, DeviceScene, ModeBuffers};
+use super::layout;
+use super::recording::Recording;
+use super::shaders::{Program, Variant};
+use super::GpuError;
+use crate::accel::AccelRef;
+use crate::scene::Scene;
+use glam::DVec3;
 
-/// Dispatches `entry` over `items` items whose inputs are `inputs` (the kernel's stride per
-/// item) and returns `out_per_item * items` output vec4s.
-pub fn run_kernel(
-    ctx: &GpuContext,
-    scene: &GpuScene,
+/// Uploads `scene` and its accelerator with positions relative to `origin` (`DVec3::ZERO`: in
+/// world coordinates, what the readback kernels' world-space rays need), without a reserve.
+pub fn upload_at<'a, D: Device>(
+    ctx: &D,
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    origin: DVec3,
+) -> Result<DeviceScene<D::Texture>, GpuError> {
+    let accel = accel.into();
+    let packed = layout::pack_scene(scene, accel, origin);
+    let params = layout::params(scene, accel, &packed, origin);
+    ctx.upload(packed, params, None, 0)
+}
+
+/// Dispatches `entry` of the test program over `items` items whose inputs are `inputs` (the
+/// kernel's stride per item) and returns `out_per_item * items` output vec4s.
+pub fn run_kernel<D: Device>(
+    ctx: &D,
+    scene: &DeviceScene<D::Texture>,
     entry: &str,
     inputs: &[[f32; 4]],
     items: u32,
     out_per_item: u32,
-) -> Vec<[f32; 4]> {
+) -> Result<Vec<[f32; 4]>, GpuError> {
     let out_len = items as u64 * out_per_item as u64;
-    let d = Dispatcher::new(ctx, scene, Kernel::Tests, Variant::FULL, entry, out_len, inputs);
-    infallible(run_readback(&WgpuKernel { ctx, dispatcher: &d }, entry, items))
-}
-
-/// The readback of `entry` over `items` items on any backend whose kernel is bound to its inputs.
-pub fn run_readback<B: ComputeBackend>(
-    backend: &B,
-    entry: &str,
-    items: u32,
-) -> Result<Vec<[f32; 4]>, B::Error> {
-    backend.run(&readback_recording(entry, items), &mut |_, _| {})?;
-    Ok(backend.read_output()?.0)
+    let kernel =
+        ctx.compile(scene, Program::Tests, Variant::FULL, out_len, inputs, ModeBuffers::default())?;
+    let bound = ctx.bind(&kernel);
+    bound.run(&Recording::readback(entry, items), &mut |_, _| {}).map_err(Into::into)?;
+    Ok(bound.read_output().map_err(Into::into)?.0)
 }

@@ -22,16 +22,27 @@ const SHADING: [(&str, &str); 3] = [
     ("shadows.wgsl", include_str!("../../shaders/shadows.wgsl")),
 ];
 
-/// What a compiled shader contains besides the shared modules.
+/// A shader program: the entry files a compiled module holds besides the shared modules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Kernel {
-    /// `trace.wgsl`: the `render` entry point (the headless bands).
+pub enum Program {
+    /// `trace.wgsl`: the `render` entry point (the bands).
     Render,
-    /// `trace.wgsl` + `modes.wgsl`: the interactive modes' entry points as well (render::Session).
-    /// Kept apart from `Render` so the band renderer compiles no more than it runs.
+    /// `trace.wgsl` + `modes.wgsl`: the queue, slice and resolve entry points as well. Kept apart
+    /// from `Render` so that a session in the bands mode compiles no more than it runs.
     Modes,
     /// `trace.wgsl` + `tests.wgsl`: readback kernels that call single shader functions.
     Tests,
+}
+
+impl Program {
+    /// Its name, for labels.
+    pub fn name(self) -> &'static str {
+        match self {
+            Program::Render => "render",
+            Program::Modes => "modes",
+            Program::Tests => "tests",
+        }
+    }
 }
 
 const TRACE: &str = include_str!("../../shaders/trace.wgsl");
@@ -206,17 +217,19 @@ impl Variant {
     }
 }
 
-/// The complete WGSL source of `kernel` specialised to `variant`.
-pub fn compose(kernel: Kernel, variant: Variant) -> String {
+/// The complete WGSL source of `program` specialised to `variant`.
+pub fn compose(program: Program, variant: Variant) -> String {
     let mut src = variant.prelude();
-    let entries: &[(&str, &str)] = match kernel {
-        Kernel::Render => &[("trace.wgsl", TRACE)],
-        Kernel::Modes => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
-        Kernel::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
+    let entries: &[(&str, &str)] = match program {
+        Program::Render => &[("trace.wgsl", TRACE)],
+        Program::Modes => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
+        Program::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
     };
     let bvh = variant.accel != layout::ACCEL_GRID;
-    let accel =
-        [(!bvh || kernel == Kernel::Tests).then_some(GRID), (bvh || kernel == Kernel::Tests).then_some(BVH)];
+    let accel = [
+        (!bvh || program == Program::Tests).then_some(GRID),
+        (bvh || program == Program::Tests).then_some(BVH),
+    ];
     for (name, text) in MODULES.iter().chain(accel.iter().flatten()).chain(&SHADING).chain(entries) {
         src += &format!("\n// ---- {name} ----\n");
         src += text;

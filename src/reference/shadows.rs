@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 
 /// Branchless orthonormal basis around unit `n` (Duff et al. 2017): the light disc's axes, and
 /// where u = 0 lies around a cone's axis (`cone_uv`).
-pub fn frame(n: DVec3) -> (DVec3, DVec3) {
+pub fn basis(n: DVec3) -> (DVec3, DVec3) {
     let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
@@ -217,7 +217,7 @@ mod tests {
             DVec3::new(0.3, -0.5, 0.8).normalize(),
             DVec3::new(1e-9, 0.0, -1.0).normalize(),
         ] {
-            let (u, v) = frame(n);
+            let (u, v) = basis(n);
             for (a, b) in [(u, v), (u, n), (v, n)] {
                 assert!(a.dot(b).abs() < 1e-12);
             }

@@ -5,7 +5,7 @@
 //! coordinates of spheres and cones (`sphere_uv`, `cone_uv`) are conventions, and follow the
 //! shader's definitions.
 
-use super::shadows::frame;
+use super::shadows::basis;
 use crate::image::srgb_to_linear;
 use crate::scene::{Filter, MaterialKind, Scene, Texture, Wrap};
 use glam::{DVec2, DVec3};
@@ -85,7 +85,7 @@ pub fn material_at(scene: &Scene, index: u32, uv: DVec2) -> MaterialKind {
 /// u of direction `q` around the unit axis `a`: its angle in the frame around `a` that light
 /// discs use too ([`frame`]), in [0, 1].
 fn angle_u(q: DVec3, a: DVec3) -> f64 {
-    let (e1, e2) = frame(a);
+    let (e1, e2) = basis(a);
     0.5 + q.dot(e2).atan2(q.dot(e1)) / std::f64::consts::TAU
 }
 

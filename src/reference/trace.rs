@@ -6,7 +6,7 @@ use super::geometry::{
     cone_bounds, cone_normal, intersect_cone, intersect_sphere, intersect_triangle, triangle_normal,
 };
 use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_ambient, shade_light};
-use super::shadows::{bundle_point, cone_shell, frame, mesh_shell, sphere_shell, stratified_disc};
+use super::shadows::{basis, bundle_point, cone_shell, mesh_shell, sphere_shell, stratified_disc};
 use super::texture::{cone_uv, material_at, sphere_uv};
 use crate::scene::{
     bundle_samples, light_shells, CameraBasis, Combine, Light, LightShells, MaterialKind, Scene, ShadowMode,
@@ -438,7 +438,7 @@ impl<'a> Reference<'a> {
             return ray_to(c, stats);
         }
         let l = (c - so) / dist;
-        let (u, v) = frame(l);
+        let (u, v) = basis(l);
         let on_disc = |x: glam::DVec2| c + light.radius * (x.x * u + x.y * v);
         if let Some(n) = self.ground_truth {
             let total: f64 =

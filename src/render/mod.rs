@@ -1,44 +1,79 @@
-//! What a frame dispatches, independent of the window: the paper's two ways of handing out work
-//! (../PAPER §3) over one device-resident scene ([`Session`]).
+//! The one way a frame is traced: a [`Session`] holds a scene on a device and traces it in one of
+//! the [`Mode`]s, for the window, the headless commands and the measurements alike.
 //!
-//! - **Conventional** ([`Mode::Conventional`]): 32×2-pixel tiles from a queue; a schedule
-//!   ([`Schedule`]) is a host-built boundary array that workgroups walk with one atomic counter.
-//!   The frame is shown whole.
+//! - **Bands** ([`Mode::Bands`]): one picture in bands of whole rows into the output buffer, with
+//!   ray counts and the loop meter ([`Picture`]): what `irt render` and the benchmarks trace.
+//! - **Conventional** ([`Mode::Conventional`], the paper's §3): 32×2-pixel tiles from a queue; a
+//!   schedule ([`Schedule`]) is a host-built boundary array that workgroups walk with one atomic
+//!   counter. The frame is shown whole.
 //! - **Frameless** ([`Mode::Frameless`]): a fixed permutation of the pixels ([`PixelOrder`]),
 //!   traced in slices of S pixels per dispatch, each with the newest camera; the frame buffer is
 //!   never cleared and is shown continuously.
 //!
-//! Both refine progressively while the camera rests: later samples are jittered and added up
-//! (the frame buffer holds sums and counts).
+//! Conventional and frameless refine progressively while the camera rests: later samples are
+//! jittered and added up (the frame buffer holds sums and counts). Each mode's recordings are
+//! plain functions of its state ([`modes`]); animation ([`animation`]) and the background BVH
+//! ([`background`]) live beside the session.
 
+pub mod animation;
 pub mod args;
+pub mod background;
 pub mod metrics;
+pub mod modes;
 pub mod order;
+pub mod picture;
 pub mod replay;
 pub mod schedule;
 pub mod session;
-pub mod study;
+pub mod updates;
 
 pub use args::ModeArgs;
+pub use background::Adoption;
 pub use order::PixelOrder;
+pub use picture::{LoopMeter, Picture};
 pub use schedule::Schedule;
-pub use session::{Session, StepReport, UpdateReport};
+pub use session::{Session, SetupProgress, SetupStage, SetupTimings, StepReport};
+pub use updates::UpdateReport;
 
+use crate::gpu::shaders::Variant;
+use crate::gpu::GpuError;
 use crate::scene::{Scene, ShadowMode};
 use std::fmt;
 use std::str::FromStr;
 
-/// Frameless slice size by default (docs/interactive.md, slice table): on a quiet 2-core machine
-/// with 8×8 Hilbert chunks a slice of 16384 pixels takes about 6 ms at 512² on the default scene,
-/// inside a 60 Hz refresh (presents stay at the display's rate), and traced 28% more pixels per
-/// second than 4096 with a quarter of the dispatches; 256–1024 lose a third or more to
-/// per-dispatch overhead, and from 65536 a slice outlasts a refresh. S should stay a few ms of
-/// the device's work: a much faster device wants larger slices.
+/// Frameless slice size by default: a few ms of lavapipe's work at 512² on two cores, inside a
+/// 60 Hz refresh (docs/interactive.md, "Slice size"). A much faster device wants larger slices.
 pub const DEFAULT_SLICE: u32 = 16384;
+
+/// What setting up or changing a session can fail with.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error("{0}")]
+    Scene(String),
+    #[error("at time {time} s: {message}")]
+    SceneAt { time: f64, message: String },
+    #[error(transparent)]
+    Order(#[from] modes::TooManyPixels),
+    #[error("starting the BVH build thread: {0}")]
+    Thread(std::io::Error),
+    #[error("the BVH built in the background is lost: {0}")]
+    BvhBuild(&'static str),
+}
+
+impl From<crate::scene::InvalidScene> for RenderError {
+    fn from(e: crate::scene::InvalidScene) -> Self {
+        RenderError::Scene(e.0)
+    }
+}
 
 /// How work is handed out.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Mode {
+    /// One picture in bands of whole rows, into the output buffer only (no frame buffer, one
+    /// sample; an animated scene at time 0): the headless renderer's.
+    Bands,
     /// Tiles from a queue, the frame shown whole. `workers`: the P the schedule is built for
     /// (0 = the device's default, [`Schedule::default_workers`]).
     Conventional { schedule: Schedule, workers: u32 },
@@ -66,6 +101,7 @@ impl Mode {
 
     pub fn name(&self) -> &'static str {
         match self {
+            Mode::Bands => "bands",
             Mode::Conventional { .. } => "conventional",
             Mode::Frameless { .. } => "frameless",
         }
@@ -75,6 +111,7 @@ impl Mode {
 impl fmt::Display for Mode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Mode::Bands => write!(f, "bands"),
             Mode::Conventional { schedule, workers: 0 } => write!(f, "conventional ({schedule})"),
             Mode::Conventional { schedule, workers } => write!(f, "conventional ({schedule}, P = {workers})"),
             Mode::Frameless { order, slice, .. } => write!(f, "frameless ({order}, S = {slice})"),
@@ -82,14 +119,15 @@ impl fmt::Display for Mode {
     }
 }
 
-/// `conventional` or `frameless` (defaults for the rest).
+/// `bands`, `conventional` or `frameless` (defaults for the rest).
 impl FromStr for Mode {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
+            "bands" => Ok(Mode::Bands),
             "conventional" => Ok(Mode::conventional()),
             "frameless" => Ok(Mode::frameless()),
-            _ => Err(format!("unknown mode `{s}`: expected conventional or frameless")),
+            _ => Err(format!("unknown mode `{s}`: expected bands, conventional or frameless")),
         }
     }
 }
@@ -112,6 +150,23 @@ pub struct Settings {
     pub waves: u32,
     /// The accelerator (`--accel`): the grid, a BVH, or chosen per scene.
     pub accel: crate::accel::AccelChoice,
+    /// Count rays by kind (four atomics per pixel; `irt render --stats`): a measuring run.
+    pub count_rays: bool,
+    /// Count each loop's SIMD efficiency (`Variant::simd_stats`; the device needs subgroup
+    /// operations; `irt bench --simd`): a measuring run.
+    pub simd_stats: bool,
+    /// Compile the full uber-shader instead of the variant specialised to the scene (`irt bench
+    /// --uber`).
+    pub uber_shader: bool,
+    /// Bands: eye rays through the pixel corners, a (width+1)x(height+1) grid, each pixel the
+    /// mean of its four corners (SPD's testing rules), instead of through the centres.
+    pub corner_rays: bool,
+    /// Make the scene texture layered past this many rows, fewer than the device's largest
+    /// side (tests trace the layered path with small scenes); `None`: the device's.
+    pub max_scene_rows: Option<u32>,
+    /// Deal the bands' rows of tiles to this many device threads (0 or 1: in order); `None`: the
+    /// device's (`gpu::device::dealing_threads`).
+    pub deal: Option<u32>,
 }
 
 impl Default for Settings {
@@ -125,11 +180,32 @@ impl Default for Settings {
             max_samples: 64,
             waves: 4,
             accel: Default::default(),
+            count_rays: false,
+            simd_stats: false,
+            uber_shader: false,
+            corner_rays: false,
+            max_scene_rows: None,
+            deal: None,
         }
     }
 }
 
 impl Settings {
+    /// One picture in the bands mode, the rest as by default.
+    pub fn bands() -> Settings {
+        Settings { mode: Mode::Bands, max_samples: 1, ..Settings::default() }
+    }
+
+    /// The shader variant these settings compile for `scene` (settings applied).
+    pub fn variant(&self, scene: &Scene) -> Variant {
+        let base = if self.uber_shader {
+            Variant { count_rays: self.count_rays, ..Variant::FULL }
+        } else {
+            Variant::for_scene(scene, self.count_rays)
+        };
+        Variant { f64: self.f64, simd_stats: self.simd_stats, ..base }
+    }
+
     /// Writes the overrides into `scene`.
     pub fn apply_to(&self, scene: &mut Scene) {
         if let Some(s) = self.shadows {

@@ -23,7 +23,7 @@
 
 use super::metrics::{AgeStats, AgeTracker, Clock, LatencyStats, LatencyTracker, LATENCY_LEVELS};
 use super::{Mode, Session, Settings};
-use crate::gpu::backend::Device;
+use crate::gpu::device::Device;
 use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use crate::image::Image;
 use crate::io::LoadError;
@@ -35,6 +35,26 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::time::{Duration, Instant};
 use toml::Spanned;
+
+/// What a replay can fail with.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
+    #[error("the display rate must be a number of Hz > 0, not {0}")]
+    DisplayRate(f64),
+    #[error("the replay did not settle within {0:.0} s of clock time")]
+    Unsettled(f64),
+    #[error("{0}: {1}")]
+    Io(String, std::io::Error),
+}
+
+/// A device path's error as a replay's.
+fn gpu_err<E: Into<crate::gpu::GpuError>>(e: E) -> ReplayError {
+    ReplayError::Gpu(e.into())
+}
 
 /// The display rate of a replay unless told: presents and input at 60 Hz of clock time.
 pub const DEFAULT_DISPLAY_HZ: f64 = 60.0;
@@ -349,18 +369,17 @@ struct Ideal<D: Device> {
 }
 
 impl<D: Device> Ideal<D> {
-    fn new(ctx: &D, scene: &Scene, settings: &Settings) -> Result<Self, String> {
+    fn new(ctx: &D, scene: &Scene, settings: &Settings) -> Result<Self, ReplayError> {
         let settings = Settings { mode: Mode::conventional(), max_samples: 1, ..settings.clone() };
         Ok(Ideal { session: Session::new(ctx, scene, settings)?, last: None })
     }
 
-    fn image(&mut self, ctx: &D, camera: &Camera, t: f64) -> Result<&Image, String> {
+    fn image(&mut self, ctx: &D, camera: &Camera, t: f64) -> Result<&Image, ReplayError> {
         if self.last.as_ref().is_none_or(|(c, at, _)| c != camera || *at != t) {
             self.session.set_camera(ctx, camera);
             self.session.set_time(ctx, t)?;
-            self.session.try_complete_pass(ctx).map_err(|e| e.to_string())?;
-            self.last =
-                Some((camera.clone(), t, self.session.try_read_image(ctx).map_err(|e| e.to_string())?));
+            self.session.try_complete_pass(ctx).map_err(gpu_err)?;
+            self.last = Some((camera.clone(), t, self.session.try_read_image(ctx).map_err(gpu_err)?));
         }
         Ok(&self.last.as_ref().expect("just rendered").2)
     }
@@ -424,7 +443,7 @@ impl<D: Device> Replayer<'_, D> {
         t <= self.end && self.opts.error_every > 0 && k.is_multiple_of(self.opts.error_every as u64)
     }
 
-    fn error_of(&mut self, shown: &Image, t: f64) -> Result<f64, String> {
+    fn error_of(&mut self, shown: &Image, t: f64) -> Result<f64, ReplayError> {
         let camera = self.camera(t);
         let ideal = self.ideal.as_mut().expect("error_every > 0 made the ideal session");
         Ok(crate::metrics::rmse(shown, ideal.image(self.ctx, &camera, t)?))
@@ -432,7 +451,7 @@ impl<D: Device> Replayer<'_, D> {
 
     /// Takes the camera and (in an animated scene) the objects of time `t`; returns the host
     /// time spent moving them.
-    fn take_state(&mut self, t: f64) -> Result<Duration, String> {
+    fn take_state(&mut self, t: f64) -> Result<Duration, ReplayError> {
         let c = self.camera(t);
         self.session.set_camera(self.ctx, &c);
         if self.motion_end > 0.0 {
@@ -442,7 +461,7 @@ impl<D: Device> Replayer<'_, D> {
     }
 
     /// A new picture at `t`.
-    fn present(&mut self, t: f64) -> Result<(), String> {
+    fn present(&mut self, t: f64) -> Result<(), ReplayError> {
         self.read_inputs(t);
         self.latency.present(t, &self.screen);
         let age = self.screen.stats(t);
@@ -453,20 +472,20 @@ impl<D: Device> Replayer<'_, D> {
             let file = dir.join(format!("frame_{:04}.png", self.frames_written));
             self.session
                 .try_read_image(self.ctx)
-                .map_err(|e| e.to_string())?
+                .map_err(gpu_err)?
                 .save_png(&file)
-                .map_err(|e| format!("writing {}: {e}", file.display()))?;
+                .map_err(|e| ReplayError::Io(format!("writing {}", file.display()), e))?;
             self.frames_written += 1;
         }
         Ok(())
     }
 
     /// Frameless: a present is a refresh.
-    fn present_frameless(&mut self, t: f64) -> Result<(), String> {
+    fn present_frameless(&mut self, t: f64) -> Result<(), ReplayError> {
         self.present(t)?;
         if t <= self.end {
             let error = if self.error_due(t) {
-                let shown = self.session.try_read_image(self.ctx).map_err(|e| e.to_string())?;
+                let shown = self.session.try_read_image(self.ctx).map_err(gpu_err)?;
                 Some(self.error_of(&shown, t)?)
             } else {
                 None
@@ -477,7 +496,7 @@ impl<D: Device> Replayer<'_, D> {
     }
 
     /// Conventional: a refresh at `t` shows the frame presented last.
-    fn refresh_conventional(&mut self, t: f64) -> Result<(), String> {
+    fn refresh_conventional(&mut self, t: f64) -> Result<(), ReplayError> {
         self.read_inputs(t);
         if t > self.end {
             return Ok(());
@@ -503,9 +522,9 @@ pub fn replay<D: Device>(
     settings: &Settings,
     path: &CameraPath,
     opts: &ReplayOptions,
-) -> Result<ReplayReport, String> {
+) -> Result<ReplayReport, ReplayError> {
     if !(opts.display_hz.is_finite() && opts.display_hz > 0.0) {
-        return Err(format!("the display rate must be a number of Hz > 0, not {}", opts.display_hz));
+        return Err(ReplayError::DisplayRate(opts.display_hz));
     }
     let mut scene = scene.clone();
     let size = [scene.camera.width, scene.camera.height];
@@ -515,7 +534,8 @@ pub fn replay<D: Device>(
     let session = Session::new(ctx, &scene, settings.clone())?;
     let ideal = if opts.error_every > 0 { Some(Ideal::new(ctx, &scene, settings)?) } else { None };
     if let Some(dir) = &opts.frames_dir {
-        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir)
+            .map_err(|e| ReplayError::Io(format!("creating {}", dir.display()), e))?;
     }
     let conventional = matches!(settings.mode, Mode::Conventional { .. });
     let pixels = size[0] as u64 * size[1] as u64;
@@ -540,9 +560,9 @@ pub fn replay<D: Device>(
         frames_written: 0,
     };
     // Warm start: the first camera's picture is on screen at t = 0.
-    r.session.try_complete_pass(ctx).map_err(|e| e.to_string())?;
+    r.session.try_complete_pass(ctx).map_err(gpu_err)?;
     if r.ideal.is_some() && conventional {
-        r.held = Some(r.session.try_read_image(ctx).map_err(|e| e.to_string())?);
+        r.held = Some(r.session.try_read_image(ctx).map_err(gpu_err)?);
     }
     let bar = if opts.progress {
         let bar = indicatif::ProgressBar::new((r.end * 1000.0).ceil() as u64);
@@ -568,7 +588,7 @@ pub fn replay<D: Device>(
     let mut frame_start = 0.0;
     loop {
         if now > limit {
-            return Err(format!("the replay did not settle within {limit:.0} s of clock time"));
+            return Err(ReplayError::Unsettled(limit));
         }
         let t_camera = now;
         let mut update = Duration::ZERO;
@@ -579,7 +599,7 @@ pub fn replay<D: Device>(
             frame_start = now;
             in_frame = true;
         }
-        let step = r.session.try_step(ctx).map_err(|e| e.to_string())?;
+        let step = r.session.try_step(ctx).map_err(gpu_err)?;
         if step.idle {
             // Converged at rest: nothing to trace until the next refresh.
             in_frame = false;
@@ -618,7 +638,7 @@ pub fn replay<D: Device>(
                 r.screen.record_frame(frame_start);
                 r.present(now)?;
                 if r.ideal.is_some() {
-                    r.held = Some(r.session.try_read_image(ctx).map_err(|e| e.to_string())?);
+                    r.held = Some(r.session.try_read_image(ctx).map_err(gpu_err)?);
                 }
             }
         } else {
@@ -673,14 +693,17 @@ fn median_per_pixel(units: &[(u64, Duration)]) -> f64 {
 /// Seconds per pixel of `settings`' shadows and depth on `scene` as a conventional frame (the
 /// default schedule) takes them on `ctx`: the median of `frames` frames after one untimed one.
 /// What a virtual clock charges to compare modes at the device's real rate.
-pub fn calibrate<D: Device>(ctx: &D, scene: &Scene, settings: &Settings, frames: u32) -> Result<f64, String> {
+pub fn calibrate<D: Device>(
+    ctx: &D,
+    scene: &Scene,
+    settings: &Settings,
+    frames: u32,
+) -> Result<f64, ReplayError> {
     let settings = Settings { mode: Mode::conventional(), max_samples: 0, ..settings.clone() };
     let mut s = Session::new(ctx, scene, settings)?;
-    s.try_complete_pass(ctx).map_err(|e| e.to_string())?;
-    let mut times: Vec<Duration> = (0..frames.max(1))
-        .map(|_| s.try_complete_pass(ctx))
-        .collect::<Result<_, _>>()
-        .map_err(|e| e.to_string())?;
+    s.try_complete_pass(ctx).map_err(gpu_err)?;
+    let mut times: Vec<Duration> =
+        (0..frames.max(1)).map(|_| s.try_complete_pass(ctx)).collect::<Result<_, _>>().map_err(gpu_err)?;
     times.sort();
     let [w, h] = s.size();
     Ok(times[times.len() / 2].as_secs_f64() / (w as f64 * h as f64))
@@ -756,8 +779,8 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub no_cache: bool,
     /// Device path: wgpu (default) or ash (raw Vulkan; the same modes and pictures).
-    #[arg(long, value_enum, default_value_t = crate::gpu::backend::Backend::Wgpu)]
-    pub backend: crate::gpu::backend::Backend,
+    #[arg(long, value_enum, default_value_t = crate::gpu::device::Backend::Wgpu)]
+    pub backend: crate::gpu::device::Backend,
 }
 
 impl ReplayArgs {
@@ -795,11 +818,11 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
     let settings = args.settings()?;
     let choice = AdapterChoice::from_arg_or_env(args.adapter.as_deref());
     match args.backend {
-        crate::gpu::backend::Backend::Wgpu => {
+        crate::gpu::device::Backend::Wgpu => {
             let ctx = GpuContext::with_cache(&choice, &CacheSetting::from_flag_or_env(args.no_cache))?;
             run_on(&ctx, &args, &path, &scene, &settings)
         }
-        crate::gpu::backend::Backend::Ash => {
+        crate::gpu::device::Backend::Ash => {
             run_on(&crate::gpu::vk::VkContext::new(&choice)?, &args, &path, &scene, &settings)
         }
     }
@@ -818,7 +841,7 @@ fn run_on<D: Device>(
         ClockArg::Calibrated => {
             let mut s = scene.clone();
             s.camera = path.camera_at(0.0, scene.camera.width, scene.camera.height);
-            let spp = calibrate(ctx, &s, settings, 3).map_err(anyhow::Error::msg)?;
+            let spp = calibrate(ctx, &s, settings, 3)?;
             Clock::Virtual { seconds_per_pixel: spp }
         }
     };
@@ -830,7 +853,7 @@ fn run_on<D: Device>(
         progress: true,
     };
     let t = Instant::now();
-    let report = replay(ctx, scene, settings, path, &opts).map_err(anyhow::Error::msg)?;
+    let report = replay(ctx, scene, settings, path, &opts)?;
     let scene_name = args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
     print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), ctx));
     eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());

@@ -3,10 +3,9 @@
 //! is representable in f32. Every lit hit (n_g·l > 0) must have s = 1: acne fraction exactly 0.
 use crate::common;
 
+use crate::common::run_kernel;
 use common::{f32_round, gpu, v4, Rng};
 use glam::DVec3;
-use irt::gpu::readback::run_kernel;
-use irt::gpu::GpuScene;
 use irt::io::shapes;
 use irt::scene::{Light, Sphere};
 
@@ -26,7 +25,7 @@ fn acne(ctx: &irt::gpu::GpuContext, at: DVec3, scale: f64, mesh: bool, seed: u64
         color: DVec3::ONE,
         radius: 0.0,
     }];
-    let gs = GpuScene::upload(ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+    let gs = crate::common::upload(ctx, &s, &irt::accel::Grid::build(&s));
     let mut rng = Rng::new(seed);
     let eye = at + DVec3::new(1.0, 2.0, 6.0) * scale;
     let rays: Vec<(DVec3, DVec3)> = (0..4000)

@@ -1,13 +1,13 @@
-//! The two device paths agree (issue #12): the band renderer and readback kernels give the same
-//! bits on wgpu and on raw Vulkan through ash, and the ash path's failures are messages.
+//! The two device paths agree: the bands and readback kernels give the same bits on wgpu and on
+//! raw Vulkan through ash, and the ash path's failures are messages.
 use crate::common;
 
 use common::*;
 use glam::DVec3;
 use irt::accel::AccelChoice;
 use irt::accel::Grid;
-use irt::gpu::vk::{self, VkContext, VkError, VkRenderer, VkScene};
-use irt::gpu::{AdapterChoice, GpuContext, GpuScene, RenderOptions, Renderer};
+use irt::gpu::vk::{self, VkContext, VkError};
+use irt::gpu::{AdapterChoice, GpuContext};
 use irt::render::{Session, Settings};
 use irt::scene::Scene;
 
@@ -24,11 +24,11 @@ fn load(path: &str, w: u32, h: u32) -> Scene {
 
 /// Renders `scene` with `opts` on both paths and asserts the same pixels (bit for bit), rays and
 /// loop meter.
-fn assert_same(what: &str, ctx: &GpuContext, vk: &VkContext, scene: &Scene, opts: RenderOptions) {
-    let a = Renderer::new(ctx, scene, opts).expect("wgpu renderer");
-    let fa = a.render(ctx, &mut |_, _| {});
-    let b = VkRenderer::new(vk, scene, opts).expect("ash renderer");
-    let fb = b.try_render(vk, &mut |_, _| {}).expect("ash render");
+fn assert_same(what: &str, ctx: &GpuContext, vk: &VkContext, scene: &Scene, opts: Settings) {
+    let mut a = Session::new(ctx, scene, opts.clone()).expect("wgpu session");
+    let fa = a.picture(ctx, &mut |_, _| {});
+    let mut b = Session::new(vk, scene, opts).expect("ash session");
+    let fb = b.try_picture(vk, &mut |_, _| {}).expect("ash render");
     assert_eq!(a.variant, b.variant, "{what}: variant");
     let bits = |i: &irt::image::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
     let (pa, pb) = (bits(&fa.image), bits(&fb.image));
@@ -43,22 +43,22 @@ fn assert_same(what: &str, ctx: &GpuContext, vk: &VkContext, scene: &Scene, opts
 #[test]
 fn bands_agree_bit_for_bit() {
     let (ctx, vk) = (gpu(), vk_ctx());
-    let counting = RenderOptions { count_rays: true, ..Default::default() };
-    assert_same("default", &ctx, &vk, &load("scenes/default.toml", 96, 72), counting);
-    let grid = RenderOptions { accel: AccelChoice::Grid, ..counting };
+    let counting = Settings { count_rays: true, ..Settings::bands() };
+    assert_same("default", &ctx, &vk, &load("scenes/default.toml", 96, 72), counting.clone());
+    let grid = Settings { accel: AccelChoice::Grid, ..counting.clone() };
     assert_same("default, grid", &ctx, &vk, &load("scenes/default.toml", 96, 72), grid);
-    assert_same("textured", &ctx, &vk, &load("scenes/textured.toml", 80, 60), RenderOptions::default());
-    assert_same("dielectric", &ctx, &vk, &load("scenes/dielectric.toml", 80, 60), counting);
-    assert_same("cones", &ctx, &vk, &load("scenes/cones.toml", 64, 48), RenderOptions::default());
+    assert_same("textured", &ctx, &vk, &load("scenes/textured.toml", 80, 60), Settings::bands());
+    assert_same("dielectric", &ctx, &vk, &load("scenes/dielectric.toml", 80, 60), counting.clone());
+    assert_same("cones", &ctx, &vk, &load("scenes/cones.toml", 64, 48), Settings::bands());
     // Split soft-shadow bundles: several passes per band.
     let mut soft = load("scenes/default.toml", 64, 48);
     soft.trace.shadows = "bundle:24".parse().expect("bundle mode");
     soft.lights.iter_mut().for_each(|l| l.radius = 0.4);
-    assert_same("default, bundle:24", &ctx, &vk, &soft, counting);
+    assert_same("default, bundle:24", &ctx, &vk, &soft, counting.clone());
     // SPD at small size: SPD's corner rays, and triangles.
-    let spd = RenderOptions { corner_rays: true, count_rays: true, ..Default::default() };
+    let spd = Settings { corner_rays: true, count_rays: true, ..Settings::bands() };
     assert_same("balls_s1", &ctx, &vk, &load("scenes/spd/balls_s1.nff", 64, 64), spd);
-    assert_same("gears_s1", &ctx, &vk, &load("scenes/spd/gears_s1.nff", 64, 64), RenderOptions::default());
+    assert_same("gears_s1", &ctx, &vk, &load("scenes/spd/gears_s1.nff", 64, 64), Settings::bands());
 }
 
 #[test]
@@ -66,15 +66,9 @@ fn layered_uber_and_f64_variants_agree() {
     let (ctx, vk) = (gpu(), vk_ctx());
     let s = load("scenes/default.toml", 48, 36);
     // A 2D-array scene texture (layered past 0 rows), the uber-shader, f64 traversal.
-    assert_same("layered", &ctx, &vk, &s, RenderOptions { max_scene_rows: Some(0), ..Default::default() });
-    assert_same(
-        "uber",
-        &ctx,
-        &vk,
-        &s,
-        RenderOptions { uber_shader: true, count_rays: true, ..Default::default() },
-    );
-    assert_same("f64", &ctx, &vk, &s, RenderOptions { f64: true, ..Default::default() });
+    assert_same("layered", &ctx, &vk, &s, Settings { max_scene_rows: Some(0), ..Settings::bands() });
+    assert_same("uber", &ctx, &vk, &s, Settings { uber_shader: true, count_rays: true, ..Settings::bands() });
+    assert_same("f64", &ctx, &vk, &s, Settings { f64: true, ..Settings::bands() });
 }
 
 #[test]
@@ -83,8 +77,8 @@ fn readback_kernels_agree() {
     let s = scene_of(vec![irt::scene::Sphere { center: DVec3::ZERO, radius: 1.0, material: 0 }], vec![]);
     let grid = Grid::build(&s);
     let (a, b) = (
-        GpuScene::upload(&ctx, &s, &grid).expect("upload"),
-        VkScene::upload(&vkc, &s, &grid).expect("upload"),
+        crate::common::upload(&ctx, &s, &grid),
+        irt::gpu::readback::upload_at(&vkc, &s, &grid, DVec3::ZERO).expect("upload"),
     );
     let mut rng = Rng::new(7);
     let n = 1000;
@@ -99,8 +93,8 @@ fn readback_kernels_agree() {
         .map(|i| [rng.f() as f32, rng.range(0.0, 0.2) as f32, rng.range(1.0, 2.5) as f32, (i % 2) as f32])
         .collect();
     for (entry, inputs) in [("k_sphere", &sphere), ("k_fresnel", &fresnel)] {
-        let wa = irt::gpu::readback::run_kernel(&ctx, &a, entry, inputs, n, 1);
-        let wb = vk::run_kernel(&vkc, &b, entry, inputs, n, 1).expect(entry);
+        let wa = crate::common::run_kernel(&ctx, &a, entry, inputs, n, 1);
+        let wb = irt::gpu::readback::run_kernel(&vkc, &b, entry, inputs, n, 1).expect(entry);
         let bits = |v: &[[f32; 4]]| v.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
         assert_eq!(bits(&wa), bits(&wb), "{entry}");
         assert!(wa.iter().any(|p| p[0] > 0.0), "{entry}: all zero");
@@ -110,10 +104,11 @@ fn readback_kernels_agree() {
 #[test]
 fn corrupted_spirv_is_rejected_with_a_message() {
     let vk = vk_ctx();
-    let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, irt::gpu::shaders::Variant::FULL);
+    let src =
+        irt::gpu::shaders::compose(irt::gpu::shaders::Program::Render, irt::gpu::shaders::Variant::FULL);
     let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
     let good = vk::compile_entry(&module, &info, "render", &vk::spv_options(&vk)).expect("SPIR-V");
-    vk.try_pipeline(&good, "render", false).expect("naga's SPIR-V is accepted");
+    vk.try_pipeline(&good, "render").expect("naga's SPIR-V is accepted");
     // An instruction's opcode half of its first word, past the header (word 5 is the first
     // instruction, an OpCapability).
     let at = 5 + (good[5] >> 16) as usize;
@@ -127,12 +122,12 @@ fn corrupted_spirv_is_rejected_with_a_message() {
     for (what, corrupt) in corruptions {
         let mut words = good.clone();
         corrupt(&mut words);
-        match vk.try_pipeline(&words, "render", false) {
+        match vk.try_pipeline(&words, "render") {
             Err(VkError::Shader(msg)) => assert!(msg.contains("SPIR-V rejected"), "{what}: {msg}"),
             other => panic!("{what}: expected a SPIR-V rejection, got {other:?}"),
         }
     }
-    match vk.try_pipeline(&good, "no_such_entry", false) {
+    match vk.try_pipeline(&good, "no_such_entry") {
         Err(VkError::Shader(msg)) => assert!(msg.contains("no OpEntryPoint"), "{msg}"),
         other => panic!("a missing entry point: {other:?}"),
     }
@@ -158,7 +153,7 @@ fn scene_texture_is_a_storage_image_read_without_a_sampler() {
     let vkc = vk_ctx();
     for layered in [false, true] {
         let variant = irt::gpu::shaders::Variant { layered, ..irt::gpu::shaders::Variant::FULL };
-        let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, variant);
+        let src = irt::gpu::shaders::compose(irt::gpu::shaders::Program::Render, variant);
         let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
         let words = vk::compile_entry(&module, &info, "render", &vk::spv_options(&vkc)).expect("SPIR-V");
         let (mut images, mut reads, mut fetches, mut samplers) = (Vec::new(), 0, 0, 0);
@@ -434,23 +429,24 @@ fn every_scene_agrees_in_both_modes_and_precisions() {
 /// and loop meter, on scenes of every primitive kind.
 fn assert_options_keep_the_image(what: &str, options: vk::VkOptions) {
     let (a, b) = (vk_ctx(), VkContext::with_options(&common::adapter(), options).expect(what));
-    let counting = RenderOptions { count_rays: true, ..Default::default() };
-    let spd = RenderOptions { corner_rays: true, count_rays: true, ..Default::default() };
+    let counting = Settings { count_rays: true, ..Settings::bands() };
+    let spd = Settings { corner_rays: true, count_rays: true, ..Settings::bands() };
     let mut soft = load("scenes/default.toml", 48, 40);
     soft.trace.shadows = "bundle:24".parse().expect("bundle mode");
     soft.lights.iter_mut().for_each(|l| l.radius = 0.4);
     let cases = [
-        ("default", load("scenes/default.toml", 80, 60), counting),
-        ("default, bundle:24", soft, counting),
-        ("textured", load("scenes/textured.toml", 64, 48), counting),
-        ("dielectric", load("scenes/dielectric.toml", 64, 48), counting),
+        ("default", load("scenes/default.toml", 80, 60), counting.clone()),
+        ("default, bundle:24", soft, counting.clone()),
+        ("textured", load("scenes/textured.toml", 64, 48), counting.clone()),
+        ("dielectric", load("scenes/dielectric.toml", 64, 48), counting.clone()),
         ("cones", load("scenes/cones.toml", 48, 40), counting),
-        ("balls_s1", load("scenes/spd/balls_s1.nff", 48, 48), spd),
+        ("balls_s1", load("scenes/spd/balls_s1.nff", 48, 48), spd.clone()),
         ("gears_s1", load("scenes/spd/gears_s1.nff", 48, 48), spd),
     ];
     for (name, scene, opts) in cases {
-        let fa = VkRenderer::new(&a, &scene, opts).expect(name).try_render(&a, &mut |_, _| {}).expect(name);
-        let fb = VkRenderer::new(&b, &scene, opts).expect(name).try_render(&b, &mut |_, _| {}).expect(name);
+        let fa =
+            Session::new(&a, &scene, opts.clone()).expect(name).try_picture(&a, &mut |_, _| {}).expect(name);
+        let fb = Session::new(&b, &scene, opts).expect(name).try_picture(&b, &mut |_, _| {}).expect(name);
         let bits =
             |i: &irt::image::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
         let (pa, pb) = (bits(&fa.image), bits(&fb.image));
@@ -490,7 +486,8 @@ fn robustness_off_writes_unchecked_spirv() {
     use naga::proc::BoundsCheckPolicy::{Restrict, Unchecked};
     assert_eq!((p(&on).index, p(&on).buffer, p(&on).image_load), (Restrict, Unchecked, Unchecked));
     assert_eq!((p(&off).index, p(&off).buffer, p(&off).image_load), (Unchecked, Unchecked, Unchecked));
-    let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, irt::gpu::shaders::Variant::FULL);
+    let src =
+        irt::gpu::shaders::compose(irt::gpu::shaders::Program::Render, irt::gpu::shaders::Variant::FULL);
     let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
     let words =
         |c: &VkContext| vk::compile_entry(&module, &info, "render", &vk::spv_options(c)).expect("SPIR-V");
@@ -511,16 +508,16 @@ fn profile_counts_every_invocation_of_a_frame() {
     soft.trace.shadows = "bundle:24".parse().expect("bundle mode");
     soft.lights.iter_mut().for_each(|l| l.radius = 0.4);
     for scene in [load("scenes/default.toml", 64, 48), soft] {
-        let passes = irt::gpu::renderer::passes(&scene).len() as u64;
+        let passes = irt::render::modes::passes(&scene).len() as u64;
         // Tiles in order: dealt to the device's threads, a band's workgroups are rounded up to a
         // multiple of the threads (the extra ones exit), which depends on the machine.
-        let r = VkRenderer::new(&ctx, &scene, RenderOptions { deal: Some(0), ..Default::default() })
-            .expect("renderer");
+        let mut r =
+            Session::new(&ctx, &scene, Settings { deal: Some(0), ..Settings::bands() }).expect("renderer");
         ctx.take_samples();
-        r.try_render(&ctx, &mut |_, _| {}).expect("frame");
+        r.try_picture(&ctx, &mut |_, _| {}).expect("frame");
         let samples = ctx.take_samples();
         // Every band of every pass (64 x 48 is one band of `BAND_PIXELS`).
-        let bands = 48u32.div_ceil((irt::gpu::renderer::BAND_PIXELS / 64).max(1)) as u64;
+        let bands = 48u32.div_ceil((irt::render::modes::BAND_PIXELS / 64).max(1)) as u64;
         assert_eq!(samples.len() as u64, bands * passes, "one sample per dispatch");
         for s in &samples {
             assert_eq!(s.entry, "render");
@@ -534,9 +531,9 @@ fn profile_counts_every_invocation_of_a_frame() {
     }
     // Without the option nothing is recorded.
     let plain = vk_ctx();
-    let r = VkRenderer::new(&plain, &load("scenes/default.toml", 16, 16), RenderOptions::default())
-        .expect("renderer");
-    r.try_render(&plain, &mut |_, _| {}).expect("frame");
+    let mut r =
+        Session::new(&plain, &load("scenes/default.toml", 16, 16), Settings::bands()).expect("renderer");
+    r.try_picture(&plain, &mut |_, _| {}).expect("frame");
     assert!(plain.take_samples().is_empty());
     assert!(!plain.query_support().timestamps && !plain.query_support().invocations);
 }
@@ -547,11 +544,12 @@ fn profile_counts_every_invocation_of_a_frame() {
 /// and its layered and f64 forms.
 #[test]
 fn every_variant_passes_the_full_check_and_makes_a_pipeline() {
-    use irt::gpu::shaders::{compose, validate, Kernel, Variant};
+    use irt::gpu::shaders::{compose, validate, Program, Variant};
     let ctx = vk_ctx();
     let options = vk::spv_options(&ctx);
-    let mut jobs: Vec<(Kernel, Variant)> = Variant::all().into_iter().map(|v| (Kernel::Render, v)).collect();
-    for kernel in [Kernel::Modes, Kernel::Tests] {
+    let mut jobs: Vec<(Program, Variant)> =
+        Variant::all().into_iter().map(|v| (Program::Render, v)).collect();
+    for kernel in [Program::Modes, Program::Tests] {
         for v in [
             Variant::FULL,
             Variant { layered: true, ..Variant::FULL },
@@ -571,11 +569,11 @@ fn every_variant_passes_the_full_check_and_makes_a_pipeline() {
             assert_eq!(done.spirv_val, vk::spirv_val_available(), "{what}");
             // naga 30 reads back all of the render kernel; of the others not the workgroup
             // atomic of `render_queue` (validate::naga_cannot_read).
-            if kernel == Kernel::Render {
+            if kernel == Program::Render {
                 assert!(done.naga, "{what}: naga's read-back");
             }
             unread += !done.naga as u32;
-            ctx.try_pipeline(&words, &e.name, v.layered).unwrap_or_else(|err| panic!("{what}: {err}"));
+            ctx.try_pipeline(&words, &e.name).unwrap_or_else(|err| panic!("{what}: {err}"));
             checked += 1;
         }
     }
@@ -591,7 +589,8 @@ fn every_variant_passes_the_full_check_and_makes_a_pipeline() {
 #[test]
 fn a_corrupted_operand_is_rejected_by_the_full_check() {
     let ctx = vk_ctx();
-    let src = irt::gpu::shaders::compose(irt::gpu::shaders::Kernel::Render, irt::gpu::shaders::Variant::FULL);
+    let src =
+        irt::gpu::shaders::compose(irt::gpu::shaders::Program::Render, irt::gpu::shaders::Variant::FULL);
     let (module, info) = irt::gpu::shaders::validate(&src).expect("valid WGSL");
     let good = vk::compile_entry(&module, &info, "render", &vk::spv_options(&ctx)).expect("SPIR-V");
     vk::full_check(&good, "render").expect("naga's SPIR-V passes");
@@ -637,7 +636,7 @@ fn a_corrupted_operand_is_rejected_by_the_full_check() {
     .expect("full check");
     let mut words = good.clone();
     words[fadd + 3] = bound;
-    match checked.try_pipeline(&words, "render", false) {
+    match checked.try_pipeline(&words, "render") {
         Err(VkError::Shader(msg)) => assert!(msg.contains("entry point 'render'"), "{msg}"),
         other => panic!("expected a rejection, got {other:?}"),
     }
@@ -654,25 +653,25 @@ fn a_missing_f64_feature_has_the_wgpu_message() {
     .expect("device");
     assert!(!ctx.has_f64());
     let scene = load("scenes/default.toml", 16, 16);
-    let err = match VkRenderer::new(&ctx, &scene, RenderOptions { f64: true, ..Default::default() }) {
+    let err = match Session::new(&ctx, &scene, Settings { f64: true, ..Settings::bands() }) {
         Err(e) => e.to_string(),
         Ok(_) => panic!("f64 without shaderFloat64 was accepted"),
     };
-    assert_eq!(err, irt::gpu::context::no_f64_message(&ctx.info.name));
+    assert_eq!(err, irt::gpu::GpuError::NoF64 { adapter: ctx.info.name.clone() }.to_string());
     assert!(err.ends_with("has no f64 shader support (SHADER_F64): use --precision f32"), "{err}");
     // f32 still renders on it.
-    VkRenderer::new(&ctx, &scene, RenderOptions::default())
+    Session::new(&ctx, &scene, Settings::bands())
         .expect("f32")
-        .try_render(&ctx, &mut |_, _| {})
+        .try_picture(&ctx, &mut |_, _| {})
         .expect("f32");
 }
 
 /// A viewer's session of a large scene on the ash path: the grid first, then the BVH built in
 /// the background, adopted by writing only its section into the scene image from a row in the
-/// middle (`VkScene::update_from`), draws what the wgpu path draws, bit for bit, before and after.
+/// middle (`Device::update_scene_from`), draws what the wgpu path draws, bit for bit, before and after.
 #[test]
 fn a_background_bvh_written_into_the_ash_scene_image_draws_what_wgpu_draws() {
-    use irt::render::session::{Adoption, BACKGROUND_BVH_ABOVE};
+    use irt::render::{background::BACKGROUND_BVH_ABOVE, Adoption};
     let (ctx, vk) = (gpu(), vk_ctx());
     let model = irt::io::stage::Model {
         meshes: vec![irt::io::shapes::terrain(740, 3, false).into_mesh(0)],

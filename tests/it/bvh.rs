@@ -8,7 +8,6 @@
 use crate::common;
 
 use irt::accel::AccelChoice;
-use irt::gpu::RenderOptions;
 use irt::render::{Mode, Schedule, Session, Settings};
 use irt::scene::{Scene, ShadowMode};
 use std::path::PathBuf;
@@ -23,8 +22,8 @@ fn sized(mut s: Scene, w: u32, h: u32) -> Scene {
     s
 }
 
-fn with(accel: AccelChoice) -> RenderOptions {
-    RenderOptions { accel, ..Default::default() }
+fn with(accel: AccelChoice) -> irt::render::Settings {
+    irt::render::Settings { accel, ..irt::render::Settings::bands() }
 }
 
 /// Spheres, triangles, cones, textures, dielectrics, metal: each scene file through both BVH
@@ -72,8 +71,11 @@ fn f64_bvh_matches_the_reference() {
     for name in ["mesh.toml", "cones.toml"] {
         let s = scene_file(name);
         for accel in [AccelChoice::Bvh, AccelChoice::BvhStack] {
-            let gpu =
-                common::render_gpu_with(&ctx, &s, RenderOptions { accel, f64: true, ..Default::default() });
+            let gpu = common::render_gpu_with(
+                &ctx,
+                &s,
+                irt::render::Settings { accel, f64: true, ..irt::render::Settings::bands() },
+            );
             common::assert_matches_reference(
                 &format!("bvh-f64-{accel}-{name}"),
                 &gpu,
@@ -167,7 +169,7 @@ fn a_session_reorders_its_bvh_for_a_far_eye_and_draws_the_same_picture() {
 fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
     use irt::accel::AccelKind;
     use irt::io::stage::{stage, Model};
-    use irt::render::session::{Adoption, BACKGROUND_BVH_ABOVE};
+    use irt::render::{background::BACKGROUND_BVH_ABOVE, Adoption};
     let ctx = common::gpu();
     let model = Model {
         meshes: vec![irt::io::shapes::terrain(740, 3, false).into_mesh(0)],
@@ -251,7 +253,7 @@ fn a_moving_scene_with_the_bvh_matches_the_reference_at_every_time() {
     assert!(bvh.grid().is_none() && grid.grid().is_some());
     for t in [0.5, 1.25, 3.0] {
         let r = bvh.set_time(&ctx, t).unwrap();
-        assert!(r.grid.is_some() && !r.recompiled, "geometry moved: the BVH was rebuilt, same kernel");
+        assert!(r.accel.is_some() && !r.recompiled, "geometry moved: the BVH was rebuilt, same kernel");
         grid.set_time(&ctx, t).unwrap();
         bvh.complete_pass(&ctx);
         grid.complete_pass(&ctx);
@@ -324,7 +326,7 @@ fn the_renderer_builds_what_the_choice_asks_for() {
         ("spd/tetra_s4.nff", AccelChoice::Auto, false),
     ] {
         let s = sized(scene_file(name), 32, 32);
-        let r = irt::gpu::Renderer::new(&ctx, &s, with(choice)).expect("renderer");
+        let r = irt::render::Session::new(&ctx, &s, with(choice)).expect("renderer");
         assert_eq!(r.accel.grid().is_some(), grid, "{name} {choice}");
         let kernel_walks_bvh = r.variant.accel != irt::gpu::layout::ACCEL_GRID;
         assert_eq!(kernel_walks_bvh, !grid, "{name} {choice}: the kernel walks what was packed");
@@ -338,6 +340,7 @@ fn the_renderer_builds_what_the_choice_asks_for() {
 #[test]
 fn shader_decodes_compact_nodes_as_the_host_packs_them() {
     use irt::accel::{AccelRef, Bvh, BvhWalk};
+    use irt::gpu::device::Device;
     use irt::gpu::layout::{bvh_nodes, decode_qnode, pack_scene, params, quantise_node, BvhLattice};
     let ctx = common::gpu();
     for name in ["spd/balls_s2.nff", "spd/teapot_s2.nff", "mesh.toml"] {
@@ -347,12 +350,11 @@ fn shader_decodes_compact_nodes_as_the_host_packs_them() {
             let accel = AccelRef::Bvh(&bvh, BvhWalk::Stackless);
             let packed = pack_scene(&s, accel, origin);
             let p = params(&s, accel, &packed, origin);
-            let scene = irt::gpu::GpuScene::upload_packed(&ctx, packed, p).expect("upload");
+            let scene = ctx.upload(packed, p, None, 0).expect("upload");
             let nodes = bvh_nodes(&bvh, origin);
             let inputs: Vec<[f32; 4]> =
                 (0..nodes.len()).map(|i| [f32::from_bits(i as u32), 0.0, 0.0, 0.0]).collect();
-            let out =
-                irt::gpu::readback::run_kernel(&ctx, &scene, "k_bvh_qnode", &inputs, nodes.len() as u32, 2);
+            let out = crate::common::run_kernel(&ctx, &scene, "k_bvh_qnode", &inputs, nodes.len() as u32, 2);
             let lattice = BvhLattice::of(&bvh, origin);
             for (i, n) in nodes.iter().enumerate() {
                 let t = quantise_node(n, &lattice);

@@ -123,17 +123,17 @@ pub fn plane_barycentrics(o: DVec3, d: DVec3, t: [DVec3; 3]) -> (f64, f64) {
 /// also checks that no pixel came near lavapipe's loop-iteration limit (a quarter of it: the
 /// count is per pixel, the limit per group of SIMD lanes), past which its results are wrong.
 pub fn render_gpu(ctx: &irt::gpu::GpuContext, scene: &Scene) -> irt::image::Image {
-    render_gpu_with(ctx, scene, irt::gpu::RenderOptions::default())
+    render_gpu_with(ctx, scene, irt::render::Settings::bands())
 }
 
 /// [`render_gpu`] with `opts` (another accelerator, f64, ...).
 pub fn render_gpu_with(
     ctx: &irt::gpu::GpuContext,
     scene: &Scene,
-    opts: irt::gpu::RenderOptions,
+    opts: irt::render::Settings,
 ) -> irt::image::Image {
-    let r = irt::gpu::Renderer::new(ctx, scene, opts).expect("renderer");
-    let frame = r.render(ctx, &mut |_, _| {});
+    let mut r = irt::render::Session::new(ctx, scene, opts).expect("renderer");
+    let frame = r.picture(ctx, &mut |_, _| {});
     let limit = irt::gpu::layout::LAVAPIPE_LOOP_LIMIT;
     assert!(
         frame.max_loop_iterations < limit / 4,
@@ -235,4 +235,22 @@ pub fn number_pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>)
         Value::Object(o) => o.iter().for_each(|(k, x)| number_pointers(x, format!("{at}/{k}"), out)),
         _ => {}
     }
+}
+
+/// One shader function over a batch of inputs on the wgpu path (`irt::gpu::readback::run_kernel`).
+pub fn run_kernel(
+    ctx: &irt::gpu::GpuContext,
+    scene: &irt::gpu::GpuScene,
+    entry: &str,
+    inputs: &[[f32; 4]],
+    items: u32,
+    out_per_item: u32,
+) -> Vec<[f32; 4]> {
+    irt::gpu::readback::run_kernel(ctx, scene, entry, inputs, items, out_per_item).expect("readback kernel")
+}
+
+/// `scene` and its grid uploaded in world coordinates (the readback kernels' rays are in world
+/// space).
+pub fn upload(ctx: &irt::gpu::GpuContext, scene: &Scene, grid: &irt::accel::Grid) -> irt::gpu::GpuScene {
+    irt::gpu::readback::upload_at(ctx, scene, grid, glam::DVec3::ZERO).expect("upload")
 }

@@ -1,4 +1,4 @@
-//! The Embree peer (irt::peer::embree, feature `embree`) traces the same work as the native peer:
+//! The Embree peer (irt::lab::peer::embree, feature `embree`) traces the same work as the native peer:
 //! same image, same rays, with single rays and with 8-wide packets (each checked alike). Both shade through the same code from the same f32 primitives relative
 //! to the eye; they differ only in how hits are found (Embree's BVH and its own f32 triangle and
 //! sphere tests against irt's grid with the watertight triangle and anchor-form sphere tests;
@@ -16,8 +16,8 @@
 #![cfg(feature = "embree")]
 
 use irt::accel::Grid;
-use irt::peer::embree::{sys, EmbreePeer};
-use irt::peer::{native::NativePeer, primary_shadow};
+use irt::lab::peer::embree::{sys, EmbreePeer};
+use irt::lab::peer::{native::NativePeer, primary_shadow};
 use std::mem::{align_of, offset_of, size_of};
 use std::path::Path;
 
@@ -102,7 +102,7 @@ fn refuses_what_it_does_not_trace() {
 
 #[test]
 fn version_is_embree_3() {
-    let v = irt::peer::embree::version().expect("an Embree device");
+    let v = irt::lab::peer::embree::version().expect("an Embree device");
     assert!(v.starts_with("3."), "{v}");
 }
 

@@ -67,7 +67,7 @@ fn materials_scene() -> Scene {
 #[test]
 fn default_scene_far_from_the_origin() {
     for d in [1e3, 1e5, 1e6, 1e7] {
-        check(&format!("default at {d:e}"), small_default().transformed(1.0, irt::stability::offset(d)));
+        check(&format!("default at {d:e}"), small_default().transformed(1.0, irt::lab::stability::offset(d)));
     }
 }
 
@@ -214,10 +214,12 @@ fn f64_pipeline_matches_the_reference() {
     // and 1e7 away.
     let ctx = gpu();
     for d in [0.0, 1e7] {
-        let s = small_default().transformed(1.0, irt::stability::offset(d));
-        let opts = irt::gpu::RenderOptions { f64: true, ..Default::default() };
-        let img =
-            irt::gpu::Renderer::new(&ctx, &s, opts).expect("f64 renderer").render(&ctx, &mut |_, _| {}).image;
+        let s = small_default().transformed(1.0, irt::lab::stability::offset(d));
+        let opts = irt::render::Settings { f64: true, ..irt::render::Settings::bands() };
+        let img = irt::render::Session::new(&ctx, &s, opts)
+            .expect("f64 renderer")
+            .picture(&ctx, &mut |_, _| {})
+            .image;
         assert_matches_reference(&format!("f64 default at {d:e}"), &img, &reference_image(&s));
     }
 }

@@ -112,9 +112,9 @@ fn a_layered_scene_texture_gives_the_same_image_bit_for_bit() {
         let mut scene = scene_file(name);
         (scene.camera.width, scene.camera.height) = (64, 48);
         let render = |max_scene_rows| {
-            let opts = irt::gpu::RenderOptions { max_scene_rows, ..Default::default() };
-            let r = irt::gpu::Renderer::new(&ctx, &scene, opts).expect("renderer");
-            (r.gpu_scene.layered, r.render(&ctx, &mut |_, _| {}).image)
+            let opts = irt::render::Settings { max_scene_rows, ..irt::render::Settings::bands() };
+            let mut r = irt::render::Session::new(&ctx, &scene, opts).expect("renderer");
+            (r.device_scene().layered(), r.picture(&ctx, &mut |_, _| {}).image)
         };
         let (plain, layered) = (render(None), render(Some(0)));
         assert_eq!((plain.0, layered.0), (false, true), "{name}");

@@ -5,10 +5,10 @@
 //! shader's own f32 arithmetic; each is stated where it is used, with why.
 use crate::common;
 
+use crate::common::run_kernel;
 use common::*;
 use glam::DVec3;
 use irt::accel::Grid;
-use irt::gpu::readback::run_kernel;
 use irt::gpu::{GpuContext, GpuScene};
 use irt::reference as cpu;
 use irt::scene::MaterialKind;
@@ -24,7 +24,7 @@ impl Harness {
     fn new() -> Self {
         let ctx = gpu();
         let s = scene_of(vec![irt::scene::Sphere { center: DVec3::ZERO, radius: 1.0, material: 0 }], vec![]);
-        let scene = GpuScene::upload(&ctx, &s, &Grid::build(&s)).expect("upload");
+        let scene = crate::common::upload(&ctx, &s, &Grid::build(&s));
         Harness { ctx, scene }
     }
     fn run(&self, entry: &str, inputs: &[[f32; 4]], items: usize, out_per: u32) -> Vec<[f32; 4]> {

@@ -6,10 +6,10 @@
 //!   axis-parallel rays, ±0 included).
 use crate::common;
 
+use crate::common::run_kernel;
 use common::{f32_round, gpu, plane_barycentrics, scene_of, v4, Rng};
 use glam::DVec3;
 use irt::accel::{Grid, PrimKind};
-use irt::gpu::readback::run_kernel;
 use irt::gpu::{GpuContext, GpuScene};
 use irt::reference as cpu;
 use irt::scene::{Cone, Scene, Sphere};
@@ -86,7 +86,7 @@ fn random_ray(rng: &mut Rng, grid: &Grid, family: usize) -> (DVec3, DVec3) {
 
 fn upload(ctx: &GpuContext, scene: &Scene) -> (Grid, GpuScene) {
     let grid = Grid::build(scene);
-    let gs = GpuScene::upload(ctx, scene, &grid).expect("upload");
+    let gs = crate::common::upload(ctx, scene, &grid);
     (grid, gs)
 }
 

@@ -1,8 +1,9 @@
-//! Every GPU struct declared in Rust (src/gpu/layout.rs) has exactly the layout naga gives the
+//! Every GPU struct declared in Rust (src/gpu/layout/mod.rs) has exactly the layout naga gives the
 //! WGSL struct of the same name (shaders/types.wgsl): same member names in order, same offsets,
-//! same size. Both sides are declared once; this test is what ties them.
-use irt::gpu::layout::{BvhNode, GpuLight, Params, Tile};
-use irt::gpu::shaders::{compose, validate, Kernel, Variant};
+//! same size. Both sides are declared once; this test is what ties them (the binding table is tied
+//! the same way by `gpu::bindings`'s unit test).
+use irt::gpu::layout::{BvhNode, GpuLight, Launch, Params};
+use irt::gpu::shaders::{compose, validate, Program, Variant};
 use std::mem::{offset_of, size_of};
 
 macro_rules! rust_layout {
@@ -35,9 +36,9 @@ fn check(module: &naga::Module, name: &str, rust: (usize, Vec<(&str, usize)>)) {
 
 #[test]
 fn rust_structs_match_wgsl() {
-    let (module, _) = validate(&compose(Kernel::Render, Variant::FULL)).expect("shader validates");
+    let (module, _) = validate(&compose(Program::Render, Variant::FULL)).expect("shader validates");
     check(&module, "Light", rust_layout!(GpuLight; position_radius, color));
-    check(&module, "Tile", rust_layout!(Tile; rect, pass_range, work, sample, jitter));
+    check(&module, "Launch", rust_layout!(Launch; rect, pass_range, work, sample, jitter));
     check(&module, "BvhNode", rust_layout!(BvhNode; lo, a, hi, b));
     // The packing writes a node as two whole texels.
     assert_eq!(size_of::<BvhNode>(), 16 * irt::gpu::layout::BVH_NODE_TEXELS as usize);
@@ -45,8 +46,8 @@ fn rust_structs_match_wgsl() {
         &module,
         "Params",
         rust_layout!(Params; eye, cam_u, cam_v, cam_w, ambient_sky, ambient_ground, ambient_up,
-            background, grid_min, grid_max, grid_cell, grid_inv_cell, grid_res, macro_res,
-            prim_base, aux_base, grid_base, image, eye_grid, trace, shadow, lights),
+            background, accel_min, accel_max, cell, inv_cell, cells, macro_res,
+            prim_base, aux_base, accel_base, image, eye_grid, trace, shadow, lights),
     );
 }
 
@@ -54,5 +55,5 @@ fn rust_structs_match_wgsl() {
 fn uniform_sizes_are_16_byte_multiples() {
     // Uniform buffer bindings are sized in 16-byte units.
     assert_eq!(size_of::<Params>() % 16, 0);
-    assert_eq!(size_of::<Tile>() % 16, 0);
+    assert_eq!(size_of::<Launch>() % 16, 0);
 }

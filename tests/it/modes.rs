@@ -3,14 +3,15 @@
 //! the same picture bit for bit.
 use crate::common;
 
-use irt::gpu::dispatch::{Dispatcher, GpuScene, ModeBuffers};
+use irt::gpu::device::{Device, ModeBuffers};
 use irt::gpu::layout::MAX_CHUNK_TILES;
-use irt::gpu::layout::{Tile, FRAME_ACCUMULATE, FRAME_WRITE, ORDER_DISSOLVE, ORDER_TABLE};
-use irt::gpu::shaders::{Kernel, Variant};
+use irt::gpu::layout::{Launch, FRAME_ACCUMULATE, FRAME_WRITE, ORDER_DISSOLVE, ORDER_TABLE};
+use irt::gpu::shaders::{Program, Variant};
+use irt::gpu::Dispatcher;
 use irt::image::Image;
+use irt::render::modes::{cap_chunks, wave_groups, QUEUE_LOOP_BUDGET, TILE_BUDGET};
 use irt::render::order::Dissolve;
 use irt::render::schedule::tile_grid;
-use irt::render::session::{cap_chunks, wave_groups, QUEUE_LOOP_BUDGET, TILE_BUDGET};
 use irt::render::{Mode, PixelOrder, Schedule, Session, Settings};
 use irt::scene::{Scene, ShadowMode};
 
@@ -24,18 +25,10 @@ fn small_default(w: u32, h: u32) -> Scene {
 /// its alpha (FRAME_ACCUMULATE on a cleared buffer).
 fn counting_dispatcher(ctx: &irt::gpu::GpuContext, scene: &Scene, work: &[u32]) -> Dispatcher {
     let grid = irt::accel::Grid::build(scene);
-    let gs = GpuScene::upload_at(ctx, scene, &grid, scene.camera.eye).unwrap();
+    let gs = irt::gpu::readback::upload_at(ctx, scene, &grid, scene.camera.eye).unwrap();
     let n = scene.camera.width as u64 * scene.camera.height as u64;
-    let d = Dispatcher::with_modes(
-        ctx,
-        &gs,
-        Kernel::Modes,
-        Variant::for_scene(scene, false),
-        "render",
-        n,
-        &[],
-        ModeBuffers { work_len: work.len() as u64, frame_len: n },
-    );
+    let modes = ModeBuffers { work_len: work.len() as u64, frame_len: n };
+    let d = ctx.compile(&gs, Program::Modes, Variant::for_scene(scene, false), n, &[], modes).unwrap();
     d.write_work(ctx, work);
     d.clear_frame(ctx);
     d
@@ -68,10 +61,10 @@ fn tile_queue_covers_every_pixel_once() {
                     let chunks = b.len() as u32 - 1;
                     let mut runs = 0;
                     while d.read_queue(&ctx) < chunks {
-                        let tile = Tile {
+                        let tile = Launch {
                             work: [chunks, TILE_BUDGET, tx, budget],
                             sample: COUNT,
-                            ..Tile::whole([0; 4])
+                            ..Launch::whole([0; 4])
                         };
                         d.run(&ctx, "render_queue", tile, [groups, 1, 1]);
                         runs += 1;
@@ -112,10 +105,10 @@ fn frameless_pass_covers_every_pixel_once() {
                         Some(dz) => (ORDER_DISSOLVE, dz.bits, dz.state_at(first)),
                         None => (ORDER_TABLE, 0, 0),
                     };
-                    let tile = Tile {
+                    let tile = Launch {
                         work: [first as u32, len as u32, kind, bits],
                         sample: [0, COUNT[1], state, 0],
-                        ..Tile::whole([0; 4])
+                        ..Launch::whole([0; 4])
                     };
                     d.run(&ctx, "render_slice", tile, [(len as u32).div_ceil(64), 1, 1]);
                     first += len;
@@ -386,15 +379,15 @@ fn live_settings_give_what_a_fresh_session_gives() {
     assert_same("back to the start", &live.read_image(&ctx), &first);
 }
 
-/// Dealing the band renderer's tiles to the device's threads (`RenderOptions::deal`) changes
+/// Dealing the band renderer's tiles to the device's threads (`irt::render::Settings::deal`) changes
 /// only which workgroup traces which tile: the same picture, bit for bit, for any thread count.
 #[test]
 fn dealt_tiles_give_the_picture_of_tiles_in_order() {
     let ctx = common::gpu();
     let scene = small_default(131, 67);
     let render = |deal| {
-        let opts = irt::gpu::RenderOptions { deal: Some(deal), ..Default::default() };
-        irt::gpu::Renderer::new(&ctx, &scene, opts).unwrap().render(&ctx, &mut |_, _| {}).image
+        let opts = irt::render::Settings { deal: Some(deal), ..irt::render::Settings::bands() };
+        irt::render::Session::new(&ctx, &scene, opts).unwrap().picture(&ctx, &mut |_, _| {}).image
     };
     let in_order = render(0);
     for threads in [2, 3, 5] {

@@ -3,7 +3,6 @@
 //! loader's errors.
 use crate::common;
 
-use irt::gpu::{RenderOptions, Renderer};
 use irt::render::{Mode, Schedule, Session, Settings};
 use irt::scene::{Scene, Target};
 use std::path::PathBuf;
@@ -86,8 +85,9 @@ fn session_image(ctx: &irt::gpu::GpuContext, s: &mut Session) -> irt::image::Ima
 }
 
 fn fresh_image(ctx: &irt::gpu::GpuContext, still: &Scene) -> irt::image::Image {
-    let opts = RenderOptions { accel: irt::accel::AccelChoice::Grid, ..Default::default() };
-    Renderer::new(ctx, still, opts).unwrap().render(ctx, &mut |_, _| {}).image
+    let opts =
+        irt::render::Settings { accel: irt::accel::AccelChoice::Grid, ..irt::render::Settings::bands() };
+    Session::new(ctx, still, opts).unwrap().picture(ctx, &mut |_, _| {}).image
 }
 
 /// A session moved to time t re-inserts only the moving primitives into its grid; that draws
@@ -104,7 +104,7 @@ fn updates_in_place_equal_full_rebuilds_bit_for_bit() {
     assert_eq!(first, session_image(&ctx, &mut full));
     for t in [0.5, 1.25, 3.0] {
         let r = s.set_time(&ctx, t).unwrap();
-        assert!(r.grid.is_some(), "geometry moved: the grid follows");
+        assert!(r.accel.is_some(), "geometry moved: the grid follows");
         full.set_time(&ctx, t).unwrap();
         assert!(s.accel == full.accel, "at {t}: the updated grid is the rebuilt one");
         let image = session_image(&ctx, &mut s);
@@ -128,7 +128,7 @@ fn a_still_session_equals_a_fresh_render() {
     let mut edited = scene.clone();
     edited.spheres[0].center.x += 0.5;
     let r = s.set_scene(&ctx, &edited).unwrap();
-    assert!(r.grid.is_some());
+    assert!(r.accel.is_some());
     assert_eq!(session_image(&ctx, &mut s), fresh_image(&ctx, &edited));
 }
 
@@ -194,12 +194,12 @@ fn edits_equal_fresh_renders() {
     let mut edited = scene.clone();
     edited.lights[0].position.x -= 3.0;
     let r = s.set_scene(&ctx, &edited).unwrap();
-    assert!(r.grid.is_none() && !r.recompiled, "a light moved: nothing rebuilt");
+    assert!(r.accel.is_none() && !r.recompiled, "a light moved: nothing rebuilt");
     assert_eq!(session_image(&ctx, &mut s), fresh_image(&ctx, &edited));
     let ball = edited.spheres[0].material as usize;
     edited.materials[ball].kind = MaterialKind::Dielectric { eta: 1.5, exponent: 100.0 };
     let r = s.set_scene(&ctx, &edited).unwrap();
-    assert!(r.grid.is_none() && r.recompiled, "glass needs refraction in the kernel");
+    assert!(r.accel.is_none() && r.recompiled, "glass needs refraction in the kernel");
     assert_eq!(session_image(&ctx, &mut s), fresh_image(&ctx, &edited));
     // Back to the scene as it was: its picture again.
     s.set_scene(&ctx, &scene).unwrap();

@@ -1,4 +1,4 @@
-//! The native peer (irt::peer::native) traces the same work as irt's GPU path: same image, same
+//! The native peer (irt::lab::peer::native) traces the same work as irt's GPU path: same image, same
 //! rays, on the primary-shadow workload, over irt's grid (`native`) and over irt's BVH
 //! (`native-bvh`). Both are f32 with the same algorithms, so they agree far more closely than the GPU and the f64 reference do (measured:
 //! at most 0.2/255 on any channel, on these four scenes). The bound is tighter than the
@@ -11,8 +11,8 @@
 use crate::common;
 
 use irt::accel::{bvh_for, BvhWalk, Grid};
-use irt::gpu::{RenderOptions, Renderer};
-use irt::peer::{native::NativePeer, primary_shadow};
+use irt::lab::peer::{native::NativePeer, primary_shadow};
+use irt::render::Session;
 use std::path::Path;
 
 /// Renders `file` (None: the default scene) at `size`² both ways and compares.
@@ -22,8 +22,8 @@ fn check(name: &str, file: Option<&str>, size: u32) {
     scene.camera.width = size;
     scene.camera.height = size;
     let ctx = common::gpu();
-    let opts = RenderOptions { count_rays: true, ..Default::default() };
-    let gpu = Renderer::new(&ctx, &scene, opts).expect("renderer").render(&ctx, &mut |_, _| {});
+    let opts = irt::render::Settings { count_rays: true, ..irt::render::Settings::bands() };
+    let gpu = Session::new(&ctx, &scene, opts).expect("renderer").picture(&ctx, &mut |_, _| {});
     // Both accelerators of the peer: irt's grid (`native`) and irt's BVH (`native-bvh`).
     let peers = [
         NativePeer::new(&scene, &Grid::build(&scene)).expect("peer"),

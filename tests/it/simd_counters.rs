@@ -6,9 +6,9 @@
 use crate::common;
 
 use irt::accel::AccelChoice;
-use irt::gpu::backend::Device;
-use irt::gpu::vk::{VkContext, VkRenderer};
-use irt::gpu::{RenderOptions, Renderer};
+use irt::gpu::device::Device;
+use irt::gpu::vk::VkContext;
+use irt::render::Session;
 use irt::scene::Scene;
 
 fn load(path: &str, w: u32, h: u32) -> Scene {
@@ -17,8 +17,8 @@ fn load(path: &str, w: u32, h: u32) -> Scene {
     s
 }
 
-fn counting(accel: AccelChoice) -> RenderOptions {
-    RenderOptions { simd_stats: true, accel, ..Default::default() }
+fn counting(accel: AccelChoice) -> irt::render::Settings {
+    irt::render::Settings { simd_stats: true, accel, ..irt::render::Settings::bands() }
 }
 
 #[test]
@@ -33,9 +33,9 @@ fn lane_iterations_are_the_loop_meter_and_groups_bound_them() {
     ] {
         let (w, h) = (96, 72);
         let scene = load(path, w, h);
-        let r = Renderer::new(&ctx, &scene, counting(accel)).expect("renderer");
+        let mut r = Session::new(&ctx, &scene, counting(accel)).expect("renderer");
         assert!(r.variant.simd_stats, "{what}");
-        let f = r.render(&ctx, &mut |_, _| {});
+        let f = r.picture(&ctx, &mut |_, _| {});
         // Every tracing loop's `loop_tick` advances the meter and one counter: their lanes sum to it.
         let lanes: u64 = f.rays.simd.iter().map(|c| c.lane_iterations).sum();
         let meter = (f.loops.mean * (w * h) as f64).round() as u64;
@@ -64,8 +64,8 @@ fn an_all_miss_frame_keeps_every_lane_busy() {
     let size = ctx.subgroup_size().expect("subgroups") as u64;
     let mut scene = load("scenes/diffuse.toml", 64, 48);
     scene.camera.look_at = glam::DVec3::new(0.0, 1.6, 12.0);
-    let r = Renderer::new(&ctx, &scene, counting(AccelChoice::Bvh)).expect("renderer");
-    let f = r.render(&ctx, &mut |_, _| {});
+    let mut r = Session::new(&ctx, &scene, counting(AccelChoice::Bvh)).expect("renderer");
+    let f = r.picture(&ctx, &mut |_, _| {});
     assert_eq!(f.eye_hits, 0);
     let pixels = 64 * 48;
     let [walk, candidates, tree, lights] = f.rays.simd;
@@ -83,14 +83,14 @@ fn counters_leave_the_image_alone_and_agree_across_paths() {
     let vk = VkContext::new(&common::adapter()).expect("the same adapter through ash");
     assert_eq!(vk.subgroup_size(), ctx.subgroup_size());
     let scene = load("scenes/default.toml", 64, 48);
-    let plain = Renderer::new(&ctx, &scene, RenderOptions::default()).expect("renderer");
-    let with = Renderer::new(&ctx, &scene, counting(AccelChoice::Auto)).expect("renderer");
-    let a = plain.render(&ctx, &mut |_, _| {});
-    let b = with.render(&ctx, &mut |_, _| {});
+    let mut plain = Session::new(&ctx, &scene, irt::render::Settings::bands()).expect("renderer");
+    let mut with = Session::new(&ctx, &scene, counting(AccelChoice::Auto)).expect("renderer");
+    let a = plain.picture(&ctx, &mut |_, _| {});
+    let b = with.picture(&ctx, &mut |_, _| {});
     let bits = |i: &irt::image::Image| i.pixels.iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
     assert_eq!(bits(&a.image), bits(&b.image), "the counters changed the image");
     assert_eq!(a.rays.simd, [irt::gpu::SimdCount::default(); 4], "a plain pipeline counts nothing");
-    let c = VkRenderer::new(&vk, &scene, counting(AccelChoice::Auto)).expect("ash renderer");
-    let c = c.try_render(&vk, &mut |_, _| {}).expect("ash render");
+    let mut c = Session::new(&vk, &scene, counting(AccelChoice::Auto)).expect("ash renderer");
+    let c = c.try_picture(&vk, &mut |_, _| {}).expect("ash render");
     assert_eq!(b.rays.simd, c.rays.simd, "wgpu and ash counters");
 }

@@ -2,10 +2,9 @@
 //! convergence to the ground truth, and GPU against the CPU twin of every mode.
 use crate::common;
 
+use crate::common::run_kernel;
 use common::*;
 use glam::DVec3;
-use irt::gpu::readback::run_kernel;
-use irt::gpu::GpuScene;
 use irt::metrics::compare;
 use irt::reference::shadows as cpu;
 use irt::reference::Reference;
@@ -76,7 +75,7 @@ fn modes() -> Vec<ShadowMode> {
 fn shell_functions_match_their_f64_twins() {
     let ctx = gpu();
     let s = scene(1.0, ShadowMode::Hard);
-    let gs = GpuScene::upload(&ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+    let gs = crate::common::upload(&ctx, &s, &irt::accel::Grid::build(&s));
     let mut rng = Rng::new(5);
     let mut cases = vec![];
     for i in 0..3000 {
@@ -145,7 +144,7 @@ fn shell_functions_match_their_f64_twins() {
 fn shell_transparency_rises_from_inner_object_to_boundary() {
     let ctx = gpu();
     let s = scene(1.0, ShadowMode::Hard);
-    let gs = GpuScene::upload(&ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+    let gs = crate::common::upload(&ctx, &s, &irt::accel::Grid::build(&s));
     // Ray along +x from the origin to a light at distance 10 of radius 1; the occluder sits at
     // t = 5 (so b = 0.5), offset by `y` sideways. Sphere radius 0.75 (on the sweep's grid); the triangle's nearest edge
     // point is at distance y (it lies in the plane z = 0, below the ray's line), and the ray is
@@ -270,7 +269,7 @@ fn a_straight_edge_penumbra_is_centred_on_the_hard_edge_with_the_true_width() {
     );
     for f in Falloff::ALL {
         s.trace.shadows = ShadowMode::Shell { falloff: f, combine: Combine::Min };
-        let gs = GpuScene::upload(&ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+        let gs = crate::common::upload(&ctx, &s, &irt::accel::Grid::build(&s));
         let inputs: Vec<[f32; 4]> =
             pts.iter().flat_map(|&o| [v4(o, 0.0), v4((light.position - o).normalize(), 0.0)]).collect();
         let out = run_kernel(&ctx, &gs, "k_visibility", &inputs, pts.len() as u32, 1);
@@ -350,7 +349,7 @@ fn light_visibility_matches_its_twin() {
     let mut rng = Rng::new(17);
     for mode in ["bundle:16:fixed", "bundle:64", "shell:linear:min", "shell:disc:product"] {
         let s = scene(1.0, mode.parse().unwrap());
-        let gs = GpuScene::upload(&ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+        let gs = crate::common::upload(&ctx, &s, &irt::accel::Grid::build(&s));
         let r = Reference::new(&s);
         let light = &s.lights[0];
         let pts: Vec<DVec3> = (0..2000)
@@ -381,7 +380,7 @@ fn light_visibility_matches_its_twin() {
 fn cone_shell_matches_its_f64_twin() {
     let ctx = gpu();
     let s = scene(1.0, ShadowMode::Hard);
-    let gs = GpuScene::upload(&ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+    let gs = crate::common::upload(&ctx, &s, &irt::accel::Grid::build(&s));
     let mut rng = Rng::new(8);
     let mut cases = vec![];
     for i in 0..3000 {
@@ -495,7 +494,7 @@ fn the_default_shell_mode_beats_hard_shadows_on_the_tradeoff_scenes() {
 fn shell_cells_match_the_host() {
     let ctx = gpu();
     let s = scene(1.0, ShadowMode::Hard);
-    let gs = GpuScene::upload(&ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+    let gs = crate::common::upload(&ctx, &s, &irt::accel::Grid::build(&s));
     let mut rng = Rng::new(23);
     let dirs: Vec<DVec3> = (0..4000).map(|_| f32_round(rng.unit() * rng.range(0.5, 20.0))).collect();
     let inputs: Vec<[f32; 4]> = dirs.iter().map(|&d| v4(d, 0.0)).collect();

@@ -4,9 +4,9 @@
 use crate::common;
 
 use glam::DVec3;
-use irt::gpu::{RenderOptions, Renderer};
 use irt::io::nff::apply_spd_rules;
 use irt::reference::{Reference, Stats};
+use irt::render::Session;
 use irt::scene::Scene;
 use std::path::PathBuf;
 
@@ -87,8 +87,9 @@ fn balls_ray_counts_match_the_published_ones() {
     let mut s = load("balls_s4.nff");
     apply_spd_rules(&mut s);
     assert_eq!((s.camera.width, s.camera.height), (512, 512));
-    let opts = RenderOptions { count_rays: true, corner_rays: true, ..Default::default() };
-    let frame = Renderer::new(&ctx, &s, opts).unwrap().render(&ctx, &mut |_, _| {});
+    let opts =
+        irt::render::Settings { count_rays: true, corner_rays: true, ..irt::render::Settings::bands() };
+    let frame = Session::new(&ctx, &s, opts).unwrap().picture(&ctx, &mut |_, _| {});
     let r = frame.rays;
     println!(
         "balls_s4 under SPD's rules: eye hits {} (published {EYE_HITS}), reflection {} ({REFLECTION}), \
@@ -117,8 +118,9 @@ fn gpu_ray_counts_agree_with_the_reference() {
         let mut s = load(name);
         apply_spd_rules(&mut s);
         (s.camera.width, s.camera.height) = (48, 48);
-        let opts = RenderOptions { count_rays: true, corner_rays: true, ..Default::default() };
-        let gpu = Renderer::new(&ctx, &s, opts).unwrap().render(&ctx, &mut |_, _| {}).rays;
+        let opts =
+            irt::render::Settings { count_rays: true, corner_rays: true, ..irt::render::Settings::bands() };
+        let gpu = Session::new(&ctx, &s, opts).unwrap().picture(&ctx, &mut |_, _| {}).rays;
         let reference = Reference::new(&s);
         let mut cpu = Stats::default();
         for y in 0..=s.camera.height {
@@ -148,8 +150,8 @@ fn corner_ray_images_match_the_reference() {
     let ctx = common::gpu();
     let mut s = load("tree_s3.nff");
     (s.camera.width, s.camera.height) = (64, 64);
-    let opts = RenderOptions { corner_rays: true, ..Default::default() };
-    let gpu = Renderer::new(&ctx, &s, opts).unwrap().render(&ctx, &mut |_, _| {});
+    let opts = irt::render::Settings { corner_rays: true, ..irt::render::Settings::bands() };
+    let gpu = Session::new(&ctx, &s, opts).unwrap().picture(&ctx, &mut |_, _| {});
     assert_eq!(gpu.rays.eye, 0, "rays are counted only when asked");
     let reference = Reference::new(&s);
     let (w, h) = (s.camera.width as usize, s.camera.height as usize);

@@ -3,7 +3,7 @@
 //! primitive kind and shadow mode compiled in and picks at run time.
 use crate::common;
 
-use irt::gpu::{RenderOptions, Renderer};
+use irt::render::Session;
 use irt::scene::{Scene, ShadowMode};
 use std::path::Path;
 
@@ -48,15 +48,19 @@ fn specialised_pipelines_draw_what_the_uber_pipeline_draws() {
     for (name, path) in
         [("balls, diffuse only", "scenes/spd/balls_s2.nff"), ("mesh.toml, diffuse only", "scenes/mesh.toml")]
     {
-        let s = irt::peer::primary_shadow(&load(path, 96));
+        let s = irt::lab::peer::primary_shadow(&load(path, 96));
         assert!(s.materials.iter().all(|m| matches!(m.kind, irt::scene::MaterialKind::Diffuse { .. })));
         scenes.push((name, s));
     }
     for (name, scene) in scenes {
         let render = |uber_shader| {
-            let r = Renderer::new(&ctx, &scene, RenderOptions { uber_shader, ..Default::default() })
-                .expect("renderer");
-            (r.variant, r.render(&ctx, &mut |_, _| {}).image)
+            let mut r = Session::new(
+                &ctx,
+                &scene,
+                irt::render::Settings { uber_shader, ..irt::render::Settings::bands() },
+            )
+            .expect("renderer");
+            (r.variant, r.picture(&ctx, &mut |_, _| {}).image)
         };
         let ((spec_variant, spec), (uber_variant, uber)) = (render(false), render(true));
         // Texture code is compiled in exactly when a material has a texture.

@@ -3,11 +3,10 @@
 //! textured scenes against the reference.
 use crate::common;
 
+use crate::common::run_kernel;
 use common::*;
 use glam::{DVec2, DVec3};
 use irt::accel::Grid;
-use irt::gpu::readback::run_kernel;
-use irt::gpu::GpuScene;
 use irt::reference as cpu;
 use irt::scene::{Filter, Material, MaterialKind, Mesh, Scene, Texture, Wrap};
 
@@ -43,7 +42,7 @@ fn sample_texture_matches_its_twin() {
     let mut rng = Rng::new(7);
     let scene = textured_scene(random_textures(&mut rng));
     let ctx = gpu();
-    let gpu_scene = GpuScene::upload(&ctx, &scene, &Grid::build(&scene)).expect("upload");
+    let gpu_scene = crate::common::upload(&ctx, &scene, &Grid::build(&scene));
     let mut inputs = Vec::new();
     for i in 0..8192 {
         let t = i % scene.textures.len();
@@ -123,7 +122,7 @@ fn texture_coordinates_at_hits_match_the_reference() {
     s.spheres.clear();
     s.meshes.push(quad_mesh(0));
     let ctx = gpu();
-    let gpu_scene = GpuScene::upload(&ctx, &s, &Grid::build(&s)).expect("upload");
+    let gpu_scene = crate::common::upload(&ctx, &s, &Grid::build(&s));
     let reference = cpu::Reference::new(&s);
     let mut rng = Rng::new(11);
     let mut inputs = Vec::new();
@@ -188,7 +187,7 @@ fn sphere_and_cone_coordinates_match_the_reference() {
         },
     ];
     let ctx = gpu();
-    let gpu_scene = GpuScene::upload(&ctx, &s, &Grid::build(&s)).expect("upload");
+    let gpu_scene = crate::common::upload(&ctx, &s, &Grid::build(&s));
     let reference = cpu::Reference::new(&s);
     let mut rng = Rng::new(13);
     let targets = [DVec3::new(0.3, -0.2, 0.1), DVec3::new(3.3, 0.0, 0.15), DVec3::new(-3.0, 0.1, 0.0)];

@@ -3,10 +3,9 @@
 //! aim at vertices, at points on edges and at random directions; every one must hit.
 use crate::common;
 
+use crate::common::run_kernel;
 use common::{gpu, v4, Rng};
 use glam::DVec3;
-use irt::gpu::readback::run_kernel;
-use irt::gpu::GpuScene;
 use irt::io::shapes;
 
 fn leaks(ctx: &irt::gpu::GpuContext, mesh: shapes::Geometry, inside: DVec3, seed: u64) -> (usize, usize) {
@@ -24,7 +23,7 @@ fn leaks(ctx: &irt::gpu::GpuContext, mesh: shapes::Geometry, inside: DVec3, seed
         t
     };
     s.meshes = vec![mesh.into_mesh(0)];
-    let gs = GpuScene::upload(ctx, &s, &irt::accel::Grid::build(&s)).expect("upload");
+    let gs = crate::common::upload(ctx, &s, &irt::accel::Grid::build(&s));
     let mut rng = Rng::new(seed);
     let mut rays: Vec<(DVec3, DVec3)> = targets.iter().map(|&t| (inside, (t - inside).normalize())).collect();
     rays.extend((0..2000).map(|_| (inside, rng.unit())));

@@ -1,40 +1,29 @@
-//! The scene image, the binding layout, compiled kernels and the band renderer on the ash path:
-//! the counterparts of src/gpu/dispatch.rs and src/gpu/renderer.rs, with the scene packing, the
-//! texture's extent and bands, the recording of a frame and its read-out shared with them.
+//! The scene image, the binding layout and compiled kernels on the ash path: the counterparts of
+//! src/gpu/wgpu/scene.rs and kernel.rs, with the binding table, the scene texture's extent and
+//! bands, and the output's decoding shared with them.
 
-use super::spirv::{compile_entry, options_for, tile_as_push_constants};
+use super::spirv::{compile_entry, launch_as_push_constants, options_for};
 use super::{fail, Buffer, Shared, VkContext, VkError};
-use crate::accel::Grid;
-use crate::gpu::backend::{ComputeBackend, Dispatch};
-use crate::gpu::dispatch::{
-    pad_rows, scene_bands, scene_texture_extent, ModeBuffers, RayCounts, STATS_BYTES,
-};
-use crate::gpu::layout::{self, PackedScene, Params, Tile, SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
-use crate::gpu::shaders::{self, Kernel, Variant};
-use crate::scene::Scene;
+use crate::gpu::bindings::{BindingKind, BINDINGS};
+use crate::gpu::device::{DeviceScene, ModeBuffers};
+use crate::gpu::layout::{Launch, Params, SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
+use crate::gpu::output::{decode_output, RayCounts, STATS_BYTES};
+use crate::gpu::scene_texture::{pad_rows, scene_bands, SceneExtent};
+use crate::gpu::shaders::{self, Program, Variant};
 use ash::vk;
-use glam::DVec3;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-mod modes;
-
-/// Descriptor types of bindings 0–8 (shaders/types.wgsl): the frame constants, the scene texture
-/// (naga writes the read-only `texture_storage_2d<rgba32uint, read>` as an `OpTypeImage` with
-/// Sampled = 2 and reads it with `OpImageRead`: a storage image, in the GENERAL layout), then
-/// out, stats, tile,
-/// test inputs, work, queue, frame.
-const BINDINGS: [vk::DescriptorType; 9] = [
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::STORAGE_IMAGE,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::UNIFORM_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::STORAGE_BUFFER,
-];
+/// The descriptor type of a binding of the table. The scene texture: naga writes the read-only
+/// `texture_storage_2d<rgba32uint, read>` as an `OpTypeImage` with Sampled = 2 and reads it with
+/// `OpImageRead`: a storage image, in the GENERAL layout.
+pub(super) fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
+    match kind {
+        BindingKind::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+        BindingKind::SceneImage => vk::DescriptorType::STORAGE_IMAGE,
+        BindingKind::Storage { .. } => vk::DescriptorType::STORAGE_BUFFER,
+    }
+}
 
 /// The one descriptor set layout and pipeline layout every kernel uses.
 pub(crate) struct Layout {
@@ -44,14 +33,14 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
-    pub fn new(shared: &Arc<Shared>, _layered: bool) -> Result<Self, VkError> {
+    pub fn new(shared: &Arc<Shared>) -> Result<Self, VkError> {
         let bindings: Vec<_> = BINDINGS
             .iter()
             .enumerate()
-            .map(|(i, &t)| {
+            .map(|(i, b)| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(i as u32)
-                    .descriptor_type(t)
+                    .descriptor_type(descriptor_type(b.kind))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -66,11 +55,11 @@ impl Layout {
                 )
                 .map_err(fail("vkCreateDescriptorSetLayout"))?;
             let sets = [set_layout];
-            // `VkOptions::push_tile`: the tile in push constants instead of binding 4.
+            // `VkOptions::push_tile`: the launch uniform in push constants instead of its binding.
             let push = [vk::PushConstantRange {
                 stage_flags: vk::ShaderStageFlags::COMPUTE,
                 offset: 0,
-                size: std::mem::size_of::<Tile>() as u32,
+                size: std::mem::size_of::<Launch>() as u32,
             }];
             let mut info = vk::PipelineLayoutCreateInfo::default().set_layouts(&sets);
             if shared.caps.options.push_tile {
@@ -139,14 +128,14 @@ impl Drop for Layout {
 }
 
 /// The scene's image and frame constants, shared by the scene and the dispatchers bound to it.
-struct SceneResources {
-    shared: Arc<Shared>,
-    image: vk::Image,
-    memory: vk::DeviceMemory,
-    view: vk::ImageView,
-    params: Buffer,
+pub(super) struct SceneResources {
+    pub(super) shared: Arc<Shared>,
+    pub(super) image: vk::Image,
+    pub(super) memory: vk::DeviceMemory,
+    pub(super) view: vk::ImageView,
+    pub(super) params: Buffer,
     /// All of the image's layers.
-    range: vk::ImageSubresourceRange,
+    pub(super) range: vk::ImageSubresourceRange,
 }
 
 impl Drop for SceneResources {
@@ -160,59 +149,21 @@ impl Drop for SceneResources {
     }
 }
 
-/// A scene resident on the device (the ash path's [`crate::gpu::GpuScene`]).
-pub struct VkScene {
-    pub params: Params,
+/// The ash path's scene texture: the image and frame constants (shared with the kernels bound
+/// to them), and whether the image has been written (its layout is then GENERAL).
+pub struct SceneImage {
     res: Arc<SceneResources>,
-    pub layered: bool,
-    /// Bytes uploaded (texture + uniforms).
-    pub bytes: u64,
-    /// Rows the image holds (all layers): updates that fit are written in place.
-    capacity_rows: u32,
-    /// The `max_rows` it was uploaded with (updates keep it).
-    max_rows: Option<u32>,
+    written: bool,
 }
 
-impl VkScene {
-    /// Uploads in world coordinates (the readback tests' rays are in world space).
-    pub fn upload(ctx: &VkContext, scene: &Scene, grid: &Grid) -> Result<Self, VkError> {
-        let packed = layout::pack_scene(scene, grid, DVec3::ZERO);
-        let params = layout::params(scene, grid, &packed, DVec3::ZERO);
-        Self::upload_packed_with(ctx, packed, params, None)
-    }
+/// A scene resident on the device (the ash path's `GpuScene`).
+pub type VkScene = DeviceScene<SceneImage>;
 
-    /// Uploads `packed` into the scene image, layered past `max_rows` rows if given and fewer than
-    /// the device's largest side. The texels go through one host-visible staging band of
-    /// [`SCENE_LAYER_ROWS`] rows at a time, from the last band to the first, each freed on the
-    /// host once copied (as `GpuScene::upload_packed` does through wgpu's staging).
-    pub fn upload_packed_with(
-        ctx: &VkContext,
-        packed: PackedScene,
-        params: Params,
-        max_rows: Option<u32>,
-    ) -> Result<Self, VkError> {
-        Self::upload_reserving(ctx, packed, params, max_rows, 0)
-    }
-
-    /// [`Self::upload_packed_with`] into an image of at least `reserve_rows` rows, so that later
-    /// [`Self::update`]s of a growing scene fit.
-    fn upload_reserving(
-        ctx: &VkContext,
-        packed: PackedScene,
-        params: Params,
-        max_rows: Option<u32>,
-        reserve_rows: u32,
-    ) -> Result<Self, VkError> {
+impl SceneImage {
+    /// An image of `extent`, nothing written yet, and the frame constants `params`.
+    pub(super) fn new(ctx: &VkContext, extent: &SceneExtent, params: &Params) -> Result<Self, VkError> {
         let shared = &ctx.shared;
-        let caps = shared.caps;
-        let (height, layers, layered) = scene_texture_extent(
-            &packed,
-            reserve_rows,
-            max_rows,
-            caps.max_texture_dimension_2d,
-            caps.max_texture_array_layers,
-        )
-        .map_err(VkError::Other)?;
+        let SceneExtent { height, layers, layered, .. } = *extent;
         let format = vk::Format::R32G32B32A32_UINT;
         let d = &shared.device;
         let range = vk::ImageSubresourceRange {
@@ -227,7 +178,7 @@ impl VkScene {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             true,
         )?;
-        params_buf.write(0, bytemuck::bytes_of(&params));
+        params_buf.write(0, bytemuck::bytes_of(params));
         // SAFETY: object creation; `SceneResources` destroys what is made once it exists, and the
         // error arms before it destroy what they made.
         let res = unsafe {
@@ -282,60 +233,30 @@ impl VkScene {
             };
             SceneResources { shared: shared.clone(), image, memory, view, params: params_buf, range }
         };
-        let bytes = res.write_rows(0, packed.texels, layered, vk::ImageLayout::UNDEFINED)?
-            + std::mem::size_of::<Params>() as u64;
-        let capacity_rows = height * layers;
-        Ok(VkScene { params, res: Arc::new(res), layered, bytes, capacity_rows, max_rows })
+        Ok(SceneImage { res: Arc::new(res), written: false })
     }
 
-    /// Replaces the frame constants; the next dispatch sees them.
-    pub fn write_params(&mut self, params: Params) {
-        self.params = params;
-        self.res.params.write(0, bytemuck::bytes_of(&params));
+    /// The image and constants kernels bind.
+    pub(super) fn resources(&self) -> &Arc<SceneResources> {
+        &self.res
     }
 
-    /// Replaces the scene's contents with `packed`: written into the image in place while it fits
-    /// (and stays as layered), else into a new image with a quarter more rows than needed, as
-    /// `GpuScene::update` does. Returns whether the image is new (dispatchers bound to this scene
-    /// must then [`VkDispatcher::rebind`]).
-    pub fn update(&mut self, ctx: &VkContext, packed: PackedScene, params: Params) -> Result<bool, VkError> {
-        let rows = packed.rows();
-        if self.fits(ctx, rows) {
-            self.bytes = self.res.write_rows(0, packed.texels, self.layered, vk::ImageLayout::GENERAL)?
-                + std::mem::size_of::<Params>() as u64;
-            self.write_params(params);
-            return Ok(false);
-        }
-        let reserve = rows.saturating_add(rows / 4);
-        *self = Self::upload_reserving(ctx, packed, params, self.max_rows, reserve)?;
-        Ok(true)
+    /// Writes the frame constants; the next dispatch sees them.
+    pub(super) fn write_params(&self, params: &Params) {
+        self.res.params.write(0, bytemuck::bytes_of(params));
     }
 
-    /// Whether `rows` rows fit the image as it is (and would be layered as it is).
-    fn fits(&self, ctx: &VkContext, rows: u32) -> bool {
-        let max_dim = ctx.shared.caps.max_texture_dimension_2d;
-        let max_side = self.max_rows.map_or(max_dim, |m| m.min(max_dim));
-        rows <= self.capacity_rows && layout::scene_extent(rows, max_side).2 == self.layered
-    }
-
-    /// `texels`, the packed scene's from row `from` on, in place of the image's (the rows before
-    /// stay), with `params`, as `GpuScene::update_from` does. False, and nothing written, when
-    /// they do not fit.
-    pub fn update_from(
+    /// Writes `texels` into the rows from `first_row` on (see `SceneResources::write_rows`).
+    pub(super) fn write_rows(
         &mut self,
-        ctx: &VkContext,
-        from: u32,
+        first_row: u32,
         texels: Vec<[u32; 4]>,
-        params: Params,
-    ) -> Result<bool, VkError> {
-        if !self.fits(ctx, from + layout::rows_of(texels.len())) {
-            return Ok(false);
-        }
-        let written = self.res.write_rows(from, texels, self.layered, vk::ImageLayout::GENERAL)?;
-        self.bytes =
-            from as u64 * SCENE_TEX_WIDTH as u64 * 16 + written + std::mem::size_of::<Params>() as u64;
-        self.write_params(params);
-        Ok(true)
+        layered: bool,
+    ) -> Result<u64, VkError> {
+        let from = if self.written { vk::ImageLayout::GENERAL } else { vk::ImageLayout::UNDEFINED };
+        let bytes = self.res.write_rows(first_row, texels, layered, from)?;
+        self.written = true;
+        Ok(bytes)
     }
 }
 
@@ -448,26 +369,26 @@ impl SceneResources {
 /// A compiled kernel bound to a scene and its buffers (the ash path's
 /// [`crate::gpu::Dispatcher`]); pipelines are made per entry point at first use.
 pub struct VkDispatcher {
-    shared: Arc<Shared>,
-    variant: Variant,
-    module: naga::Module,
-    info: naga::valid::ModuleInfo,
-    options: naga::back::spv::Options<'static>,
-    layout: Layout,
-    pipelines: Mutex<Vec<(String, vk::Pipeline)>>,
-    pool: vk::DescriptorPool,
-    set: vk::DescriptorSet,
-    out: Buffer,
-    stats: Buffer,
-    tile: Buffer,
-    _inputs: Buffer,
-    work: Buffer,
-    queue: Buffer,
-    frame: Buffer,
-    readback: Buffer,
-    out_len: u64,
-    frame_len: u64,
-    scene: Arc<SceneResources>,
+    pub(super) shared: Arc<Shared>,
+    pub(super) variant: Variant,
+    pub(super) module: naga::Module,
+    pub(super) info: naga::valid::ModuleInfo,
+    pub(super) options: naga::back::spv::Options<'static>,
+    pub(super) layout: Layout,
+    pub(super) pipelines: Mutex<Vec<(String, vk::Pipeline)>>,
+    pub(super) pool: vk::DescriptorPool,
+    pub(super) set: vk::DescriptorSet,
+    pub(super) out: Buffer,
+    pub(super) stats: Buffer,
+    pub(super) launch: Buffer,
+    pub(super) _inputs: Buffer,
+    pub(super) work: Buffer,
+    pub(super) queue: Buffer,
+    pub(super) frame: Buffer,
+    pub(super) readback: Buffer,
+    pub(super) out_len: u64,
+    pub(super) frame_len: u64,
+    pub(super) scene: Arc<SceneResources>,
 }
 
 impl Drop for VkDispatcher {
@@ -483,51 +404,33 @@ impl Drop for VkDispatcher {
 }
 
 impl VkDispatcher {
-    /// Compiles `kernel` for `variant` (its `layered` set from the scene), and binds it to
-    /// `scene`, an output buffer of `out_len` vec4s and the test inputs `inputs` (may be empty).
-    /// The WGSL is validated by naga here; each entry point's SPIR-V when first run.
-    pub fn new(
+    /// Compiles `program` for `variant` (whose `layered` and `accel` are the scene's), and binds
+    /// it to `scene`, an output buffer of `out_len` vec4s, the test inputs `inputs` (may be empty)
+    /// and the modes' buffers sized as `modes` says. The WGSL is validated by naga here; each
+    /// entry point's SPIR-V when first run.
+    pub(super) fn new(
         ctx: &VkContext,
         scene: &VkScene,
-        kernel: Kernel,
-        variant: Variant,
-        out_len: u64,
-        inputs: &[[f32; 4]],
-    ) -> Result<Self, VkError> {
-        Self::with_modes(ctx, scene, kernel, variant, out_len, inputs, ModeBuffers::default())
-    }
-
-    /// [`Self::new`] with the dispatch modes' buffers sized as `modes` says.
-    pub fn with_modes(
-        ctx: &VkContext,
-        scene: &VkScene,
-        kernel: Kernel,
+        program: Program,
         variant: Variant,
         out_len: u64,
         inputs: &[[f32; 4]],
         modes: ModeBuffers,
     ) -> Result<Self, VkError> {
         let shared = &ctx.shared;
-        let variant = Variant { layered: scene.layered, accel: layout::accel_code(&scene.params), ..variant };
-        if variant.f64 && !shared.caps.f64 {
-            return Err(VkError::Other(crate::gpu::context::no_f64_message(&ctx.info.name)));
-        }
-        if variant.simd_stats && shared.caps.subgroup_size.is_none() {
-            return Err(VkError::Other(crate::gpu::context::no_subgroups_message(&ctx.info.name)));
-        }
-        let src = shaders::compose(kernel, variant);
+        let src = shaders::compose(program, variant);
         let (module, info) =
             shaders::validate(&src).map_err(|e| VkError::Shader(format!("naga rejected the kernel: {e}")))?;
         let (module, info) =
-            if shared.caps.options.push_tile { tile_as_push_constants(module)? } else { (module, info) };
+            if shared.caps.options.push_tile { launch_as_push_constants(module)? } else { (module, info) };
         let options = options_for(&shared.caps);
-        let layout = Layout::new(shared, scene.layered)?;
+        let layout = Layout::new(shared)?;
         use vk::BufferUsageFlags as U;
         let storage = |bytes: u64, extra: U| shared.buffer(bytes, U::STORAGE_BUFFER | extra, false);
         let out = storage(out_len * 16, U::TRANSFER_SRC)?;
         let stats = storage(STATS_BYTES, U::TRANSFER_SRC | U::TRANSFER_DST)?;
-        let tile = shared.buffer(std::mem::size_of::<Tile>() as u64, U::UNIFORM_BUFFER, true)?;
-        tile.write(0, bytemuck::bytes_of(&Tile::default()));
+        let launch = shared.buffer(std::mem::size_of::<Launch>() as u64, U::UNIFORM_BUFFER, true)?;
+        launch.write(0, bytemuck::bytes_of(&Launch::default()));
         let input_bytes: &[u8] = if inputs.is_empty() { &[0; 16] } else { bytemuck::cast_slice(inputs) };
         let inputs_buf = storage(input_bytes.len() as u64, U::TRANSFER_DST)?;
         {
@@ -550,11 +453,13 @@ impl VkDispatcher {
         let readback =
             shared.buffer((out_len * 16).max(modes.frame_len * 16) + STATS_BYTES, U::TRANSFER_DST, true)?;
         let d = &shared.device;
+        let count = |ty| BINDINGS.iter().filter(|b| descriptor_type(b.kind) == ty).count() as u32;
         let sizes = [
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: 2 },
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_IMAGE, descriptor_count: 1 },
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 6 },
-        ];
+            vk::DescriptorType::UNIFORM_BUFFER,
+            vk::DescriptorType::STORAGE_IMAGE,
+            vk::DescriptorType::STORAGE_BUFFER,
+        ]
+        .map(|ty| vk::DescriptorPoolSize { ty, descriptor_count: count(ty) });
         // SAFETY: object creation; the pool is destroyed by `drop` (or below on failure).
         let (pool, set) = unsafe {
             let pool = d
@@ -575,28 +480,47 @@ impl VkDispatcher {
             };
             (pool, set)
         };
-        let buffers = [&scene.res.params, &out, &stats, &tile, &inputs_buf, &work, &queue, &frame];
-        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+        let buffer = |name: &str| match name {
+            "params" => &scene.texture.res.params,
+            "out_buf" => &out,
+            "stats" => &stats,
+            "launch" => &launch,
+            "test_in" => &inputs_buf,
+            "work_buf" => &work,
+            "queue" => &queue,
+            "frame_buf" => &frame,
+            other => unreachable!("binding {other} is not a buffer"),
+        };
+        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = BINDINGS
             .iter()
-            .map(|b| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
+            .map(|b| match b.kind {
+                BindingKind::SceneImage => [vk::DescriptorBufferInfo::default()],
+                _ => [vk::DescriptorBufferInfo {
+                    buffer: buffer(b.name).raw,
+                    offset: 0,
+                    range: vk::WHOLE_SIZE,
+                }],
+            })
             .collect();
         let image_info = [vk::DescriptorImageInfo {
             sampler: vk::Sampler::null(),
-            image_view: scene.res.view,
+            image_view: scene.texture.res.view,
             image_layout: vk::ImageLayout::GENERAL,
         }];
-        let mut writes = Vec::new();
-        for (binding, &ty) in BINDINGS.iter().enumerate() {
-            let w = vk::WriteDescriptorSet::default()
-                .dst_set(set)
-                .dst_binding(binding as u32)
-                .descriptor_type(ty);
-            writes.push(match binding {
-                1 => w.image_info(&image_info),
-                0 => w.buffer_info(&buffer_infos[0]),
-                b => w.buffer_info(&buffer_infos[b - 1]),
-            });
-        }
+        let writes: Vec<_> = BINDINGS
+            .iter()
+            .enumerate()
+            .map(|(slot, b)| {
+                let w = vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(slot as u32)
+                    .descriptor_type(descriptor_type(b.kind));
+                match b.kind {
+                    BindingKind::SceneImage => w.image_info(&image_info),
+                    _ => w.buffer_info(&buffer_infos[slot]),
+                }
+            })
+            .collect();
         // SAFETY: every written object is alive and of the binding's type.
         unsafe { d.update_descriptor_sets(&writes, &[]) };
         Ok(VkDispatcher {
@@ -611,7 +535,7 @@ impl VkDispatcher {
             set,
             out,
             stats,
-            tile,
+            launch,
             _inputs: inputs_buf,
             work,
             queue,
@@ -619,7 +543,7 @@ impl VkDispatcher {
             readback,
             out_len,
             frame_len: modes.frame_len,
-            scene: scene.res.clone(),
+            scene: scene.texture.res.clone(),
         })
     }
 
@@ -639,11 +563,11 @@ impl VkDispatcher {
         Ok(p)
     }
 
-    /// Runs `entry` over `groups` workgroups with `tile` as its uniform, and waits for it.
-    /// With `VkOptions::push_tile` the tile goes in push constants, else into the tile buffer;
+    /// Runs `entry` over `groups` workgroups with `launch` as its uniform, and waits for it.
+    /// With `VkOptions::push_tile` it goes in push constants, else into the launch buffer;
     /// with `VkOptions::profile` the dispatch is timed and its invocations counted
     /// (`VkContext::take_samples`).
-    pub fn run(&self, entry: &str, tile: Tile, groups: [u32; 3]) -> Result<(), VkError> {
+    pub fn run(&self, entry: &str, launch: Launch, groups: [u32; 3]) -> Result<(), VkError> {
         let pipeline = self.pipeline(entry)?;
         let (layout, set) = (self.layout.pipeline_layout, self.set);
         let push = self.shared.caps.options.push_tile;
@@ -651,8 +575,8 @@ impl VkDispatcher {
         let start = Instant::now();
         let record = |d: &ash::Device, cmd| {
             if !push {
-                // Under the submit lock, so no other submission reads the tile now.
-                self.tile.write(0, bytemuck::bytes_of(&tile));
+                // Under the submit lock, so no other submission reads the launch buffer now.
+                self.launch.write(0, bytemuck::bytes_of(&launch));
             }
             // SAFETY: recording into the command buffer `submit` began; all bound objects live;
             // the queries' begin and end enclose only the dispatch.
@@ -660,7 +584,7 @@ impl VkDispatcher {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
                 d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
                 if push {
-                    let bytes = bytemuck::bytes_of(&tile);
+                    let bytes = bytemuck::bytes_of(&launch);
                     d.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, bytes);
                 }
                 if let Some(q) = queries {
@@ -700,57 +624,6 @@ impl VkDispatcher {
                 d.cmd_copy_buffer(cmd, self.stats.raw, self.readback.raw, &[copy]);
             }
         })?;
-        Ok(self
-            .readback
-            .read_with(out_bytes + STATS_BYTES, |d| crate::gpu::dispatch::decode_output(d, out_bytes, read)))
+        Ok(self.readback.read_with(out_bytes + STATS_BYTES, |d| decode_output(d, out_bytes, read)))
     }
 }
-
-/// The ash path as a [`ComputeBackend`].
-pub struct VkKernel<'a>(pub &'a VkDispatcher);
-
-impl ComputeBackend for VkKernel<'_> {
-    type Error = VkError;
-    fn reset_counts(&self) -> Result<(), VkError> {
-        self.0.reset_counts()
-    }
-    fn dispatch(&self, d: &Dispatch) -> Result<(), VkError> {
-        self.0.run(&d.entry, d.tile, d.groups)
-    }
-    fn read_output_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, VkError> {
-        self.0.read_with(read)
-    }
-    fn reset_queue(&self) -> Result<(), VkError> {
-        self.0.reset_queue()
-    }
-    fn read_queue(&self) -> Result<u32, VkError> {
-        self.0.read_queue()
-    }
-    fn write_work(&self, data: &[u32]) -> Result<(), VkError> {
-        self.0.write_work(data)
-    }
-    fn clear_frame(&self) -> Result<(), VkError> {
-        self.0.clear_frame()
-    }
-    fn read_frame(&self) -> Result<Vec<[f32; 4]>, VkError> {
-        self.0.read_frame()
-    }
-}
-
-/// Runs one readback kernel of shaders/tests.wgsl on the ash path, as
-/// [`crate::gpu::readback::run_kernel`] does on wgpu.
-pub fn run_kernel(
-    ctx: &VkContext,
-    scene: &VkScene,
-    entry: &str,
-    inputs: &[[f32; 4]],
-    items: u32,
-    out_per_item: u32,
-) -> Result<Vec<[f32; 4]>, VkError> {
-    let out_len = items as u64 * out_per_item as u64;
-    let d = VkDispatcher::new(ctx, scene, Kernel::Tests, Variant::FULL, out_len, inputs)?;
-    crate::gpu::readback::run_readback(&VkKernel(&d), entry, items)
-}
-
-/// The headless band renderer on the ash path: the one band renderer, on raw Vulkan.
-pub type VkRenderer = crate::gpu::Renderer<VkContext>;

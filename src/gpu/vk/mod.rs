@@ -1,26 +1,27 @@
-//! The second device path (issue #12): irt's kernels on raw Vulkan through `ash`, beside wgpu.
+//! The second device path: irt's kernels on raw Vulkan through `ash`, beside wgpu.
 //!
-//! Same adapter rules ([`super::context::choose_adapter`]), same composed WGSL
+//! Same adapter rules ([`super::adapter::choose_adapter`]), same composed WGSL
 //! ([`super::shaders::compose`]) turned into SPIR-V by naga with the options wgpu-hal would use,
-//! same scene packing and the same [`super::backend::Recording`]s; only the Vulkan objects are
-//! this module's own: instance, device with one compute queue, the one descriptor set layout of
-//! bindings 0–8, buffers, the scene image, one command buffer and fence (each dispatch is
+//! same binding table, scene packing and [`super::recording::Recording`]s; only the Vulkan objects
+//! are this module's own: instance, device with one compute queue, the descriptor set layout of
+//! the binding table, buffers, the scene image, one command buffer and fence (each dispatch is
 //! recorded, submitted and waited for, as the wgpu dispatcher does).
 //!
 //! Every Vulkan failure is a [`VkError`], never a panic.
 
+mod device;
 mod kernel;
 mod queries;
 mod spirv;
 mod validate;
 
-pub use kernel::{run_kernel, VkDispatcher, VkKernel, VkRenderer, VkScene};
+pub use device::VkBound;
+pub use kernel::{SceneImage, VkDispatcher, VkScene};
 pub use queries::{DispatchSample, QuerySupport};
-pub use spirv::TILE_BINDING;
 pub use spirv::{check_spirv, compile_entry, spv_options};
 pub use validate::{full_check, naga_check, spirv_val_available, spirv_val_check, FullCheck};
 
-use super::context::{choose_adapter, AdapterChoice, AdapterFacts, ContextError};
+use super::adapter::{choose_adapter, AdapterChoice, AdapterFacts, ContextError};
 use ash::vk;
 use std::ffi::CStr;
 use std::sync::{Arc, Mutex};
@@ -673,13 +674,13 @@ impl VkContext {
 
     /// The Mesa version of a lavapipe device, as [`super::GpuContext::mesa_version`].
     pub fn mesa_version(&self) -> Option<(u32, u32)> {
-        super::context::mesa_version(&self.info.driver_info)
+        super::adapter::mesa_version(&self.info.driver_info)
     }
 
     /// Creates a compute pipeline for `entry` of the SPIR-V `words` on the one binding layout,
     /// checks it, and destroys it: how a caller (a test) learns whether the words are accepted.
-    pub fn try_pipeline(&self, words: &[u32], entry: &str, layered: bool) -> Result<(), VkError> {
-        let layout = kernel::Layout::new(&self.shared, layered)?;
+    pub fn try_pipeline(&self, words: &[u32], entry: &str) -> Result<(), VkError> {
+        let layout = kernel::Layout::new(&self.shared)?;
         let p = layout.pipeline(words, entry)?;
         // SAFETY: never used.
         unsafe { self.shared.device.destroy_pipeline(p, None) };

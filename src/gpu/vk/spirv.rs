@@ -64,28 +64,26 @@ pub(crate) fn options_for(caps: &Caps) -> spv::Options<'static> {
     }
 }
 
-/// The binding of the tile uniform (shaders/types.wgsl) that `VkOptions::push_tile` moves into
-/// push constants.
-pub const TILE_BINDING: u32 = 4;
-
-/// `module` with its tile uniform (`@group(0) @binding(4) var<uniform> tile`) moved to the
+/// `module` with its launch uniform (`var<uniform> launch`, `bindings::LAUNCH_SLOT`) moved to the
 /// immediate address space (push constants in SPIR-V), validated again: the same WGSL, one
 /// module transform, so the shaders keep one source. An error if the module has no such global.
-pub(crate) fn tile_as_push_constants(
+pub(crate) fn launch_as_push_constants(
     mut module: naga::Module,
 ) -> Result<(naga::Module, naga::valid::ModuleInfo), VkError> {
-    let tile = module.global_variables.iter_mut().find(|(_, g)| {
+    let launch = module.global_variables.iter_mut().find(|(_, g)| {
         g.space == naga::AddressSpace::Uniform
-            && g.binding == Some(naga::ResourceBinding { group: 0, binding: TILE_BINDING })
+            && g.binding
+                == Some(naga::ResourceBinding { group: 0, binding: crate::gpu::bindings::LAUNCH_SLOT })
     });
-    let Some((_, g)) = tile else {
-        return Err(VkError::Shader(format!("the kernel has no uniform at binding {TILE_BINDING} to push")));
+    let Some((_, g)) = launch else {
+        let slot = crate::gpu::bindings::LAUNCH_SLOT;
+        return Err(VkError::Shader(format!("the kernel has no uniform at binding {slot} to push")));
     };
     g.space = naga::AddressSpace::Immediate;
     g.binding = None;
     let info = crate::gpu::shaders::validator()
         .validate(&module)
-        .map_err(|e| VkError::Shader(format!("the kernel with its tile in push constants: {e}")))?;
+        .map_err(|e| VkError::Shader(format!("the kernel with its launch uniform in push constants: {e}")))?;
     Ok((module, info))
 }
 

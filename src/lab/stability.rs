@@ -1,10 +1,10 @@
 //! `irt stability`: how far the GPU, in f32 and in f64, drifts from the f64 reference as a scene
 //! moves away from the origin, and what f64 costs (docs/stability.md).
 
-use crate::gpu::backend::Device;
-use crate::gpu::{RenderOptions, Renderer};
+use crate::gpu::device::Device;
 use crate::metrics::{compare, ImageDiff};
 use crate::reference;
+use crate::render::{RenderError, Session, Settings};
 use crate::scene::Scene;
 use glam::DVec3;
 use std::time::Duration;
@@ -29,7 +29,7 @@ pub struct Row {
 }
 
 /// Measures `scene` moved `distance` from where it is.
-pub fn measure<D: Device>(ctx: &D, scene: &Scene, distance: f64) -> Result<Row, String> {
+pub fn measure<D: Device>(ctx: &D, scene: &Scene, distance: f64) -> Result<Row, RenderError> {
     let s = scene.transformed(1.0, offset(distance));
     let r = reference::render(&s);
     let reference = crate::image::Image {
@@ -37,10 +37,11 @@ pub fn measure<D: Device>(ctx: &D, scene: &Scene, distance: f64) -> Result<Row, 
         height: r.height,
         pixels: r.pixels.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
     };
-    let run = |f64| -> Result<(ImageDiff, Duration), String> {
-        let renderer = Renderer::new(ctx, &s, RenderOptions { f64, ..Default::default() })?;
-        let image = renderer.try_render(ctx, &mut |_, _| {}).map_err(|e| e.to_string())?.image;
-        Ok((compare(&image, &reference), renderer.try_median_frame_time(ctx, 3).map_err(|e| e.to_string())?))
+    let run = |f64| -> Result<(ImageDiff, Duration), RenderError> {
+        let mut session = Session::new(ctx, &s, Settings { f64, ..Settings::bands() })?;
+        let image = session.try_picture(ctx, &mut |_, _| {}).map_err(Into::into)?.image;
+        let (time, _) = session.try_median_picture_times(ctx, 3).map_err(Into::into)?;
+        Ok((compare(&image, &reference), time))
     };
     let ((f32, f32_time), (f64, f64_time)) = (run(false)?, run(true)?);
     Ok(Row { distance, f32, f64, f32_time, f64_time })
@@ -69,7 +70,7 @@ pub fn markdown_table(rows: &[Row]) -> String {
 }
 
 /// p99.9 and max error (in 1/255 steps) against distance, log–log, as SVG.
-pub fn plot_svg(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), String> {
+pub fn plot_svg(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), super::plot::PlotError> {
     use plotters::prelude::*;
     // Distance 0 is drawn at 1 (log axis); errors below 0.01/255 at 0.01.
     let pts = |f: fn(&Row) -> f64| -> Vec<(f64, f64)> {
@@ -84,7 +85,7 @@ pub fn plot_svg(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(),
     let x_hi = rows.iter().map(|r| r.distance).fold(10.0, f64::max) * 2.0;
     let axes =
         ("distance from the origin (scene units; 0 drawn at 1)", "error vs f64 reference (1/255 steps)");
-    crate::plot::log_log_svg(path, title, (0.5..x_hi, 0.005..300.0), axes, |chart| {
+    super::plot::log_log_svg(path, title, (0.5..x_hi, 0.005..300.0), axes, |chart| {
         for (data, colour, label) in series {
             chart
                 .draw_series(LineSeries::new(data.clone(), colour.stroke_width(2)))

@@ -2,10 +2,10 @@
 //! interleaved (so load from other processes falls on both alike): the numbers of
 //! docs/backends.md, "Raw-Vulkan levers".
 //!
-//!     cargo run --release --example vklevers -- robust ROUNDS SCENE...
-//!     cargo run --release --example vklevers -- push ROUNDS DISPATCHES_PER_ROUND SCENE
-//!     cargo run --release --example vklevers -- check ROUNDS
-//!     cargo run --release --example vklevers -- overrides ROUNDS
+//!     cargo run --release -p irt-tools -- vklevers robust ROUNDS SCENE...
+//!     cargo run --release -p irt-tools -- vklevers push ROUNDS DISPATCHES_PER_ROUND SCENE
+//!     cargo run --release -p irt-tools -- vklevers check ROUNDS
+//!     cargo run --release -p irt-tools -- vklevers overrides ROUNDS
 //!
 //! `robust`: frame time with robustness on (default) / off, and naga's index checks on / off,
 //! and whether every image is bit for bit the default's. `push`: the tile as a mapped uniform
@@ -16,10 +16,12 @@
 //! substitutes before it writes SPIR-V (no OpSpecConstant): what one parse saves per variant,
 //! and whether lavapipe compiles the result any differently.
 
-use irt::gpu::backend::dispatch_overhead;
-use irt::gpu::shaders::{self, Kernel, Variant};
-use irt::gpu::vk::{self, VkContext, VkDispatcher, VkKernel, VkOptions, VkRenderer};
-use irt::gpu::{AdapterChoice, RenderOptions};
+use irt::gpu::device::Device;
+use irt::gpu::recording::dispatch_overhead;
+use irt::gpu::shaders::{self, Program, Variant};
+use irt::gpu::vk::{self, VkContext, VkDispatcher, VkOptions};
+use irt::gpu::AdapterChoice;
+use irt::render::{Picture, Session, Settings};
 use std::time::{Duration, Instant};
 
 fn median(mut v: Vec<Duration>) -> f64 {
@@ -42,12 +44,11 @@ fn load(path: &str) -> anyhow::Result<irt::scene::Scene> {
     Ok(scene)
 }
 
-fn bits(f: &irt::gpu::Frame) -> Vec<u32> {
+fn bits(f: &Picture) -> Vec<u32> {
     f.image.pixels.iter().flatten().map(|x| x.to_bits()).collect()
 }
 
-fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+pub fn run(args: &[String]) -> anyhow::Result<()> {
     let lever = args.first().map(String::as_str).unwrap_or("robust");
     let rounds: usize = args.get(1).map_or(Ok(7), |a| a.parse())?;
     let choice = AdapterChoice::from_arg_or_env(None);
@@ -68,16 +69,15 @@ fn main() -> anyhow::Result<()> {
                 cases.iter().map(|(_, o)| VkContext::with_options(&choice, *o)).collect::<Result<_, _>>()?;
             for path in &args[2..] {
                 let scene = load(path)?;
-                let opts = RenderOptions { corner_rays: path.ends_with(".nff"), ..Default::default() };
-                let rs: Vec<VkRenderer> = ctxs
+                let settings = Settings { corner_rays: path.ends_with(".nff"), ..Settings::bands() };
+                let mut rs: Vec<Session<VkContext>> = ctxs
                     .iter()
-                    .map(|c| VkRenderer::new(c, &scene, opts))
-                    .collect::<Result<_, _>>()
-                    .map_err(anyhow::Error::msg)?;
+                    .map(|c| Session::new(c, &scene, settings.clone()))
+                    .collect::<Result<_, _>>()?;
                 let first: Vec<Vec<u32>> = rs
-                    .iter()
+                    .iter_mut()
                     .zip(&ctxs)
-                    .map(|(r, c)| r.try_render(c, &mut |_, _| {}).map(|f| bits(&f)))
+                    .map(|(r, c)| r.try_picture(c, &mut |_, _| {}).map(|f| bits(&f)))
                     .collect::<Result<_, _>>()?;
                 let mut times = vec![Vec::new(); rs.len()];
                 // Each round starts at the next case, so no case always runs first.
@@ -85,7 +85,7 @@ fn main() -> anyhow::Result<()> {
                     for k in 0..rs.len() {
                         let i = (round + k) % rs.len();
                         let s = Instant::now();
-                        rs[i].try_render(&ctxs[i], &mut |_, _| {})?;
+                        rs[i].try_picture(&ctxs[i], &mut |_, _| {})?;
                         times[i].push(s.elapsed());
                     }
                 }
@@ -112,30 +112,29 @@ fn main() -> anyhow::Result<()> {
             let ctxs: Vec<VkContext> =
                 cases.iter().map(|(_, o)| VkContext::with_options(&choice, *o)).collect::<Result<_, _>>()?;
             let scene = load(path)?;
-            let rs: Vec<VkRenderer> = ctxs
-                .iter()
-                .map(|c| VkRenderer::new(c, &scene, RenderOptions::default()))
-                .collect::<Result<_, _>>()
-                .map_err(anyhow::Error::msg)?;
+            let mut rs: Vec<Session<VkContext>> =
+                ctxs.iter().map(|c| Session::new(c, &scene, Settings::bands())).collect::<Result<_, _>>()?;
             let first: Vec<Vec<u32>> = rs
-                .iter()
+                .iter_mut()
                 .zip(&ctxs)
-                .map(|(r, c)| r.try_render(c, &mut |_, _| {}).map(|f| bits(&f)))
+                .map(|(r, c)| r.try_picture(c, &mut |_, _| {}).map(|f| bits(&f)))
                 .collect::<Result<_, _>>()?;
             let input = [[0.5f32, 0.04, 1.5, 0.0]];
             let ds: Vec<VkDispatcher> = ctxs
                 .iter()
                 .zip(&rs)
-                .map(|(c, r)| VkDispatcher::new(c, &r.gpu_scene, Kernel::Tests, Variant::FULL, 1, &input))
+                .map(|(c, r)| {
+                    c.compile(r.device_scene(), Program::Tests, Variant::FULL, 1, &input, Default::default())
+                })
                 .collect::<Result<_, _>>()?;
             let (mut frame, mut tiny) = (vec![Vec::new(); 2], vec![Vec::new(); 2]);
             for round in 0..rounds {
                 for k in 0..2 {
                     let i = (round + k) % 2;
                     let s = Instant::now();
-                    rs[i].try_render(&ctxs[i], &mut |_, _| {})?;
+                    rs[i].try_picture(&ctxs[i], &mut |_, _| {})?;
                     frame[i].push(s.elapsed());
-                    tiny[i].push(dispatch_overhead(&VkKernel(&ds[i]), "k_fresnel", per_round)?);
+                    tiny[i].push(dispatch_overhead(&ctxs[i].bind(&ds[i]), "k_fresnel", per_round)?);
                 }
             }
             let (fr, tr): (Vec<f64>, Vec<f64>) = (
@@ -178,7 +177,7 @@ fn main() -> anyhow::Result<()> {
             let mut words_total = 0usize;
             for round in 0..rounds {
                 for v in &variants {
-                    let src = shaders::compose(Kernel::Render, *v);
+                    let src = shaders::compose(Program::Render, *v);
                     let (module, info) = shaders::validate(&src).map_err(anyhow::Error::msg)?;
                     let s = Instant::now();
                     let words = vk::compile_entry(&module, &info, "render", &options)?;
@@ -194,7 +193,7 @@ fn main() -> anyhow::Result<()> {
                     t[3].push(s.elapsed());
                     anyhow::ensure!(ran, "spirv-val is not installed");
                     let s = Instant::now();
-                    base.try_pipeline(&words, "render", v.layered)?;
+                    base.try_pipeline(&words, "render")?;
                     t[4].push(s.elapsed());
                     if round == 0 {
                         words_total += words.len();
@@ -245,7 +244,7 @@ fn override_values(v: &Variant) -> naga::back::PipelineConstants {
 }
 
 fn overrides(ctx: &VkContext, rounds: usize) -> anyhow::Result<()> {
-    let mut src = shaders::compose(Kernel::Render, Variant::FULL);
+    let mut src = shaders::compose(Program::Render, Variant::FULL);
     for name in SWITCHES {
         let start = src.find(&format!("const {name}: ")).expect(name);
         let end = start + src[start..].find(';').expect(name);
@@ -266,7 +265,7 @@ fn overrides(ctx: &VkContext, rounds: usize) -> anyhow::Result<()> {
         for v in &variants {
             let s = Instant::now();
             let (m, i) =
-                shaders::validate(&shaders::compose(Kernel::Render, *v)).map_err(anyhow::Error::msg)?;
+                shaders::validate(&shaders::compose(Program::Render, *v)).map_err(anyhow::Error::msg)?;
             let wc = vk::compile_entry(&m, &i, "render", &options)?;
             composed.push(s.elapsed());
             let s = Instant::now();
@@ -280,10 +279,10 @@ fn overrides(ctx: &VkContext, rounds: usize) -> anyhow::Result<()> {
             overridden.push(s.elapsed());
             vk::check_spirv(&wo, "render")?;
             let s = Instant::now();
-            ctx.try_pipeline(&wc, "render", false)?;
+            ctx.try_pipeline(&wc, "render")?;
             pipe_c.push(s.elapsed());
             let s = Instant::now();
-            ctx.try_pipeline(&wo, "render", false)?;
+            ctx.try_pipeline(&wo, "render")?;
             pipe_o.push(s.elapsed());
             if round == 0 {
                 (words_c, words_o) = (words_c + wc.len(), words_o + wo.len());

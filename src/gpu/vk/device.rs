@@ -1,11 +1,17 @@
-//! What the interactive modes ask of a kernel on the ash path (the work, queue and frame
-//! buffers; a new scene image bound in place) and the ash path as a [`Device`] for
-//! `render::Session`: the counterparts of the wgpu dispatcher's methods of the same names.
+//! The ash path as a [`Device`], its kernels as [`BoundKernel`]s, and what the modes ask of a
+//! kernel (the work, queue and frame buffers; a new scene image bound in place): the
+//! counterparts of the wgpu dispatcher's methods of the same names.
 
-use super::{Kernel, ModeBuffers, Params, VkContext, VkDispatcher, VkError, VkKernel, VkScene, BINDINGS};
-use crate::gpu::backend::Device;
-use crate::gpu::layout::PackedScene;
-use crate::gpu::shaders::Variant;
+use super::kernel::{descriptor_type, SceneImage};
+use super::{VkContext, VkDispatcher, VkError, VkScene};
+use crate::gpu::bindings::{slot, BINDINGS};
+use crate::gpu::device::{BoundKernel, Device, ModeBuffers};
+use crate::gpu::layout::Params;
+use crate::gpu::output::RayCounts;
+use crate::gpu::recording::Dispatch;
+use crate::gpu::scene_texture::SceneExtent;
+use crate::gpu::shaders::{Program, Variant};
+use crate::gpu::GpuError;
 use ash::vk;
 
 impl VkDispatcher {
@@ -29,11 +35,9 @@ impl VkDispatcher {
             return Ok(());
         }
         if bytes.len() as u64 > self.work.size {
-            return Err(VkError::Other(format!(
-                "{} bytes of work data for a {} byte work buffer",
-                bytes.len(),
-                self.work.size
-            )));
+            return Err(VkError::Other(
+                GpuError::WorkTooLarge { bytes: bytes.len() as u64, size: self.work.size }.to_string(),
+            ));
         }
         let staging = self.shared.buffer(bytes.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, true)?;
         staging.write(0, bytes);
@@ -77,28 +81,29 @@ impl VkDispatcher {
     /// Binds to `scene`'s new image and frame constants (after [`VkScene::update`] replaced
     /// them), keeping every buffer, the frame buffer's samples included. The image must be
     /// layered as before (a layered scene needs a recompiled kernel).
-    pub fn rebind(&mut self, scene: &VkScene) -> Result<(), VkError> {
-        if scene.layered != self.variant.layered {
-            return Err(VkError::Other("a scene that became layered needs a recompiled kernel".into()));
+    pub fn rebind(&mut self, scene: &VkScene) -> Result<(), GpuError> {
+        if scene.layered() != self.variant.layered {
+            return Err(GpuError::LayeredRebind);
         }
-        let params =
-            [vk::DescriptorBufferInfo { buffer: scene.res.params.raw, offset: 0, range: vk::WHOLE_SIZE }];
+        let res = scene.texture.resources();
+        let params = [vk::DescriptorBufferInfo { buffer: res.params.raw, offset: 0, range: vk::WHOLE_SIZE }];
         let image = [vk::DescriptorImageInfo {
             sampler: vk::Sampler::null(),
-            image_view: scene.res.view,
+            image_view: res.view,
             image_layout: vk::ImageLayout::GENERAL,
         }];
         let write = |binding: u32| {
             vk::WriteDescriptorSet::default()
                 .dst_set(self.set)
                 .dst_binding(binding)
-                .descriptor_type(BINDINGS[binding as usize])
+                .descriptor_type(descriptor_type(BINDINGS[binding as usize].kind))
         };
-        let writes = [write(0).buffer_info(&params), write(1).image_info(&image)];
+        let writes =
+            [write(slot("params")).buffer_info(&params), write(slot("scene_tex")).image_info(&image)];
         // SAFETY: every submission was waited for, so the set is not in use; both objects live
         // as long as `self.scene`, which holds them from here on.
         unsafe { self.shared.device.update_descriptor_sets(&writes, &[]) };
-        self.scene = scene.res.clone();
+        self.scene = res.clone();
         Ok(())
     }
 
@@ -117,11 +122,42 @@ impl VkDispatcher {
     }
 }
 
+/// A [`VkDispatcher`] as a [`BoundKernel`].
+pub struct VkBound<'a>(pub &'a VkDispatcher);
+
+impl BoundKernel for VkBound<'_> {
+    type Error = VkError;
+    fn reset_counts(&self) -> Result<(), VkError> {
+        self.0.reset_counts()
+    }
+    fn dispatch(&self, d: &Dispatch) -> Result<(), VkError> {
+        self.0.run(&d.entry, d.launch, d.groups)
+    }
+    fn read_output_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, VkError> {
+        self.0.read_with(read)
+    }
+    fn reset_queue(&self) -> Result<(), VkError> {
+        self.0.reset_queue()
+    }
+    fn read_queue(&self) -> Result<u32, VkError> {
+        self.0.read_queue()
+    }
+    fn write_work(&self, data: &[u32]) -> Result<(), VkError> {
+        self.0.write_work(data)
+    }
+    fn clear_frame(&self) -> Result<(), VkError> {
+        self.0.clear_frame()
+    }
+    fn read_frame(&self) -> Result<Vec<[f32; 4]>, VkError> {
+        self.0.read_frame()
+    }
+}
+
 impl Device for VkContext {
     type Error = VkError;
-    type Scene = VkScene;
+    type Texture = SceneImage;
     type Kernel = VkDispatcher;
-    type Bound<'a> = VkKernel<'a>;
+    type Bound<'a> = VkBound<'a>;
 
     fn adapter_name(&self) -> &str {
         &self.info.name
@@ -135,61 +171,48 @@ impl Device for VkContext {
     fn subgroup_size(&self) -> Option<u32> {
         self.shared.caps.subgroup_size
     }
-    fn upload(
-        &self,
-        packed: PackedScene,
-        params: Params,
-        max_rows: Option<u32>,
-        reserve_rows: u32,
-    ) -> Result<VkScene, String> {
-        VkScene::upload_reserving(self, packed, params, max_rows, reserve_rows).map_err(|e| e.to_string())
+    fn has_f64(&self) -> bool {
+        self.shared.caps.f64
     }
-    fn update_scene(&self, scene: &mut VkScene, packed: PackedScene, params: Params) -> Result<bool, String> {
-        scene.update(self, packed, params).map_err(|e| e.to_string())
+    fn texture_limits(&self) -> (u32, u32) {
+        (self.shared.caps.max_texture_dimension_2d, self.shared.caps.max_texture_array_layers)
     }
-    fn update_scene_from(
+    fn allocate_texture(&self, extent: &SceneExtent, params: &Params) -> Result<SceneImage, GpuError> {
+        Ok(SceneImage::new(self, extent, params)?)
+    }
+    fn write_rows(
         &self,
-        scene: &mut VkScene,
+        texture: &mut SceneImage,
+        extent: &SceneExtent,
         from: u32,
         texels: Vec<[u32; 4]>,
-        params: Params,
-    ) -> Result<bool, String> {
-        scene.update_from(self, from, texels, params).map_err(|e| e.to_string())
+    ) -> Result<u64, GpuError> {
+        Ok(texture.write_rows(from, texels, extent.layered)?)
     }
-    fn params(scene: &VkScene) -> Params {
-        scene.params
+    fn write_constants(&self, texture: &SceneImage, params: &Params) {
+        texture.write_params(params)
     }
-    fn layered(scene: &VkScene) -> bool {
-        scene.layered
-    }
-    fn scene_bytes(scene: &VkScene) -> u64 {
-        scene.bytes
-    }
-    fn write_params(&self, scene: &mut VkScene, params: Params) {
-        scene.write_params(params)
-    }
-    fn compile(
+    fn compile_kernel(
         &self,
         scene: &VkScene,
-        kernel: Kernel,
+        program: Program,
         variant: Variant,
         out_len: u64,
         inputs: &[[f32; 4]],
         modes: ModeBuffers,
-    ) -> Result<VkDispatcher, String> {
-        VkDispatcher::with_modes(self, scene, kernel, variant, out_len, inputs, modes)
-            .map_err(|e| e.to_string())
+    ) -> Result<VkDispatcher, GpuError> {
+        Ok(VkDispatcher::new(self, scene, program, variant, out_len, inputs, modes)?)
     }
     fn variant(kernel: &VkDispatcher) -> Variant {
         kernel.variant()
     }
-    fn rebind(&self, kernel: &mut VkDispatcher, scene: &VkScene) -> Result<(), String> {
-        kernel.rebind(scene).map_err(|e| e.to_string())
+    fn rebind(&self, kernel: &mut VkDispatcher, scene: &VkScene) -> Result<(), GpuError> {
+        kernel.rebind(scene)
     }
-    fn copy_frame(&self, to: &VkDispatcher, from: &VkDispatcher) -> Result<(), String> {
-        to.copy_frame_from(from).map_err(|e| e.to_string())
+    fn copy_frame(&self, to: &VkDispatcher, from: &VkDispatcher) -> Result<(), GpuError> {
+        Ok(to.copy_frame_from(from)?)
     }
-    fn bind<'a>(&'a self, kernel: &'a VkDispatcher) -> VkKernel<'a> {
-        VkKernel(kernel)
+    fn bind<'a>(&'a self, kernel: &'a VkDispatcher) -> VkBound<'a> {
+        VkBound(kernel)
     }
 }

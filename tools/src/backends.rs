@@ -2,16 +2,18 @@
 //! processes falls on both alike): per-dispatch overhead and frame time, medians. The numbers of
 //! docs/backends.md.
 //!
-//!     cargo run --release --example backends -- [SCENE] [ROUNDS] [DISPATCHES_PER_ROUND]
+//!     cargo run --release -p irt-tools -- backends [SCENE] [ROUNDS] [DISPATCHES_PER_ROUND]
 //!
 //! Then frameless slices of S = 1 K … 256 K pixels on both paths (`render::Session`, the same
 //! code on each): the wall time per slice, dispatch + submit + wait included, and the pixels per
 //! second it leaves.
 
-use irt::gpu::backend::{dispatch_overhead, infallible, WgpuKernel};
-use irt::gpu::shaders::{Kernel, Variant};
-use irt::gpu::vk::{VkContext, VkDispatcher, VkKernel, VkRenderer};
-use irt::gpu::{AdapterChoice, Dispatcher, GpuContext, RenderOptions, Renderer};
+use irt::gpu::device::{infallible, Device};
+use irt::gpu::recording::dispatch_overhead;
+use irt::gpu::shaders::{Program, Variant};
+use irt::gpu::vk::VkContext;
+use irt::gpu::{AdapterChoice, GpuContext};
+use irt::render::{Session, Settings};
 use std::time::{Duration, Instant};
 
 fn median(mut v: Vec<Duration>) -> f64 {
@@ -19,15 +21,13 @@ fn median(mut v: Vec<Duration>) -> f64 {
     v[v.len() / 2].as_secs_f64() * 1e3
 }
 
-fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+pub fn run(args: &[String]) -> anyhow::Result<()> {
     let path = args.first().filter(|a| *a != "default").map(std::path::PathBuf::from);
     let rounds: usize = args.get(1).map_or(Ok(7), |a| a.parse())?;
     let per_round: u32 = args.get(2).map_or(Ok(200), |a| a.parse())?;
     let mut scene = irt::io::load_or_default(path.as_deref())?;
     (scene.camera.width, scene.camera.height) = (512, 512);
     let choice = AdapterChoice::from_arg_or_env(None);
-    let opts = RenderOptions::default();
 
     let t = Instant::now();
     let ctx = GpuContext::new(&choice)?;
@@ -42,12 +42,12 @@ fn main() -> anyhow::Result<()> {
     let open_w_warm = t.elapsed();
 
     let t = Instant::now();
-    let w = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
-    let fw = w.render(&ctx, &mut |_, _| {});
+    let mut w = Session::new(&ctx, &scene, Settings::bands())?;
+    let fw = w.picture(&ctx, &mut |_, _| {});
     let first_w = t.elapsed();
     let t = Instant::now();
-    let a = VkRenderer::new(&vk, &scene, opts).map_err(anyhow::Error::msg)?;
-    let fa = a.try_render(&vk, &mut |_, _| {})?;
+    let mut a = Session::new(&vk, &scene, Settings::bands())?;
+    let fa = a.try_picture(&vk, &mut |_, _| {})?;
     let first_a = t.elapsed();
     let same = fw.image.pixels.iter().flatten().map(|x| x.to_bits()).eq(fa
         .image
@@ -57,17 +57,16 @@ fn main() -> anyhow::Result<()> {
         .map(|x| x.to_bits()));
 
     let input = [[0.5f32, 0.04, 1.5, 0.0]];
-    let dw = Dispatcher::new(&ctx, &w.gpu_scene, Kernel::Tests, Variant::FULL, "k_fresnel", 1, &input);
-    let da = VkDispatcher::new(&vk, &a.gpu_scene, Kernel::Tests, Variant::FULL, 1, &input)?;
-    let kw = WgpuKernel { ctx: &ctx, dispatcher: &dw };
-    let ka = VkKernel(&da);
+    let dw = ctx.compile(w.device_scene(), Program::Tests, Variant::FULL, 1, &input, Default::default())?;
+    let da = vk.compile(a.device_scene(), Program::Tests, Variant::FULL, 1, &input, Default::default())?;
+    let (kw, ka) = (ctx.bind(&dw), vk.bind(&da));
     let (mut frame_w, mut frame_a, mut disp_w, mut disp_a) = (vec![], vec![], vec![], vec![]);
     for _ in 0..rounds {
         let t = Instant::now();
-        w.render(&ctx, &mut |_, _| {});
+        w.picture(&ctx, &mut |_, _| {});
         frame_w.push(t.elapsed());
         let t = Instant::now();
-        a.try_render(&vk, &mut |_, _| {})?;
+        a.try_picture(&vk, &mut |_, _| {})?;
         frame_a.push(t.elapsed());
         disp_w.push(infallible(dispatch_overhead(&kw, "k_fresnel", per_round)));
         disp_a.push(dispatch_overhead(&ka, "k_fresnel", per_round)?);
@@ -96,7 +95,7 @@ fn main() -> anyhow::Result<()> {
 /// Frameless slices per size on both paths, rounds interleaved: each round traces one pass (the
 /// whole image) on each path in slices of S pixels, after a warm-up pass.
 fn slices(ctx: &GpuContext, vk: &VkContext, scene: &irt::scene::Scene, rounds: usize) -> anyhow::Result<()> {
-    use irt::render::{Mode, PixelOrder, Session, Settings};
+    use irt::render::{Mode, PixelOrder};
     println!();
     println!("| slice S (pixels) | wgpu ms / slice | ash ms / slice | wgpu Mpixels/s | ash Mpixels/s | ash / wgpu time |");
     println!("| --- | --- | --- | --- | --- | --- |");
@@ -110,8 +109,8 @@ fn slices(ctx: &GpuContext, vk: &VkContext, scene: &irt::scene::Scene, rounds: u
         };
         // No sample limit: every pass traces the whole image again (jittered after the first).
         let settings = Settings { mode, max_samples: 0, ..Settings::default() };
-        let mut w = Session::new(ctx, scene, settings.clone()).map_err(anyhow::Error::msg)?;
-        let mut a = Session::new(vk, scene, settings).map_err(anyhow::Error::msg)?;
+        let mut w = Session::new(ctx, scene, settings.clone())?;
+        let mut a = Session::new(vk, scene, settings)?;
         w.complete_pass(ctx);
         a.try_complete_pass(vk)?;
         let (mut tw, mut ta) = (vec![], vec![]);

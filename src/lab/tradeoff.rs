@@ -1,10 +1,10 @@
 //! `irt tradeoff`: what each shadow mode costs and how wrong it is, measured side by side in one
 //! run against the CPU ground truth (docs/shadows.md).
 
-use crate::gpu::backend::Device;
-use crate::gpu::{RenderOptions, Renderer};
+use crate::gpu::device::Device;
 use crate::image::Image;
 use crate::metrics::{compare, ssim};
+use crate::render::{RenderError, Session, Settings};
 use crate::scene::{Combine, Falloff, Scene, ShadowMode};
 use plotters::prelude::*;
 use std::path::Path;
@@ -50,26 +50,27 @@ pub fn measure_all<D: Device>(
     truth: &Image,
     frames: u32,
     progress: &mut dyn FnMut(&str),
-) -> Result<Vec<Row>, String> {
+) -> Result<Vec<Row>, RenderError> {
     let mut prepared = vec![];
+    let counting = Settings { count_rays: true, ..Settings::bands() };
     for &mode in modes {
         progress(&format!("{mode}: first frame"));
         let mut s = scene.clone();
         s.trace.shadows = mode;
-        let renderer = Renderer::new(ctx, &s, RenderOptions::default())?;
-        let image = renderer.try_render(ctx, &mut |_, _| {}).map_err(|e| e.to_string())?.image;
-        let rays = Renderer::new(ctx, &s, RenderOptions { count_rays: true, ..Default::default() })?
-            .try_render(ctx, &mut |_, _| {})
-            .map_err(|e| e.to_string())?
+        let mut session = Session::new(ctx, &s, Settings::bands())?;
+        let image = session.try_picture(ctx, &mut |_, _| {}).map_err(Into::into)?.image;
+        let rays = Session::new(ctx, &s, counting.clone())?
+            .try_picture(ctx, &mut |_, _| {})
+            .map_err(Into::into)?
             .rays;
-        prepared.push((mode, renderer, image, rays));
+        prepared.push((mode, session, image, rays));
     }
     let mut times: Vec<Vec<Duration>> = vec![vec![]; prepared.len()];
     for round in 0..frames.max(1) {
-        for (k, (mode, renderer, _, _)) in prepared.iter().enumerate() {
+        for (k, (mode, session, _, _)) in prepared.iter_mut().enumerate() {
             progress(&format!("round {}/{}: {mode}", round + 1, frames.max(1)));
             let t = Instant::now();
-            renderer.try_render(ctx, &mut |_, _| {}).map_err(|e| e.to_string())?;
+            session.try_picture(ctx, &mut |_, _| {}).map_err(Into::into)?;
             times[k].push(t.elapsed());
         }
     }
@@ -118,7 +119,7 @@ pub fn markdown_table(rows: &[Row]) -> String {
 }
 
 /// Error (RMSE) against frame time, log–log, one labelled point per mode, as SVG.
-pub fn plot_svg(rows: &[Row], title: &str, path: &Path) -> Result<(), String> {
+pub fn plot_svg(rows: &[Row], title: &str, path: &Path) -> Result<(), super::plot::PlotError> {
     let ms: Vec<f64> = rows.iter().map(|r| r.frame.as_secs_f64() * 1e3).collect();
     let rmse: Vec<f64> = rows.iter().map(|r| r.rmse.max(1e-6)).collect();
     let span = |v: &[f64]| {
@@ -132,7 +133,7 @@ pub fn plot_svg(rows: &[Row], title: &str, path: &Path) -> Result<(), String> {
         ShadowMode::Bundle { .. } => BLUE,
     };
     let axes = ("frame time (ms, log)", "RMSE vs ground truth (display space, log)");
-    crate::plot::log_log_svg(path, title, (span(&ms), span(&rmse)), axes, |chart| {
+    super::plot::log_log_svg(path, title, (span(&ms), span(&rmse)), axes, |chart| {
         chart
             .draw_series(rows.iter().zip(ms.iter().zip(&rmse)).map(|(r, (&x, &y))| {
                 EmptyElement::at((x, y))

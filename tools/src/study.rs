@@ -2,14 +2,14 @@
 //! (`*.svg`) into a directory: conventional against frameless over a camera path at equal
 //! rays/s, the conventional schedules, the frameless pixel orders, the frameless slice size and
 //! progressive refinement. `scripts/interactive-table.sh` runs it (through
-//! `examples/interactive.rs`) with the machine header of `scripts/bench-lib.sh`.
+//! `irt-lab interactive`) with the machine header of `scripts/bench-lib.sh`.
 
-use super::metrics::{AgeStats, Clock};
-use super::replay::{calibrate, replay, CameraPath, ReplayOptions, ReplayReport};
-use super::{Mode, PixelOrder, Schedule, Session, Settings};
-use crate::gpu::{AdapterChoice, CacheSetting, GpuContext, RenderOptions, Renderer};
-use crate::image::Image;
-use crate::scene::Scene;
+use irt::gpu::{AdapterChoice, CacheSetting, GpuContext};
+use irt::image::Image;
+use irt::render::metrics::{AgeStats, Clock};
+use irt::render::replay::{calibrate, replay, CameraPath, ReplayOptions, ReplayReport};
+use irt::render::{Mode, PixelOrder, RenderError, Schedule, Session, Settings};
+use irt::scene::Scene;
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -30,7 +30,7 @@ pub struct SpeedRunner {
 
 impl SpeedRunner {
     /// A session of `settings` on `scene`, warmed up (pipelines compiled) by one whole pass.
-    pub fn new(ctx: &GpuContext, scene: &Scene, settings: &Settings) -> Result<Self, String> {
+    pub fn new(ctx: &GpuContext, scene: &Scene, settings: &Settings) -> Result<Self, RenderError> {
         let mut session = Session::new(ctx, scene, Settings { max_samples: 1, ..settings.clone() })?;
         session.complete_pass(ctx);
         let conventional = matches!(settings.mode, Mode::Conventional { .. });
@@ -80,10 +80,10 @@ fn interleaved(ctx: &GpuContext, runners: &mut [SpeedRunner], path: &CameraPath,
 
 /// Rays of every kind per pixel of a headless frame of `scene`'s camera (for Mrays/s from
 /// pixel updates/s).
-pub fn rays_per_pixel(ctx: &GpuContext, scene: &Scene) -> Result<f64, String> {
-    let r = Renderer::new(ctx, scene, RenderOptions { count_rays: true, ..Default::default() })?;
-    let frame = r.render(ctx, &mut |_, _| {});
-    Ok(frame.rays.total() as f64 / (scene.camera.width as f64 * scene.camera.height as f64))
+pub fn rays_per_pixel(ctx: &GpuContext, scene: &Scene) -> Result<f64, RenderError> {
+    let picture = Session::new(ctx, scene, Settings { count_rays: true, ..Settings::bands() })?
+        .picture(ctx, &mut |_, _| {});
+    Ok(picture.rays.total() as f64 / (scene.camera.width as f64 * scene.camera.height as f64))
 }
 
 /// Progressive refinement at rest: the display-space RMSE of the picture after each of
@@ -93,7 +93,7 @@ pub fn refinement_errors(
     scene: &Scene,
     counts: &[u32],
     reference: u32,
-) -> Result<Vec<(u32, f64)>, String> {
+) -> Result<Vec<(u32, f64)>, RenderError> {
     let settings = Settings { mode: Mode::conventional(), max_samples: reference, ..Settings::default() };
     let mut s = Session::new(ctx, scene, settings)?;
     let mut pictures: Vec<(u32, Image)> = Vec::new();
@@ -104,10 +104,10 @@ pub fn refinement_errors(
         }
     }
     let reference = s.read_image(ctx);
-    Ok(pictures.iter().map(|(n, p)| (*n, crate::metrics::rmse(p, &reference))).collect())
+    Ok(pictures.iter().map(|(n, p)| (*n, irt::metrics::rmse(p, &reference))).collect())
 }
 
-/// `examples/interactive.rs`: the study's arguments.
+/// `irt-lab interactive`: the study's arguments.
 #[derive(clap::Args, Clone, Debug)]
 pub struct StudyArgs {
     /// Where the tables (*.md) and plots (*.svg) go (created if missing).
@@ -147,8 +147,8 @@ struct Case {
 
 fn case(name: &'static str, scene: Option<&str>, path: &str) -> anyhow::Result<Case> {
     let scene = match scene {
-        Some(p) => crate::io::load(Path::new(p))?,
-        None => crate::scene::default_scene(),
+        Some(p) => irt::io::load(Path::new(p))?,
+        None => irt::scene::default_scene(),
     };
     Ok(Case { name, scene, path: CameraPath::load(Path::new(path))? })
 }
@@ -233,7 +233,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             load_average()
         );
         let p = args.out_dir.join(name);
-        crate::image::write_atomic(&p, text.as_bytes()).with_context(|| format!("writing {}", p.display()))
+        irt::image::write_atomic(&p, text.as_bytes()).with_context(|| format!("writing {}", p.display()))
     };
     let settings = Settings { max_samples: 1, ..Settings::default() };
     let part = |name: &str| args.only.is_empty() || args.only.iter().any(|p| p == name);
@@ -307,7 +307,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
 
     // ---- Conventional schedules -------------------------------------------------------------
     if part("schedules") {
-        let threads = match crate::gpu::backend::dealing_threads(&ctx) {
+        let threads = match irt::gpu::device::dealing_threads(&ctx) {
             0 => "a GPU, no thread count of its own".to_string(),
             n => format!("lavapipe runs {n} threads"),
         };
@@ -367,7 +367,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
              orders). The last row is the default order with 4×4-pixel chunks instead of RTRT's 2×2 at this size.",
             small[0],
             small[1],
-            super::DEFAULT_SLICE
+            irt::render::DEFAULT_SLICE
         ));
         t += "| order | Mpixel updates/s (real) | latency ms: first / 50% / 90% / 100% | age at presents ms: mean / p90 / max | dynamic error RMSE: mean (max) |\n|---|---|---|---|---|\n";
         let orders: Vec<PixelOrder> = PixelOrder::ALL
@@ -384,7 +384,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                 SpeedRunner::new(
                     &ctx,
                     &scene,
-                    &Settings { mode: frameless_with(o, super::DEFAULT_SLICE), ..settings.clone() },
+                    &Settings { mode: frameless_with(o, irt::render::DEFAULT_SLICE), ..settings.clone() },
                 )
             })
             .collect::<Result<Vec<_>, _>>()
@@ -397,7 +397,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                     say(format!("order {order}"));
                     let opts =
                         ReplayOptions { clock, error_every: args.error_every, ..ReplayOptions::default() };
-                    let mode = frameless_with(order, super::DEFAULT_SLICE);
+                    let mode = frameless_with(order, irt::render::DEFAULT_SLICE);
                     replay(&ctx, &scene, &Settings { mode, ..settings.clone() }, &default.path, &opts)
                         .map_err(anyhow::Error::msg)?
                 }
@@ -508,7 +508,7 @@ fn plot_timeline(runs: &[(String, ReplayReport)], path: &Path) -> Result<(), any
     let top = pts.iter().flatten().map(|p| p.1).fold(1e-3, f64::max) * 1.1;
     let end = runs.iter().map(|(_, r)| r.duration).fold(0.0, f64::max);
     let axes = ("clock time (s)", "dynamic error: RMSE of the displayed image (display space)");
-    crate::plot::linear_svg(
+    irt::lab::plot::linear_svg(
         path,
         "default scene, orbit path: displayed vs ideal image",
         (0.0..end, 0.0..top),
@@ -522,15 +522,11 @@ fn plot_timeline(runs: &[(String, ReplayReport)], path: &Path) -> Result<(), any
                     .label(name.clone())
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE)
-                .border_style(BLACK)
-                .draw()
-                .map_err(|e| e.to_string())
+            chart.configure_series_labels().background_style(WHITE).border_style(BLACK).draw()?;
+            Ok(())
         },
     )
-    .map_err(anyhow::Error::msg)
+    .map_err(anyhow::Error::from)
 }
 
 fn plot_slices(curve: &[(u32, ReplayReport)], path: &Path) -> Result<(), anyhow::Error> {
@@ -549,7 +545,7 @@ fn plot_slices(curve: &[(u32, ReplayReport)], path: &Path) -> Result<(), anyhow:
     let (lo, hi) = (ys.iter().copied().fold(f64::INFINITY, f64::min), ys.iter().copied().fold(0.0, f64::max));
     let xs = (curve[0].0 as f64 / 1.5)..(curve[curve.len() - 1].0 as f64 * 1.5);
     let axes = ("slice size S (positions, log)", "ms (log; real clock)");
-    crate::plot::log_log_svg(
+    irt::lab::plot::log_log_svg(
         path,
         "frameless slice size: latency and age",
         (xs, (lo / 1.5)..(hi * 1.5)),
@@ -566,15 +562,11 @@ fn plot_slices(curve: &[(u32, ReplayReport)], path: &Path) -> Result<(), anyhow:
                     .draw_series(p.iter().map(|&q| Circle::new(q, 4, c.filled())))
                     .map_err(|e| e.to_string())?;
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE)
-                .border_style(BLACK)
-                .draw()
-                .map_err(|e| e.to_string())
+            chart.configure_series_labels().background_style(WHITE).border_style(BLACK).draw()?;
+            Ok(())
         },
     )
-    .map_err(anyhow::Error::msg)
+    .map_err(anyhow::Error::from)
 }
 
 fn plot_refinement(
@@ -587,7 +579,7 @@ fn plot_refinement(
     let n_max = series.iter().flat_map(|s| s.1.iter().map(|p| p.0)).max().unwrap_or(1) as f64;
     let axes = ("samples per pixel (log)", "RMSE vs the reference (display space, log)");
     let title = format!("progressive refinement: error against {reference} samples");
-    crate::plot::log_log_svg(path, &title, (0.7..n_max * 1.4, (lo / 1.5)..(hi * 1.5)), axes, |chart| {
+    irt::lab::plot::log_log_svg(path, &title, (0.7..n_max * 1.4, (lo / 1.5)..(hi * 1.5)), axes, |chart| {
         for (i, (name, p)) in series.iter().enumerate() {
             let c = COLOURS[i % COLOURS.len()];
             let p: Vec<(f64, f64)> = p.iter().map(|&(n, e)| (n as f64, e.max(1e-6))).collect();
@@ -598,12 +590,28 @@ fn plot_refinement(
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
             chart.draw_series(p.iter().map(|&q| Circle::new(q, 4, c.filled()))).map_err(|e| e.to_string())?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE)
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| e.to_string())
+        chart.configure_series_labels().background_style(WHITE).border_style(BLACK).draw()?;
+        Ok(())
     })
-    .map_err(anyhow::Error::msg)
+    .map_err(anyhow::Error::from)
+}
+
+#[cfg(test)]
+mod tests {
+    #[derive(clap::Parser)]
+    struct StudyCli {
+        #[command(flatten)]
+        args: super::StudyArgs,
+    }
+
+    #[test]
+    fn study_arguments_parse() {
+        use clap::{CommandFactory, Parser};
+        StudyCli::command().debug_assert();
+        let a = StudyCli::try_parse_from(["study", "--only", "slices", "--only", "modes", "--quick"])
+            .unwrap()
+            .args;
+        assert_eq!(a.only, ["slices", "modes"]);
+        assert!(StudyCli::try_parse_from(["study", "--only", "everything"]).is_err());
+    }
 }

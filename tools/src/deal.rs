@@ -1,17 +1,16 @@
 //! Dealt band tiles against tiles in order (issue #11, item 3: balancing lavapipe's threads), the
 //! same scene and rays in one process, rounds interleaved; medians and the ratio.
 //!
-//!     cargo run --release --example deal -- ROUNDS SCENE...
+//!     cargo run --release -p irt-tools -- deal ROUNDS SCENE...
 
-use irt::gpu::{AdapterChoice, GpuContext, RenderOptions, Renderer};
+use irt::gpu::{AdapterChoice, GpuContext};
 use irt::render::{Mode, Schedule, Session, Settings};
 use std::time::{Duration, Instant};
 
-fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+pub fn run(args: &[String]) -> anyhow::Result<()> {
     let rounds: usize = args.first().map_or(Ok(9), |a| a.parse())?;
     let ctx = GpuContext::new(&AdapterChoice::from_arg_or_env(None))?;
-    let threads = irt::gpu::backend::dealing_threads(&ctx);
+    let threads = irt::gpu::device::dealing_threads(&ctx);
     println!("{} ({}), dealt to {threads} threads; {rounds} rounds", ctx.info.name, ctx.info.driver_info);
     println!("| scene | in order ms | dealt ms | dealt / in order |");
     println!("| --- | --- | --- | --- |");
@@ -19,18 +18,17 @@ fn main() -> anyhow::Result<()> {
         let p = (path != "default").then(|| std::path::PathBuf::from(path));
         let mut scene = irt::io::load_or_default(p.as_deref())?;
         (scene.camera.width, scene.camera.height) = (512, 512);
-        let make =
-            |deal| Renderer::new(&ctx, &scene, RenderOptions { deal: Some(deal), ..Default::default() });
-        let (a, b) = (make(0).map_err(anyhow::Error::msg)?, make(threads).map_err(anyhow::Error::msg)?);
-        let (fa, fb) = (a.render(&ctx, &mut |_, _| {}), b.render(&ctx, &mut |_, _| {}));
+        let make = |deal| Session::new(&ctx, &scene, Settings { deal: Some(deal), ..Settings::bands() });
+        let (mut a, mut b) = (make(0)?, make(threads)?);
+        let (fa, fb) = (a.picture(&ctx, &mut |_, _| {}), b.picture(&ctx, &mut |_, _| {}));
         let same = fa.image.pixels == fb.image.pixels;
         let (mut ta, mut tb) = (Vec::new(), Vec::new());
         for _ in 0..rounds {
             let t = Instant::now();
-            a.render(&ctx, &mut |_, _| {});
+            a.picture(&ctx, &mut |_, _| {});
             ta.push(t.elapsed());
             let t = Instant::now();
-            b.render(&ctx, &mut |_, _| {});
+            b.picture(&ctx, &mut |_, _| {});
             tb.push(t.elapsed());
         }
         let med = |mut v: Vec<Duration>| {
@@ -46,17 +44,12 @@ fn main() -> anyhow::Result<()> {
         // The whole frame in one dispatch (conventional, plain schedule): where a static split
         // of the workgroups gives one thread the top half of the image and the other the bottom.
         let mode = Mode::Conventional { schedule: Schedule::Plain, workers: 0 };
-        let mut s = Session::new(&ctx, &scene, Settings { mode, max_samples: 0, ..Settings::default() })
-            .map_err(anyhow::Error::msg)?;
+        let plain = |deal| Settings { mode, max_samples: 0, deal: Some(deal), ..Settings::default() };
+        let mut sessions =
+            [Session::new(&ctx, &scene, plain(1))?, Session::new(&ctx, &scene, plain(threads))?];
         let (mut ta, mut tb) = (Vec::new(), Vec::new());
         for k in 0..=rounds {
-            for (deal, times) in [("1", &mut ta), ("", &mut tb)] {
-                // Read by `dealing_threads` at each dispatch; lavapipe's pool was made at device
-                // creation and keeps its threads (a measuring trick, not a setting).
-                std::env::set_var(
-                    "LP_NUM_THREADS",
-                    if deal.is_empty() { threads.to_string() } else { deal.into() },
-                );
+            for (s, times) in sessions.iter_mut().zip([&mut ta, &mut tb]) {
                 let t = Instant::now();
                 s.complete_pass(&ctx);
                 if k > 0 {

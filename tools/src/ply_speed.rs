@@ -4,15 +4,15 @@
 //! `irt::io::ply::parse_model` and times that. Run the two steps apart so that `/usr/bin/time -v`
 //! sees the reader alone:
 //!
-//!     cargo build --release --example ply_speed
-//!     target/release/examples/ply_speed write /tmp/grid.ply 10000000
-//!     /usr/bin/time -v target/release/examples/ply_speed read /tmp/grid.ply
+//!     cargo build --release -p irt-tools
+//!     target/release/irt-lab ply-speed write /tmp/grid.ply 10000000
+//!     /usr/bin/time -v target/release/irt-lab ply-speed read /tmp/grid.ply
 use irt::io::ply::{parse_model, write, Encoding};
 use irt::scene::Mesh;
 use std::time::Instant;
 
-fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+pub fn run(args: &[String]) -> anyhow::Result<()> {
+    let args: Vec<String> = args.to_vec();
     match args.iter().map(String::as_str).collect::<Vec<_>>()[..] {
         ["write", path, triangles, ref options @ ..] => {
             let mut encoding = Encoding::BinaryLittleEndian;

@@ -4,8 +4,9 @@
 //! On lavapipe the "device" is this process, so the peak counts the host's copy of the scene
 //! and the device's together.
 //!
-//!     cargo run --release --example scale -- MODEL.ply
-use irt::gpu::{GpuContext, RenderOptions, Renderer};
+//!     cargo run --release -p irt-tools -- scale MODEL.ply
+use irt::gpu::GpuContext;
+use irt::render::{Session, Settings};
 use std::time::Instant;
 
 fn peak_mib() -> f64 {
@@ -17,8 +18,8 @@ fn peak_mib() -> f64 {
     kib.unwrap_or(f64::NAN) / 1024.0
 }
 
-fn main() -> anyhow::Result<()> {
-    let path = std::env::args().nth(1).ok_or_else(|| anyhow::anyhow!("usage: scale MODEL"))?;
+pub fn run(args: &[String]) -> anyhow::Result<()> {
+    let path = args.first().ok_or_else(|| anyhow::anyhow!("usage: irt-lab scale MODEL"))?;
     let start = Instant::now();
     let mut scene = irt::io::load(std::path::Path::new(&path))?;
     let load = start.elapsed();
@@ -28,22 +29,22 @@ fn main() -> anyhow::Result<()> {
     let ctx = GpuContext::new(&irt::gpu::AdapterChoice::from_arg_or_env(None))?;
     // The table is the grid's (its columns say so); `--accel auto` builds a BVH for these since
     // 2026-12-04, measured apart in docs/large-models.md, "Which accelerator".
-    let opts = RenderOptions { accel: irt::accel::AccelChoice::Grid, ..Default::default() };
-    let renderer = Renderer::new(&ctx, &scene, opts).map_err(anyhow::Error::msg)?;
+    let settings = Settings { accel: irt::accel::AccelChoice::Grid, ..Settings::bands() };
+    let mut session = Session::new(&ctx, &scene, settings)?;
     let t = Instant::now();
-    renderer.render(&ctx, &mut |_, _| {});
+    session.picture(&ctx, &mut |_, _| {});
     let first = t.elapsed();
     let total = start.elapsed();
-    let frame = renderer.median_frame_time(&ctx, 3);
+    let (frame, _) = irt::gpu::device::infallible(session.try_median_picture_times(&ctx, 3));
     let peak = peak_mib();
-    let device_mib = renderer.gpu_scene.bytes as f64 / (1 << 20) as f64;
+    let device_mib = session.device_scene().bytes as f64 / (1 << 20) as f64;
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     println!(
         "| {:.2}M | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.1} | {:.0} | {:.0} | {:.0} | {:.0} |",
         triangles as f64 / 1e6,
         ms(load),
-        ms(renderer.timings.grid_build),
-        ms(renderer.timings.upload),
+        ms(session.setup_timings().accel_build),
+        ms(session.setup_timings().upload),
         ms(first),
         ms(frame),
         total.as_secs_f64(),

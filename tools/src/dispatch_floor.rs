@@ -1,9 +1,9 @@
-//! The floor under every band-renderer frame: a 512² dispatch of the band renderer's workgroup
+//! The floor under every frame of the bands: a 512² dispatch of the bands' workgroup
 //! shape whose kernel does nothing, or writes one vec4 per pixel (the frame's output), timed as
-//! the renderer times a dispatch (submit + wait). docs/performance.md, "Where an all-miss frame's
+//! a session times a dispatch (submit + wait). docs/performance.md, "Where an all-miss frame's
 //! time goes".
 //!
-//!     cargo run --release --example dispatch_floor -- [DISPATCHES]
+//!     cargo run --release -p irt-tools -- dispatch-floor [DISPATCHES]
 
 use irt::gpu::layout::RENDER_TILE;
 use irt::gpu::{AdapterChoice, GpuContext};
@@ -20,8 +20,8 @@ fn kernel(body: &str) -> String {
     )
 }
 
-fn main() -> anyhow::Result<()> {
-    let dispatches: usize = std::env::args().nth(1).map_or(Ok(200), |s| s.parse())?;
+pub fn run(args: &[String]) -> anyhow::Result<()> {
+    let dispatches: usize = args.first().map_or(Ok(200), |s| s.parse())?;
     let ctx = GpuContext::new(&AdapterChoice::from_arg_or_env(None))?;
     let d = &ctx.device;
     let out = d.create_buffer(&wgpu::BufferDescriptor {
