@@ -5,6 +5,20 @@ cd "$(dirname "$0")/.."
 cargo build --release --quiet ${IRT_FEATURES:+--features "$IRT_FEATURES"}
 irt=${CARGO_TARGET_DIR:-target}/release/irt
 
+# lab_sizes DEFAULT... -- ARGS...: builds the lab harnesses (`irt-lab`, tools/), makes a scratch
+# directory $dir removed at exit, and sets `sizes` to ARGS, or DEFAULT when none are given.
+lab_sizes() {
+    cargo build --release --quiet -p irt-tools
+    lab=${CARGO_TARGET_DIR:-target}/release/irt-lab
+    dir=$(mktemp -d)
+    trap 'rm -rf "$dir"' EXIT
+    local defaults=()
+    while [ $# -gt 0 ] && [ "$1" != "--" ]; do defaults+=("$1"); shift; done
+    [ $# -gt 0 ] && shift
+    sizes=("$@")
+    [ ${#sizes[@]} -gt 0 ] || sizes=("${defaults[@]}")
+}
+
 # machine_header SCRIPT: the machine, the date and the command, on one line
 machine_header() {
     local cpu

@@ -7,18 +7,14 @@
 #   scripts/dynamic-table.sh [TRIANGLES...]   (default: 10k 100k 1M 4M)
 set -euo pipefail
 source "$(dirname "$0")/bench-lib.sh"
-cargo build --release --quiet -p irt-tools
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-sizes=("$@")
-[ ${#sizes[@]} -gt 0 ] || sizes=(10000 100000 1000000 4000000)
+lab_sizes 10000 100000 1000000 4000000 -- "$@"
 machine_header "scripts/dynamic-table.sh"
 echo "Device: $($irt info 2>/dev/null | grep -m1 -i 'mesa' | sed 's/^ *//')"
 echo
 echo "| primitives | grid | update ms / frame | grid ms | pack ms | upload ms | trace ms / frame | update / trace |"
 echo "|---|---|---|---|---|---|---|---|"
 for n in "${sizes[@]}"; do
-    target/release/irt-lab ply-speed write "$dir/terrain.ply" "$n" > /dev/null
+    "$lab" ply-speed write "$dir/terrain.ply" "$n" > /dev/null
     cat > "$dir/scene.toml" <<TOML
 [camera]
 eye = [0.0, 3.0, 6.5]

@@ -5,11 +5,7 @@
 #   scripts/scale-table.sh [TRIANGLES...]   (default: 1M 2M 5M 10M 16M, and 10M with normals)
 set -euo pipefail
 source "$(dirname "$0")/bench-lib.sh"
-cargo build --release --quiet -p irt-tools
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-sizes=("$@")
-[ ${#sizes[@]} -gt 0 ] || sizes=(1000000 2000000 5000000 10000000 16000000 10000000:normals)
+lab_sizes 1000000 2000000 5000000 10000000 16000000 10000000:normals -- "$@"
 machine_header "scripts/scale-table.sh"
 echo "Device: $($irt info 2>/dev/null | grep -m1 -i 'mesa' | sed 's/^ *//')"
 echo
@@ -20,14 +16,14 @@ for size in "${sizes[@]}"; do
     opt=""; normals="no"
     [[ $size == *:normals ]] && { opt=normals; normals=yes; }
     f="$dir/terrain-$n-$normals.ply"
-    target/release/irt-lab ply-speed write "$f" "$n" le $opt > /dev/null
-    row=$(target/release/irt-lab scale "$f")
+    "$lab" ply-speed write "$f" "$n" le $opt > /dev/null
+    row=$("$lab" scale "$f")
     # The harness's row starts with the triangle count; the normals column goes after it.
     echo "$row" | sed "s/^| \([^|]*\) |/| \1 | $normals |/"
     rm -f "$f"
 done
 echo
 f="$dir/terrain-10M.ply"
-target/release/irt-lab ply-speed write "$f" 10000000 > /dev/null
+"$lab" ply-speed write "$f" 10000000 > /dev/null
 /usr/bin/time -f "irt render --accel grid of 10M triangles (640x480): %e s wall, %M KiB peak" \
     $irt render "$f" --accel grid --out "$dir/out.png" 2>&1 | grep -E "loaded|set up|wrote|wall" | sed 's/^/    /'

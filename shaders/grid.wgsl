@@ -83,8 +83,8 @@ fn cell_linear(c: vec3i) -> u32 {
 
 // The macro factor is a constant (accel::grid::MACRO_FACTOR), not a run-time value: lavapipe has
 // no vector integer divide, so a divisor known only at run time costs eight scalar divides per
-// axis and SIMD group on every step of the walk (the grid's frames took 1.05-1.35x as long that
-// way; docs/performance.md).
+// axis and SIMD group on every step of the walk (docs/performance.md, "The walk's loop on
+// lavapipe").
 fn macro_linear(c: vec3i) -> u32 {
     let m = vec3u(c) / MACRO_FACTOR;
     return m.x + params.macro_res.x * (m.y + params.macro_res.y * m.z);

@@ -43,8 +43,7 @@ fn fold_coord(u: f32, mode: u32) -> f32 {
 
 // Texel index `i` wrapped into [0, n). `i` comes from a folded coordinate, so it is at most one
 // period outside [0, period): one add or subtract of the period replaces the integer modulo,
-// which AVX2 has no vector instruction for (measured on the Duck at 512x512: 152-165 ms a frame
-// with `%`, 141-150 ms without; 114-121 ms untextured).
+// which AVX2 has no vector instruction for (docs/performance.md, "Lanes, threads and kernels").
 fn wrap_index(i: i32, n: i32, mode: u32) -> i32 {
     if mode == WRAP_CLAMP {
         return clamp(i, 0, n - 1);

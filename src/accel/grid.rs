@@ -48,12 +48,9 @@ impl PrimRef {
 /// Target cells per primitive. The classic heuristic (Cleary & Wyvill; Wald et al. 2006) sizes
 /// cells so the grid has λN cells, cubic in shape: res_a = extent_a · ∛(λN / V). Larger λ means
 /// fewer intersection tests per ray but more DDA steps and memory; macro-cells make the empty
-/// cells that a large λ creates cheap to skip. Measured (`irt bench`, 512x512): λ = 8 → 16 → 32
-/// takes SPD balls_s4 (a small flake on a large floor) from 0.46 to 0.61 to 0.70 Mrays/s; at 16
-/// the default scene and gears stay within noise and scenes of a few dozen primitives lose 3–6%,
-/// at 32 everything else loses 3–4%. 16 buys the big gain for a small price. Finer still, 64 and
-/// 128 both give balls_s4 0.74 Mrays/s (at most 30 references in a cell): the crowded cells
-/// are no longer what it costs.
+/// cells that a large λ creates cheap to skip. 16 takes the large gain on a small object over a
+/// large floor (SPD balls) for a few per cent on tiny scenes; finer grids gain little more
+/// (docs/performance.md, "The accelerator").
 pub const CELLS_PER_PRIMITIVE: f64 = 16.0;
 /// Cells per axis, at most.
 pub const MAX_RES: u32 = 512;

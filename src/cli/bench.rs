@@ -483,15 +483,8 @@ impl Job<'_> {
         }
         let (frame, readback) = session.try_median_picture_times(ctx, self.frames)?;
         let overhead = if self.dispatch_overhead > 0 {
-            use irt::gpu::shaders::{Program, Variant};
-            let d = ctx.compile(
-                session.device_scene(),
-                Program::Tests,
-                Variant::FULL,
-                1,
-                &TINY_INPUT,
-                Default::default(),
-            )?;
+            use irt::gpu::device::KernelSpec;
+            let d = ctx.compile(session.device_scene(), KernelSpec::tests(&TINY_INPUT, 1))?;
             let overhead =
                 irt::gpu::recording::dispatch_overhead(&ctx.bind(&d), TINY_ENTRY, self.dispatch_overhead)?;
             Some(overhead)

@@ -63,6 +63,41 @@ pub struct ModeBuffers {
     pub frame_len: u64,
 }
 
+/// What a kernel is compiled as: its program and variant, and the buffers it is bound to.
+#[derive(Clone, Copy, Debug)]
+pub struct KernelSpec<'a> {
+    pub program: Program,
+    pub variant: Variant,
+    /// Vec4s of the output buffer.
+    pub out_len: u64,
+    /// The read-only test inputs (the readback kernels; empty otherwise).
+    pub inputs: &'a [[f32; 4]],
+    pub modes: ModeBuffers,
+}
+
+impl<'a> KernelSpec<'a> {
+    /// The bands' `render` program, an output of `out_len` eye rays.
+    pub fn render(variant: Variant, out_len: u64) -> Self {
+        KernelSpec { program: Program::Render, variant, out_len, inputs: &[], modes: ModeBuffers::default() }
+    }
+
+    /// The interactive modes' program over `pixels` pixels, with the modes' buffers.
+    pub fn modes(variant: Variant, pixels: u64, modes: ModeBuffers) -> Self {
+        KernelSpec { program: Program::Modes, variant, out_len: pixels, inputs: &[], modes }
+    }
+
+    /// The readback kernels (every variant feature on) over `inputs`, an output of `out_len`.
+    pub fn tests(inputs: &'a [[f32; 4]], out_len: u64) -> Self {
+        KernelSpec {
+            program: Program::Tests,
+            variant: Variant::FULL,
+            out_len,
+            inputs,
+            modes: ModeBuffers::default(),
+        }
+    }
+}
+
 /// A scene resident on a device: its frame constants, how its texture is allocated and the bytes
 /// uploaded (the same on every path), and the path's own texture and constant buffer.
 pub struct DeviceScene<T> {
@@ -134,12 +169,20 @@ pub trait Device {
     where
         Self: 'a;
 
+    /// The adapter's name, its driver's own description (version) and its kind.
+    fn adapter(&self) -> (&str, &str, wgpu::DeviceType);
     /// The adapter's name, for reports.
-    fn adapter_name(&self) -> &str;
+    fn adapter_name(&self) -> &str {
+        self.adapter().0
+    }
     /// Its driver's own description (version), for reports.
-    fn adapter_driver(&self) -> &str;
+    fn adapter_driver(&self) -> &str {
+        self.adapter().1
+    }
     /// The device runs on the CPU (lavapipe): schedules are built for its threads.
-    fn is_cpu(&self) -> bool;
+    fn is_cpu(&self) -> bool {
+        self.adapter().2 == wgpu::DeviceType::Cpu
+    }
     /// Lanes of a SIMD group (what `SimdCount::efficiency` divides by), where the device runs the
     /// SIMD counters (`Variant::simd_stats`) and its groups have one size.
     fn subgroup_size(&self) -> Option<u32>;
@@ -160,17 +203,12 @@ pub trait Device {
     ) -> Result<u64, GpuError>;
     /// Writes the frame constants; the next dispatch sees them.
     fn write_constants(&self, texture: &Self::Texture, params: &Params);
-    /// Compiles `program` for `variant` (`layered` and `accel` taken from the scene) bound to
-    /// `scene`, an output of `out_len` vec4s, the read-only test `inputs` (may be empty) and the
-    /// modes' buffers.
+    /// Compiles `spec` (its variant's `layered` and `accel` taken from the scene) bound to
+    /// `scene`.
     fn compile_kernel(
         &self,
         scene: &DeviceScene<Self::Texture>,
-        program: Program,
-        variant: Variant,
-        out_len: u64,
-        inputs: &[[f32; 4]],
-        modes: ModeBuffers,
+        spec: KernelSpec,
     ) -> Result<Self::Kernel, GpuError>;
     /// The variant `kernel` was compiled for.
     fn variant(kernel: &Self::Kernel) -> Variant;
@@ -247,26 +285,22 @@ pub trait Device {
         self.write_constants(&scene.texture, &params);
     }
 
-    /// [`Device::compile_kernel`], after checking that the device has what `variant` needs.
+    /// [`Device::compile_kernel`], after checking that the device has what the variant needs.
     fn compile(
         &self,
         scene: &DeviceScene<Self::Texture>,
-        program: Program,
-        variant: Variant,
-        out_len: u64,
-        inputs: &[[f32; 4]],
-        modes: ModeBuffers,
+        spec: KernelSpec,
     ) -> Result<Self::Kernel, GpuError> {
         let adapter = || self.adapter_name().to_string();
-        if variant.f64 && !self.has_f64() {
+        if spec.variant.f64 && !self.has_f64() {
             return Err(GpuError::NoF64 { adapter: adapter() });
         }
-        if variant.simd_stats && self.subgroup_size().is_none() {
+        if spec.variant.simd_stats && self.subgroup_size().is_none() {
             return Err(GpuError::NoSubgroups { adapter: adapter() });
         }
-        let variant =
-            Variant { layered: scene.layered(), accel: super::layout::accel_code(&scene.params), ..variant };
-        self.compile_kernel(scene, program, variant, out_len, inputs, modes)
+        let accel = super::layout::accel_code(&scene.params);
+        let variant = Variant { layered: scene.layered(), accel, ..spec.variant };
+        self.compile_kernel(scene, KernelSpec { variant, ..spec })
     }
 }
 

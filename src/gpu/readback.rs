@@ -1,10 +1,9 @@
 //! One shader function over a batch of inputs, read back (the unit tests of single shader
 //! functions, `shaders/tests.wgsl`), on any device path.
 
-use super::device::{BoundKernel, Device, DeviceScene, ModeBuffers};
+use super::device::{BoundKernel, Device, DeviceScene, KernelSpec};
 use super::layout;
 use super::recording::Recording;
-use super::shaders::{Program, Variant};
 use super::GpuError;
 use crate::accel::AccelRef;
 use crate::scene::Scene;
@@ -35,8 +34,7 @@ pub fn run_kernel<D: Device>(
     out_per_item: u32,
 ) -> Result<Vec<[f32; 4]>, GpuError> {
     let out_len = items as u64 * out_per_item as u64;
-    let kernel =
-        ctx.compile(scene, Program::Tests, Variant::FULL, out_len, inputs, ModeBuffers::default())?;
+    let kernel = ctx.compile(scene, KernelSpec::tests(inputs, out_len))?;
     let bound = ctx.bind(&kernel);
     bound.run(&Recording::readback(entry, items), &mut |_, _| {}).map_err(Into::into)?;
     Ok(bound.read_output().map_err(Into::into)?.0)

@@ -16,10 +16,10 @@ pub struct Dispatch {
 }
 
 impl Dispatch {
-    /// `entry` over the invocations of `launch.rect` in 8x8 workgroups (the readback kernels).
-    pub fn over_rect(entry: &str, launch: Launch) -> Self {
-        let rect = launch.rect;
-        Dispatch { entry: entry.to_string(), launch, groups: [rect[2].div_ceil(8), rect[3].div_ceil(8), 1] }
+    /// The readback kernel `entry` (shaders/tests.wgsl) over `items` items, in workgroups of 64.
+    pub fn readback(entry: &str, items: u32) -> Self {
+        let launch = Launch::whole([0, 0, items, 1]);
+        Dispatch { entry: entry.to_string(), launch, groups: [items.div_ceil(64), 1, 1] }
     }
 
     /// The `render` entry point over `launch.rect` with its rows of tiles ([`RENDER_TILE`])
@@ -66,11 +66,9 @@ impl Recording {
         })
     }
 
-    /// The readback kernels of the tests: `entry` over `items` invocations (one row).
+    /// The readback kernels of the tests: `entry` over `items` items.
     pub fn readback(entry: &str, items: u32) -> Recording {
-        Recording {
-            commands: vec![Command::Dispatch(Dispatch::over_rect(entry, Launch::whole([0, 0, items, 1])))],
-        }
+        Recording { commands: vec![Command::Dispatch(Dispatch::readback(entry, items))] }
     }
 }
 

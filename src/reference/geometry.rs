@@ -16,11 +16,7 @@ pub fn intersect_sphere(
     t_min: f64,
     t_max: f64,
 ) -> Option<f64> {
-    let len = d.length();
-    if len <= 0.0 || !len.is_finite() {
-        return None;
-    }
-    let dh = d / len;
+    let (len, dh) = unit_direction(d)?;
     let oc = o - center;
     let b = oc.dot(dh);
     let perp = oc - b * dh;
@@ -115,11 +111,7 @@ pub fn intersect_cone(
     t_min: f64,
     t_max: f64,
 ) -> Option<f64> {
-    let len = d.length();
-    if len <= 0.0 || !len.is_finite() {
-        return None;
-    }
-    let dh = d / len;
+    let (len, dh) = unit_direction(d)?;
     let axis = apex - base;
     let h = axis.length();
     let a = axis / h;
@@ -173,6 +165,13 @@ pub fn cone_bounds(base: DVec3, base_radius: f64, apex: DVec3, apex_radius: f64)
     let reach = (DVec3::ONE - a * a).max(DVec3::ZERO).map(f64::sqrt);
     let (e0, e1) = (reach * base_radius, reach * apex_radius);
     ((base - e0).min(apex - e1), (base + e0).max(apex + e1))
+}
+
+/// The length of a ray direction and the unit direction, `None` for a zero or non-finite one:
+/// the quadrics measure `t` along the unit direction and scale it back.
+fn unit_direction(d: DVec3) -> Option<(f64, DVec3)> {
+    let len = d.length();
+    (len > 0.0 && len.is_finite()).then(|| (len, d / len))
 }
 
 #[cfg(test)]

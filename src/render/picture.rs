@@ -172,8 +172,8 @@ impl OutputGrid {
             );
             (sums, hits)
         };
-        // Not zeroed first: every pixel is written once (a 512² image's zeroing was 2% of an
-        // all-miss frame's time on lavapipe, and more of a GPU frame's host side).
+        // Not zeroed first: every pixel is written once, and zeroing is a measurable share of a
+        // cheap frame's host side (docs/performance.md, "The frame and the host side").
         let n = if direct { rows * cols } else { 0 };
         let mut pixels: Vec<[f32; 3]> = Vec::with_capacity(n);
         let band = rows.div_ceil(threads.max(1)).next_multiple_of(MeterSums::BLOCK[1]);

@@ -18,10 +18,12 @@ use super::picture::{OutputGrid, Picture};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, RenderError, Settings};
 use crate::accel::{Accel, AccelKind, Grid};
-use crate::gpu::device::{dealing_threads, infallible, BoundKernel, Device, DeviceScene, ModeBuffers};
+use crate::gpu::device::{
+    dealing_threads, infallible, BoundKernel, Device, DeviceScene, KernelSpec, ModeBuffers,
+};
 use crate::gpu::layout::{self, Prefix, LAVAPIPE_LOOP_LIMIT};
 use crate::gpu::recording::Recording;
-use crate::gpu::shaders::{Program, Variant};
+use crate::gpu::shaders::Variant;
 use crate::gpu::{GpuContext, GpuError};
 use crate::image::Image;
 use crate::scene::{Camera, Scene};
@@ -764,13 +766,13 @@ pub(super) fn compile<D: Device>(
     if settings.mode == Mode::Bands {
         let extra = settings.corner_rays as u64;
         let out_len = (capacity[0] as u64 + extra) * (capacity[1] as u64 + extra);
-        return ctx.compile(scene, Program::Render, variant, out_len, &[], ModeBuffers::default());
+        return ctx.compile(scene, KernelSpec::render(variant, out_len));
     }
     let [tx, ty] = tile_grid(capacity[0], capacity[1]);
     let dissolve = super::order::Dissolve::new(pixels).jumps().len() as u64;
     let work_len = pixels.max(tx as u64 * ty as u64 + 1).max(dissolve);
     let modes = ModeBuffers { work_len, frame_len: pixels };
-    ctx.compile(scene, Program::Modes, variant, pixels, &[], modes)
+    ctx.compile(scene, KernelSpec::modes(variant, pixels, modes))
 }
 
 impl Schedule {

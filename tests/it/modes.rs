@@ -3,10 +3,10 @@
 //! the same picture bit for bit.
 use crate::common;
 
-use irt::gpu::device::{Device, ModeBuffers};
+use irt::gpu::device::{Device, KernelSpec, ModeBuffers};
 use irt::gpu::layout::MAX_CHUNK_TILES;
 use irt::gpu::layout::{Launch, FRAME_ACCUMULATE, FRAME_WRITE, ORDER_DISSOLVE, ORDER_TABLE};
-use irt::gpu::shaders::{Program, Variant};
+use irt::gpu::shaders::Variant;
 use irt::gpu::Dispatcher;
 use irt::image::Image;
 use irt::render::modes::{cap_chunks, wave_groups, QUEUE_LOOP_BUDGET, TILE_BUDGET};
@@ -28,7 +28,7 @@ fn counting_dispatcher(ctx: &irt::gpu::GpuContext, scene: &Scene, work: &[u32]) 
     let gs = irt::gpu::readback::upload_at(ctx, scene, &grid, scene.camera.eye).unwrap();
     let n = scene.camera.width as u64 * scene.camera.height as u64;
     let modes = ModeBuffers { work_len: work.len() as u64, frame_len: n };
-    let d = ctx.compile(&gs, Program::Modes, Variant::for_scene(scene, false), n, &[], modes).unwrap();
+    let d = ctx.compile(&gs, KernelSpec::modes(Variant::for_scene(scene, false), n, modes)).unwrap();
     d.write_work(ctx, work);
     d.clear_frame(ctx);
     d

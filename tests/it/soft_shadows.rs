@@ -10,24 +10,15 @@ use irt::reference::shadows as cpu;
 use irt::reference::Reference;
 use irt::scene::*;
 
-/// Ground quad, two spheres and a box under a spherical light: overlapping penumbrae from
-/// spheres and from mesh edges, and contact shadows.
-fn scene(light_radius: f64, shadows: ShadowMode) -> Scene {
+/// The triangles of a ground quad of half-side `g` at y = 0, and of the axis-aligned box `lo`..`hi`,
+/// faces wound outward.
+fn ground_and_box(g: f64, lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
     let mut tris = vec![];
-    let quad = |a: DVec3, b: DVec3, c: DVec3, d: DVec3, tris: &mut Vec<[DVec3; 3]>| {
+    let mut quad = |a: DVec3, b: DVec3, c: DVec3, d: DVec3| {
         tris.push([a, b, c]);
         tris.push([a, c, d]);
     };
-    let g = 6.0;
-    quad(
-        DVec3::new(-g, 0.0, -g),
-        DVec3::new(-g, 0.0, g),
-        DVec3::new(g, 0.0, g),
-        DVec3::new(g, 0.0, -g),
-        &mut tris,
-    );
-    // An axis-aligned box from lo to hi, faces wound outward.
-    let (lo, hi) = (DVec3::new(-2.2, 0.0, 0.2), DVec3::new(-1.2, 1.0, 1.2));
+    quad(DVec3::new(-g, 0.0, -g), DVec3::new(-g, 0.0, g), DVec3::new(g, 0.0, g), DVec3::new(g, 0.0, -g));
     let p = |x: usize, y: usize, z: usize| DVec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
     for (a, b, c, d) in [
         (p(0, 0, 0), p(0, 0, 1), p(0, 1, 1), p(0, 1, 0)),
@@ -37,8 +28,16 @@ fn scene(light_radius: f64, shadows: ShadowMode) -> Scene {
         (p(0, 0, 0), p(0, 1, 0), p(1, 1, 0), p(1, 0, 0)),
         (p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1)),
     ] {
-        quad(a, b, c, d, &mut tris);
+        quad(a, b, c, d);
     }
+    tris
+}
+
+/// Ground quad, two spheres and a box under a spherical light: overlapping penumbrae from
+/// spheres and from mesh edges, and contact shadows.
+fn scene(light_radius: f64, shadows: ShadowMode) -> Scene {
+    // A ground quad and an axis-aligned box.
+    let tris = ground_and_box(6.0, DVec3::new(-2.2, 0.0, 0.2), DVec3::new(-1.2, 1.0, 1.2));
     let spheres = vec![
         Sphere { center: DVec3::new(0.3, 0.8, 0.0), radius: 0.8, material: 0 },
         Sphere { center: DVec3::new(1.6, 0.35, 1.3), radius: 0.35, material: 0 },
@@ -216,32 +215,8 @@ fn shell_transparency_rises_from_inner_object_to_boundary() {
 #[test]
 fn a_straight_edge_penumbra_is_centred_on_the_hard_edge_with_the_true_width() {
     let ctx = gpu();
-    let mut tris = vec![];
-    let quad = |a: DVec3, b: DVec3, c: DVec3, d: DVec3, tris: &mut Vec<[DVec3; 3]>| {
-        tris.push([a, b, c]);
-        tris.push([a, c, d]);
-    };
-    let g = 20.0;
-    quad(
-        DVec3::new(-g, 0.0, -g),
-        DVec3::new(-g, 0.0, g),
-        DVec3::new(g, 0.0, g),
-        DVec3::new(g, 0.0, -g),
-        &mut tris,
-    );
-    // Slab x in [-12, 0], y in [2, 2.5], z in [-12, 12], faces wound outward.
-    let (lo, hi) = (DVec3::new(-12.0, 2.0, -12.0), DVec3::new(0.0, 2.5, 12.0));
-    let p = |x: usize, y: usize, z: usize| DVec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
-    for (a, b, c, d) in [
-        (p(0, 0, 0), p(0, 0, 1), p(0, 1, 1), p(0, 1, 0)),
-        (p(1, 0, 0), p(1, 1, 0), p(1, 1, 1), p(1, 0, 1)),
-        (p(0, 0, 0), p(1, 0, 0), p(1, 0, 1), p(0, 0, 1)),
-        (p(0, 1, 0), p(0, 1, 1), p(1, 1, 1), p(1, 1, 0)),
-        (p(0, 0, 0), p(0, 1, 0), p(1, 1, 0), p(1, 0, 0)),
-        (p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1)),
-    ] {
-        quad(a, b, c, d, &mut tris);
-    }
+    // A ground quad and a slab x in [-12, 0], y in [2, 2.5], z in [-12, 12].
+    let tris = ground_and_box(20.0, DVec3::new(-12.0, 2.0, -12.0), DVec3::new(0.0, 2.5, 12.0));
     let mut s = scene_of(vec![], tris);
     s.lights = vec![Light { position: DVec3::new(3.0, 10.0, 0.0), color: DVec3::ONE, radius: 1.0 }];
     // The hard edge: the slab's lower edge (x = 0, y = 2) seen from the light's centre, on the

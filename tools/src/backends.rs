@@ -8,9 +8,8 @@
 //! code on each): the wall time per slice, dispatch + submit + wait included, and the pixels per
 //! second it leaves.
 
-use irt::gpu::device::{infallible, Device};
+use irt::gpu::device::{infallible, Device, KernelSpec};
 use irt::gpu::recording::dispatch_overhead;
-use irt::gpu::shaders::{Program, Variant};
 use irt::gpu::vk::VkContext;
 use irt::gpu::{AdapterChoice, GpuContext};
 use irt::render::{Session, Settings};
@@ -57,8 +56,8 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         .map(|x| x.to_bits()));
 
     let input = [[0.5f32, 0.04, 1.5, 0.0]];
-    let dw = ctx.compile(w.device_scene(), Program::Tests, Variant::FULL, 1, &input, Default::default())?;
-    let da = vk.compile(a.device_scene(), Program::Tests, Variant::FULL, 1, &input, Default::default())?;
+    let dw = ctx.compile(w.device_scene(), KernelSpec::tests(&input, 1))?;
+    let da = vk.compile(a.device_scene(), KernelSpec::tests(&input, 1))?;
     let (kw, ka) = (ctx.bind(&dw), vk.bind(&da));
     let (mut frame_w, mut frame_a, mut disp_w, mut disp_a) = (vec![], vec![], vec![], vec![]);
     for _ in 0..rounds {

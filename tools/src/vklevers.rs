@@ -16,7 +16,7 @@
 //! substitutes before it writes SPIR-V (no OpSpecConstant): what one parse saves per variant,
 //! and whether lavapipe compiles the result any differently.
 
-use irt::gpu::device::Device;
+use irt::gpu::device::{Device, KernelSpec};
 use irt::gpu::recording::dispatch_overhead;
 use irt::gpu::shaders::{self, Program, Variant};
 use irt::gpu::vk::{self, VkContext, VkDispatcher, VkOptions};
@@ -123,9 +123,7 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
             let ds: Vec<VkDispatcher> = ctxs
                 .iter()
                 .zip(&rs)
-                .map(|(c, r)| {
-                    c.compile(r.device_scene(), Program::Tests, Variant::FULL, 1, &input, Default::default())
-                })
+                .map(|(c, r)| c.compile(r.device_scene(), KernelSpec::tests(&input, 1)))
                 .collect::<Result<_, _>>()?;
             let (mut frame, mut tiny) = (vec![Vec::new(); 2], vec![Vec::new(); 2]);
             for round in 0..rounds {

@@ -102,8 +102,8 @@ impl BvhLattice {
 }
 
 /// `a · b + c` rounded once. Without the FMA instruction in the build's target (the default
-/// x86-64 target has none) `f32::mul_add` is a software routine of about a hundred cycles, which
-/// was most of `pack_scene`'s time on a BVH scene (14 715 nodes of SPD balls_s4: 11 ms); the
+/// x86-64 target has none) `f32::mul_add` is a software routine of about a hundred cycles, most
+/// of packing a BVH scene (docs/performance.md, "Quantising the nodes with the CPU's FMA"); the
 /// CPU's own instruction, where it has one, gives the same bits.
 fn fma(a: f32, b: f32, c: f32) -> f32 {
     #[cfg(target_arch = "x86_64")]

@@ -231,9 +231,9 @@ pub struct AccelSection {
 /// `accel`'s section as [`pack_scene`] packs it, positions relative to `origin`.
 pub fn pack_accel<'a>(accel: impl Into<AccelRef<'a>>, origin: DVec3) -> AccelSection {
     let accel = accel.into();
-    // Room for what [`swap_accel`] and the upload add around it in place (a copy of 24M texels
-    // took 0.21 s of a 16M-triangle scene's 0.54 s swap): the head of its first row (less than
-    // a row), the bundle's sample pairs, and the padding of its last row.
+    // Room for what [`swap_accel`] and the upload add around it in place, so that the swap never
+    // copies the section (docs/large-models.md): the head of its first row (less than a row), the
+    // bundle's sample pairs, and the padding of its last row.
     let room = 2 * SCENE_TEX_WIDTH as usize + MAX_BUNDLE.div_ceil(2) as usize;
     let mut texels = Vec::with_capacity(accel_texels(accel) + room);
     let (bases, lattice) = push_accel(&mut texels, accel, origin);

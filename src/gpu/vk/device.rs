@@ -5,12 +5,12 @@
 use super::kernel::{descriptor_type, SceneImage};
 use super::{VkContext, VkDispatcher, VkError, VkScene};
 use crate::gpu::bindings::{slot, BINDINGS};
-use crate::gpu::device::{BoundKernel, Device, ModeBuffers};
+use crate::gpu::device::{BoundKernel, Device, KernelSpec};
 use crate::gpu::layout::Params;
 use crate::gpu::output::RayCounts;
 use crate::gpu::recording::Dispatch;
 use crate::gpu::scene_texture::SceneExtent;
-use crate::gpu::shaders::{Program, Variant};
+use crate::gpu::shaders::Variant;
 use crate::gpu::GpuError;
 use ash::vk;
 
@@ -159,14 +159,8 @@ impl Device for VkContext {
     type Kernel = VkDispatcher;
     type Bound<'a> = VkBound<'a>;
 
-    fn adapter_name(&self) -> &str {
-        &self.info.name
-    }
-    fn adapter_driver(&self) -> &str {
-        &self.info.driver_info
-    }
-    fn is_cpu(&self) -> bool {
-        self.info.device_type == wgpu::DeviceType::Cpu
+    fn adapter(&self) -> (&str, &str, wgpu::DeviceType) {
+        (&self.info.name, &self.info.driver_info, self.info.device_type)
     }
     fn subgroup_size(&self) -> Option<u32> {
         self.shared.caps.subgroup_size
@@ -192,16 +186,8 @@ impl Device for VkContext {
     fn write_constants(&self, texture: &SceneImage, params: &Params) {
         texture.write_params(params)
     }
-    fn compile_kernel(
-        &self,
-        scene: &VkScene,
-        program: Program,
-        variant: Variant,
-        out_len: u64,
-        inputs: &[[f32; 4]],
-        modes: ModeBuffers,
-    ) -> Result<VkDispatcher, GpuError> {
-        Ok(VkDispatcher::new(self, scene, program, variant, out_len, inputs, modes)?)
+    fn compile_kernel(&self, scene: &VkScene, spec: KernelSpec) -> Result<VkDispatcher, GpuError> {
+        Ok(VkDispatcher::new(self, scene, spec)?)
     }
     fn variant(kernel: &VkDispatcher) -> Variant {
         kernel.variant()

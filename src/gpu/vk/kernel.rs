@@ -5,11 +5,11 @@
 use super::spirv::{compile_entry, launch_as_push_constants, options_for};
 use super::{fail, Buffer, Shared, VkContext, VkError};
 use crate::gpu::bindings::{BindingKind, BINDINGS};
-use crate::gpu::device::{DeviceScene, ModeBuffers};
+use crate::gpu::device::{DeviceScene, KernelSpec};
 use crate::gpu::layout::{Launch, Params, SCENE_LAYER_ROWS, SCENE_TEX_WIDTH};
 use crate::gpu::output::{decode_output, RayCounts, STATS_BYTES};
 use crate::gpu::scene_texture::{pad_rows, scene_bands, SceneExtent};
-use crate::gpu::shaders::{self, Program, Variant};
+use crate::gpu::shaders::{self, Variant};
 use ash::vk;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -404,19 +404,11 @@ impl Drop for VkDispatcher {
 }
 
 impl VkDispatcher {
-    /// Compiles `program` for `variant` (whose `layered` and `accel` are the scene's), and binds
-    /// it to `scene`, an output buffer of `out_len` vec4s, the test inputs `inputs` (may be empty)
-    /// and the modes' buffers sized as `modes` says. The WGSL is validated by naga here; each
-    /// entry point's SPIR-V when first run.
-    pub(super) fn new(
-        ctx: &VkContext,
-        scene: &VkScene,
-        program: Program,
-        variant: Variant,
-        out_len: u64,
-        inputs: &[[f32; 4]],
-        modes: ModeBuffers,
-    ) -> Result<Self, VkError> {
+    /// Compiles `spec` (its variant's `layered` and `accel` the scene's) and binds it to `scene`
+    /// and the buffers it asks for. The WGSL is validated by naga here; each entry point's SPIR-V
+    /// when first run.
+    pub(super) fn new(ctx: &VkContext, scene: &VkScene, spec: KernelSpec) -> Result<Self, VkError> {
+        let KernelSpec { program, variant, out_len, inputs, modes } = spec;
         let shared = &ctx.shared;
         let src = shaders::compose(program, variant);
         let (module, info) =

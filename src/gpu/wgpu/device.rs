@@ -1,12 +1,12 @@
 //! The wgpu path as a [`Device`], and its compiled kernels as [`BoundKernel`]s.
 
 use super::{Dispatcher, GpuContext, GpuScene, SceneTexture};
-use crate::gpu::device::{BoundKernel, Device, ModeBuffers};
+use crate::gpu::device::{BoundKernel, Device, KernelSpec};
 use crate::gpu::layout::Params;
 use crate::gpu::output::RayCounts;
 use crate::gpu::recording::Dispatch;
 use crate::gpu::scene_texture::SceneExtent;
-use crate::gpu::shaders::{Program, Variant};
+use crate::gpu::shaders::Variant;
 use crate::gpu::GpuError;
 use std::convert::Infallible;
 
@@ -55,14 +55,8 @@ impl Device for GpuContext {
     type Kernel = Dispatcher;
     type Bound<'a> = WgpuBound<'a>;
 
-    fn adapter_name(&self) -> &str {
-        &self.info.name
-    }
-    fn adapter_driver(&self) -> &str {
-        &self.info.driver_info
-    }
-    fn is_cpu(&self) -> bool {
-        self.info.device_type == wgpu::DeviceType::Cpu
+    fn adapter(&self) -> (&str, &str, wgpu::DeviceType) {
+        (&self.info.name, &self.info.driver_info, self.info.device_type)
     }
     fn subgroup_size(&self) -> Option<u32> {
         let (min, max) = (self.info.subgroup_min_size, self.info.subgroup_max_size);
@@ -90,16 +84,8 @@ impl Device for GpuContext {
     fn write_constants(&self, texture: &SceneTexture, params: &Params) {
         self.queue.write_buffer(&texture.params, 0, bytemuck::bytes_of(params));
     }
-    fn compile_kernel(
-        &self,
-        scene: &GpuScene,
-        program: Program,
-        variant: Variant,
-        out_len: u64,
-        inputs: &[[f32; 4]],
-        modes: ModeBuffers,
-    ) -> Result<Dispatcher, GpuError> {
-        Ok(Dispatcher::new(self, scene, program, variant, out_len, inputs, modes))
+    fn compile_kernel(&self, scene: &GpuScene, spec: KernelSpec) -> Result<Dispatcher, GpuError> {
+        Ok(Dispatcher::new(self, scene, spec))
     }
     fn variant(kernel: &Dispatcher) -> Variant {
         kernel.variant()

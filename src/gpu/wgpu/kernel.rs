@@ -3,10 +3,10 @@
 
 use super::{storage, uniform, view_dimension, GpuContext, GpuScene};
 use crate::gpu::bindings::{BindingKind, BINDINGS};
-use crate::gpu::device::ModeBuffers;
+use crate::gpu::device::KernelSpec;
 use crate::gpu::layout::Launch;
 use crate::gpu::output::{decode_output, RayCounts, STATS_BYTES};
-use crate::gpu::shaders::{self, Program, Variant};
+use crate::gpu::shaders::{self, Variant};
 use crate::gpu::GpuError;
 use std::sync::Mutex;
 
@@ -101,18 +101,10 @@ impl Dispatcher {
         self.variant
     }
 
-    /// Compiles `program` for `variant` (a pipeline per entry point at its first run) and binds
-    /// it to `scene`, an output buffer of `out_len` vec4s, the read-only input `inputs` (test
-    /// kernels; may be empty) and the modes' buffers sized as `modes` says.
-    pub(super) fn new(
-        ctx: &GpuContext,
-        scene: &GpuScene,
-        program: Program,
-        variant: Variant,
-        out_len: u64,
-        inputs: &[[f32; 4]],
-        modes: ModeBuffers,
-    ) -> Self {
+    /// Compiles `spec` (a pipeline per entry point at its first run) and binds it to `scene` and
+    /// the buffers it asks for.
+    pub(super) fn new(ctx: &GpuContext, scene: &GpuScene, spec: KernelSpec) -> Self {
+        let KernelSpec { program, variant, out_len, inputs, modes } = spec;
         let device = &ctx.device;
         let src = shaders::compose(program, variant);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
