@@ -5,7 +5,8 @@
 # bookworm-backports suite. Newer is not faster: Debian 13's backports (Mesa 26.1.6, LLVM 19) run irt
 # 1.1-1.4x slower than 25.0.7, so elsewhere the distribution's own package is kept (docs/performance.md,
 # "A newer lavapipe"). Safe to run again: it changes nothing when a new enough driver is there.
-# Also installs what the window tests use (Xvfb, xdotool) when missing.
+# Also installs what the window tests use (Xvfb, xdotool) and the distributed path (Open MPI) when
+# missing.
 # Optional: `--with-embree` (or IRT_WITH_EMBREE=1) also installs libembree-dev, for the Embree
 # benchmark peer (`cargo build --release --features embree`); not installed by default.
 set -euo pipefail
@@ -111,7 +112,15 @@ else
     echo "setup: Vulkan driver ready (mesa-vulkan-drivers ${major:+$(mesa_version)})"
 fi
 
-# The window tests (tests/viewer.rs) drive `irt view` under a virtual X server.
+# MPI (`irt render|view --mpi`, the default `mpi` cargo feature): Open MPI to build against and
+# run with (rsmpi's build finds it through mpicc and generates its bindings with libclang).
+if ! command -v mpicc >/dev/null || ! command -v mpirun >/dev/null \
+    || ! ldconfig -p 2>/dev/null | grep 'libclang' >/dev/null; then
+    echo "setup: installing Open MPI and libclang for the distributed path (openmpi-bin, libopenmpi-dev, libclang-dev)"
+    install_pkgs openmpi-bin libopenmpi-dev libclang-dev
+fi
+
+# The window tests (tests/it/viewer.rs) drive `irt view` under a virtual X server.
 if ! command -v Xvfb >/dev/null || ! command -v xdotool >/dev/null; then
     echo "setup: installing Xvfb and xdotool for the window tests"
     install_pkgs xvfb xdotool xauth

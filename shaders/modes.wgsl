@@ -69,6 +69,7 @@ fn render_slice(@builtin(global_invocation_id) gid: vec3u) {
             return;
         }
     }
+    out_slot = gid.x;
     trace_pixel(p % params.eye_grid.x, p / params.eye_grid.x);
 }
 

@@ -5,6 +5,8 @@
 var<private> ray_counts: vec4u;
 // Loop iterations run by this invocation (see `LAVAPIPE_LOOP_LIMIT` in src/gpu/layout.rs).
 var<private> loop_iters: u32;
+// A slice's position of the pixel being traced (render_slice), where OUT_COMPACT puts its output.
+var<private> out_slot: u32;
 // 1 if this invocation's eye ray hit something (written as the output's alpha), else 0.
 var<private> eye_hit: f32;
 // SIMD efficiency (`Variant::simd_stats`; `irt bench --simd`), per loop of layout::SIMD_LOOPS
@@ -307,13 +309,15 @@ fn trace_pixel(x: u32, y: u32) {
     // Alpha carries 2 × the loop iterations (the most of any pass) + whether the eye ray hit;
     // the renderer checks the first against lavapipe's limit and counts the second for SPD.
     let meter = f32(2u * loop_iters + u32(eye_hit));
+    // The output at the pixel, or (OUT_COMPACT) at the slice position `out_slot`.
+    let o = select(pixel_id, out_slot, (flags & OUT_COMPACT) != 0u);
     var total = c;
     if launch.pass_range.z != 0u {
-        out_buf[pixel_id] = vec4f(c, meter);
+        out_buf[o] = vec4f(c, meter);
     } else {
-        let prev = out_buf[pixel_id];
+        let prev = out_buf[o];
         total = prev.rgb + c;
-        out_buf[pixel_id] = vec4f(total, max(prev.a, meter));
+        out_buf[o] = vec4f(total, max(prev.a, meter));
         ray_counts = vec4u(0u, 0u, 0u, ray_counts.w);
     }
     if COUNT_RAYS {

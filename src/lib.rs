@@ -8,6 +8,7 @@
 
 pub mod accel;
 pub mod app;
+pub mod dist;
 pub mod gpu;
 pub mod image;
 pub mod io;

@@ -7,6 +7,7 @@
 mod bench;
 mod convert;
 mod info;
+mod mpi;
 mod render;
 mod sequence;
 mod spd;

@@ -46,15 +46,29 @@ pub struct RenderArgs {
     /// give the same picture bit for bit.
     #[command(flatten)]
     pub mode: ModeArgs,
+    /// Samples per pixel, jittered and added up (conventional frames or frameless passes; with
+    /// --mode only).
+    #[arg(long, value_name = "N", default_value_t = 1, requires = "mode")]
+    pub samples: u32,
     /// Device path: wgpu (default), or ash (raw Vulkan: the same shaders, bands, modes and
     /// frames). See docs/backends.md.
     #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
     pub backend: super::Backend,
     #[command(flatten)]
     pub device: DeviceArgs,
+    #[command(flatten)]
+    pub mpi: super::mpi::MpiArgs,
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
+    // Under mpirun every rank runs this command: the workers trace until rank 0 ends the job.
+    let cluster = match args.mpi.mpi {
+        true => match super::mpi::join(args.backend, &args.device)? {
+            Some(c) => Some(c),
+            None => return Ok(()),
+        },
+        false => None,
+    };
     // The output is checked first: a mistyped name should not wait for the scene to load.
     check_output_path(&args.out)?;
     let format = OutputFormat::from_path(&args.out).map_err(anyhow::Error::msg)?;
@@ -79,11 +93,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
         scene = scene.at(t);
         scene.validate().map_err(|e| anyhow::anyhow!("at time {t} s: {}", e.0))?;
     }
+    if let Some(cluster) = &cluster {
+        let settings = Settings { max_samples: args.samples, ..bands_settings(&args) };
+        let settings = Settings { mode: mode.unwrap_or(Mode::Bands), ..settings };
+        return distributed(cluster, &args, format, &scene, settings);
+    }
     if let Some(mode) = mode {
         if args.stats {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
-        let settings = one_picture(&args, mode);
+        let settings = Settings { max_samples: args.samples.max(1), ..one_picture(&args, mode) };
         return match args.backend {
             super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
             super::Backend::Ash => one_pass(
@@ -166,7 +185,9 @@ fn one_pass<D: Device>(
     let mode = settings.mode;
     let mut session = Session::new(ctx, scene, settings)?;
     let t = Instant::now();
-    session.try_complete_pass(ctx)?;
+    while !session.converged() {
+        session.try_complete_pass(ctx)?;
+    }
     let elapsed = t.elapsed();
     let image = session.try_read_image(ctx)?;
     let how = match args.backend {
@@ -182,6 +203,45 @@ fn bands_settings(args: &RenderArgs) -> Settings {
         count_rays: args.stats,
         corner_rays: args.spd_rules,
         ..one_picture(args, Mode::Bands)
+    }
+}
+
+/// The picture traced by the workers of an MPI job; rank 0 writes it.
+fn distributed(
+    cluster: &irt::dist::cluster::Cluster,
+    args: &RenderArgs,
+    format: OutputFormat,
+    scene: &irt::scene::Scene,
+    settings: Settings,
+) -> Result<()> {
+    let deadline = args.mpi.deadline()?;
+    let how = format!("{} over MPI", settings.mode);
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} tracing {pos}/{len} pixels on the workers [{bar:30}] {elapsed_precise}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let t = Instant::now();
+    let (image, devices) =
+        irt::dist::master::render(cluster, scene, settings, deadline, &mut |done, total| {
+            bar.set_length(total);
+            bar.set_position(done);
+        })
+        .unwrap_or_else(|e| cluster.abort(&e.to_string()));
+    bar.finish_and_clear();
+    let elapsed = t.elapsed();
+    let how = format!("{how}, {} workers", devices.len());
+    write(args, format, &image, scene, elapsed, &worker_devices(&devices), &how)
+}
+
+/// The workers' devices in a few words: one name when they all have the same device.
+fn worker_devices(devices: &[(i32, String)]) -> String {
+    match devices {
+        [(_, first), rest @ ..] if rest.iter().all(|(_, d)| d == first) => format!("the workers' {first}"),
+        _ => devices.iter().map(|(r, d)| format!("rank {r}: {d}")).collect::<Vec<_>>().join("; "),
     }
 }
 

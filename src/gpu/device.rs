@@ -139,6 +139,9 @@ pub trait BoundKernel {
     fn clear_frame(&self) -> Result<(), Self::Error>;
     /// The frame buffer: per pixel the sum of its samples (rgb) and their count (a).
     fn read_frame(&self) -> Result<Vec<[f32; 4]>, Self::Error>;
+    /// Output vec4s `first..first + len` (clamped to the buffer): a piece of a picture, read
+    /// back without the rest.
+    fn read_output_range(&self, first: u64, len: u64) -> Result<Vec<[f32; 4]>, Self::Error>;
 
     /// Runs every command of `rec`, reporting its progress marks to `progress`.
     fn run(&self, rec: &Recording, progress: &mut dyn FnMut(u32, u32)) -> Result<(), Self::Error> {

@@ -22,6 +22,7 @@ pub mod metrics;
 pub mod modes;
 pub mod order;
 pub mod picture;
+pub mod pieces;
 pub mod replay;
 pub mod schedule;
 pub mod session;
@@ -29,6 +30,7 @@ pub mod updates;
 
 pub use args::ModeArgs;
 pub use background::Adoption;
+pub use modes::SliceSpan;
 pub use order::PixelOrder;
 pub use picture::{LoopMeter, Picture};
 pub use schedule::Schedule;
@@ -60,6 +62,8 @@ pub enum RenderError {
     Thread(std::io::Error),
     #[error("the BVH built in the background is lost: {0}")]
     BvhBuild(&'static str),
+    #[error("{0}")]
+    Mode(&'static str),
 }
 
 impl From<crate::scene::InvalidScene> for RenderError {

@@ -12,11 +12,12 @@ use super::order::{Dissolve, PixelOrder};
 use super::schedule::{tile_grid, Schedule};
 use crate::gpu::layout::{
     Launch, PixelSample, BUNDLE_SAMPLES_PER_PASS, FRAME_ACCUMULATE, FRAME_BLEND, FRAME_JITTER_PAIRS,
-    FRAME_WRITE, LAVAPIPE_LOOP_LIMIT, MAX_CHUNK_TILES, ORDER_DISSOLVE, ORDER_TABLE, TILE_H, TILE_W,
-    WHOLE_PASS,
+    FRAME_WRITE, LAVAPIPE_LOOP_LIMIT, MAX_CHUNK_TILES, ORDER_DISSOLVE, ORDER_TABLE, OUT_COMPACT, TILE_H,
+    TILE_W, WHOLE_PASS,
 };
 use crate::gpu::recording::{Command, Dispatch, Recording};
 use crate::scene::{Scene, ShadowMode};
+use std::ops::Range;
 
 /// Eye rays per dispatch of the bands, in whole rows: a 512² frame is one dispatch, larger
 /// frames several bands (a progress mark after each). Every dispatch ends with a submit and
@@ -92,11 +93,16 @@ pub fn frameless_sample(visit: u32, blend: Option<f32>, jitter_pairs: bool) -> P
     PixelSample { index: visit, flags, jitter, alpha }
 }
 
-/// A whole conventional frame of `pixels` pixels, sample `k`, into the frame buffer: the first
-/// sample replaces, later ones add.
-pub fn resolve(pixels: u32, k: u32) -> Recording {
+/// How sample `k` of a whole conventional frame lands in the frame buffer: the first replaces,
+/// later ones add.
+pub fn resolve_sample(k: u32) -> PixelSample {
     let flags = if k == 0 { FRAME_WRITE } else { FRAME_WRITE | FRAME_ACCUMULATE };
-    let launch = Launch::resolve(pixels, PixelSample { index: k, flags, ..Default::default() });
+    PixelSample { index: k, flags, ..Default::default() }
+}
+
+/// A whole conventional frame of `pixels` pixels, sample `k`, into the frame buffer.
+pub fn resolve(pixels: u32, k: u32) -> Recording {
+    let launch = Launch::resolve(pixels, resolve_sample(k));
     let d = Dispatch { entry: "resolve_frame".into(), launch, groups: [pixels.div_ceil(64), 1, 1] };
     Recording { commands: vec![Command::Dispatch(d)] }
 }
@@ -170,6 +176,15 @@ pub struct Queue {
 }
 
 impl Queue {
+    /// A queue of the tiles `tiles` alone, one tile a chunk, one wave: how a distributed worker
+    /// traces the chunk it was handed with the conventional frame's own entry point. Returns its
+    /// boundary array too.
+    pub fn of_tiles(tiles: Range<u32>, columns: u32) -> (Queue, Vec<u32>) {
+        let b: Vec<u32> = (tiles.start..=tiles.end).collect();
+        let chunks = tiles.len() as u32;
+        (Queue { chunks, columns, wave_groups: chunks.max(1) }, b)
+    }
+
     /// The queue of a `w`×`h` frame with `schedule`'s chunks for `workers` workers, cut into
     /// about `waves` waves; and its boundary array, what the work buffer holds.
     pub fn new(schedule: Schedule, workers: u32, [w, h]: [u32; 2], waves: u32) -> (Queue, Vec<u32>) {
@@ -191,6 +206,17 @@ impl Queue {
         commands.push(Command::Dispatch(wave));
         Recording { commands }
     }
+}
+
+/// The pixels of tiles `tiles` of a `width`×`height` frame whose tile grid has `columns`
+/// columns, tile after tile, each tile's pixels row by row (clipped at the image's edges): the
+/// order in which a distributed worker returns a chunk's pixels and the master places them.
+pub fn chunk_pixels(tiles: Range<u32>, columns: u32, width: u32, height: u32) -> impl Iterator<Item = u32> {
+    tiles.flat_map(move |t| {
+        let (x0, y0) = ((t % columns.max(1)) * TILE_W, (t / columns.max(1)) * TILE_H);
+        (y0..(y0 + TILE_H).min(height))
+            .flat_map(move |y| (x0..(x0 + TILE_W).min(width)).map(move |x| y * width + x))
+    })
 }
 
 /// Frameless slices never straddle a pass of the order: positions `[first, first + len)`.
@@ -251,9 +277,23 @@ impl Slices {
 
     /// The dispatches of `span`, one per pass, of sample `s`.
     pub fn recording(&self, span: SliceSpan, passes: &[[u32; 4]], s: PixelSample) -> Recording {
-        let (kind, bits, state) = match &self.dissolve {
-            Some((d, state)) => (ORDER_DISSOLVE, d.bits, *state),
-            None => (ORDER_TABLE, 0, 0),
+        let state = self.dissolve.as_ref().map_or(0, |(_, state)| *state);
+        self.recording_from(span, passes, s, state)
+    }
+
+    /// [`Slices::recording`] of any span of the pass (the dissolve's register worked out for
+    /// its first position), its output compact (`OUT_COMPACT`: position i of the span in output
+    /// vec4 i) and no frame buffer written: what a distributed worker traces and returns.
+    pub fn compact_recording(&self, span: SliceSpan, passes: &[[u32; 4]], visit: u32) -> Recording {
+        let state = self.dissolve.as_ref().map_or(0, |(d, _)| d.state_at(span.first));
+        let s = PixelSample { flags: OUT_COMPACT, ..frameless_sample(visit, None, false) };
+        self.recording_from(span, passes, s, state)
+    }
+
+    fn recording_from(&self, span: SliceSpan, passes: &[[u32; 4]], s: PixelSample, state: u32) -> Recording {
+        let (kind, bits) = match &self.dissolve {
+            Some((d, _)) => (ORDER_DISSOLVE, d.bits),
+            None => (ORDER_TABLE, 0),
         };
         let commands = passes
             .iter()

@@ -328,6 +328,9 @@ pub const FRAME_ACCUMULATE: u32 = 2;
 pub const FRAME_BLEND: u32 = 4;
 /// … and tracing two of four sub-pixel positions per visit (the paper's frameless jitter).
 pub const FRAME_JITTER_PAIRS: u32 = 8;
+/// A slice's output is compact: position i of the slice in output vec4 i, not at its pixel (what
+/// a distributed worker reads back as one range).
+pub const OUT_COMPACT: u32 = 16;
 
 /// `Launch::work[2]` of `render_slice`: the pixel order is a table in the work buffer …
 pub const ORDER_TABLE: u32 = 0;

@@ -47,6 +47,7 @@ pub fn wgsl_constants() -> String {
     s += &c("FRAME_ACCUMULATE", FRAME_ACCUMULATE);
     s += &c("FRAME_BLEND", FRAME_BLEND);
     s += &c("FRAME_JITTER_PAIRS", FRAME_JITTER_PAIRS);
+    s += &c("OUT_COMPACT", OUT_COMPACT);
     s += &c("ORDER_TABLE", ORDER_TABLE);
     s += &c("ORDER_DISSOLVE", ORDER_DISSOLVE);
     s += &c("MAX_STACK", crate::scene::MAX_TRACE_DEPTH);

@@ -25,7 +25,7 @@ impl VkDispatcher {
 
     /// The tile queue's counter: chunks taken so far.
     pub fn read_queue(&self) -> Result<u32, VkError> {
-        Ok(bytemuck::pod_read_unaligned(&self.read_back(&self.queue, 4)?[..4]))
+        Ok(bytemuck::pod_read_unaligned(&self.read_back(&self.queue, 0, 4)?[..4]))
     }
 
     /// Writes `data` at the start of the work buffer (device-local: through a staging buffer).
@@ -63,15 +63,21 @@ impl VkDispatcher {
 
     /// The frame buffer: per pixel the sum of its samples (rgb) and their count (a).
     pub fn read_frame(&self) -> Result<Vec<[f32; 4]>, VkError> {
-        Ok(bytemuck::pod_collect_to_vec(&self.read_back(&self.frame, self.frame_len * 16)?))
+        Ok(bytemuck::pod_collect_to_vec(&self.read_back(&self.frame, 0, self.frame_len * 16)?))
     }
 
-    /// The first `bytes` of `buf`, through the readback buffer.
-    fn read_back(&self, buf: &super::Buffer, bytes: u64) -> Result<Vec<u8>, VkError> {
+    /// Output vec4s `first..first + len` (clamped to the buffer), copied.
+    pub fn read_output_range(&self, first: u64, len: u64) -> Result<Vec<[f32; 4]>, VkError> {
+        let (first, len) = (first.min(self.out_len), len.min(self.out_len - first.min(self.out_len)));
+        Ok(bytemuck::pod_collect_to_vec(&self.read_back(&self.out, first * 16, len * 16)?))
+    }
+
+    /// `bytes` of `buf` from `offset`, through the readback buffer.
+    fn read_back(&self, buf: &super::Buffer, offset: u64, bytes: u64) -> Result<Vec<u8>, VkError> {
         if bytes > 0 {
             // SAFETY: recording into the command buffer `submit` began.
             self.shared.submit("the readback", |d, cmd| unsafe {
-                let copy = vk::BufferCopy { src_offset: 0, dst_offset: 0, size: bytes };
+                let copy = vk::BufferCopy { src_offset: offset, dst_offset: 0, size: bytes };
                 d.cmd_copy_buffer(cmd, buf.raw, self.readback.raw, &[copy])
             })?;
         }
@@ -150,6 +156,9 @@ impl BoundKernel for VkBound<'_> {
     }
     fn read_frame(&self) -> Result<Vec<[f32; 4]>, VkError> {
         self.0.read_frame()
+    }
+    fn read_output_range(&self, first: u64, len: u64) -> Result<Vec<[f32; 4]>, VkError> {
+        self.0.read_output_range(first, len)
     }
 }
 

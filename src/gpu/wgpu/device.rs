@@ -47,6 +47,9 @@ impl BoundKernel for WgpuBound<'_> {
     fn read_frame(&self) -> Result<Vec<[f32; 4]>, Infallible> {
         Ok(self.dispatcher.read_frame(self.ctx))
     }
+    fn read_output_range(&self, first: u64, len: u64) -> Result<Vec<[f32; 4]>, Infallible> {
+        Ok(self.dispatcher.read_output_range(self.ctx, first, len))
+    }
 }
 
 impl Device for GpuContext {

@@ -209,22 +209,22 @@ impl Dispatcher {
     /// The tile queue's counter: chunks taken so far (past the last chunk once the queue is
     /// empty).
     pub fn read_queue(&self, ctx: &GpuContext) -> u32 {
-        self.read_back(ctx, &[(&self.buffers.queue, 16)], |d| bytemuck::cast_slice::<u8, u32>(d)[0])
+        self.read_back(ctx, &[(&self.buffers.queue, 0, 16)], |d| bytemuck::cast_slice::<u8, u32>(d)[0])
     }
 
-    /// Copies `(buffer, bytes)` one after another into the readback buffer, waits, and hands the
-    /// mapped bytes to `read`: the one readback path of every `read*` method.
+    /// Copies `(buffer, offset, bytes)` one after another into the readback buffer, waits, and
+    /// hands the mapped bytes to `read`: the one readback path of every `read*` method.
     fn read_back<T>(
         &self,
         ctx: &GpuContext,
-        copies: &[(&wgpu::Buffer, u64)],
+        copies: &[(&wgpu::Buffer, u64, u64)],
         read: impl FnOnce(&[u8]) -> T,
     ) -> T {
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let mut at = 0;
-        for &(buf, bytes) in copies {
+        for &(buf, offset, bytes) in copies {
             if bytes > 0 {
-                enc.copy_buffer_to_buffer(buf, 0, &self.readback, at, bytes);
+                enc.copy_buffer_to_buffer(buf, offset, &self.readback, at, bytes);
             }
             at += bytes;
         }
@@ -235,6 +235,12 @@ impl Dispatcher {
         let out = read(&slice.get_mapped_range().expect("readback buffer is mapped")[..at as usize]);
         self.readback.unmap();
         out
+    }
+
+    /// Output vec4s `first..first + len` (clamped to the buffer), copied.
+    pub fn read_output_range(&self, ctx: &GpuContext, first: u64, len: u64) -> Vec<[f32; 4]> {
+        let (first, len) = (first.min(self.out_len), len.min(self.out_len - first.min(self.out_len)));
+        self.read_back(ctx, &[(&self.buffers.out, first * 16, len * 16)], bytemuck::pod_collect_to_vec)
     }
 
     /// Zeroes the frame buffer (no samples anywhere).
@@ -266,7 +272,7 @@ impl Dispatcher {
 
     /// Reads back the frame buffer.
     pub fn read_frame(&self, ctx: &GpuContext) -> Vec<[f32; 4]> {
-        self.read_back(ctx, &[(&self.buffers.frame, self.frame_len * 16)], |d| {
+        self.read_back(ctx, &[(&self.buffers.frame, 0, self.frame_len * 16)], |d| {
             bytemuck::cast_slice(d).to_vec()
         })
     }
@@ -280,8 +286,10 @@ impl Dispatcher {
     /// readback memory, which no copy precedes.
     pub fn read_with<T>(&self, ctx: &GpuContext, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> T {
         let out_bytes = self.out_len * 16;
-        self.read_back(ctx, &[(&self.buffers.out, out_bytes), (&self.buffers.stats, STATS_BYTES)], |d| {
-            decode_output(d, out_bytes, read)
-        })
+        self.read_back(
+            ctx,
+            &[(&self.buffers.out, 0, out_bytes), (&self.buffers.stats, 0, STATS_BYTES)],
+            |d| decode_output(d, out_bytes, read),
+        )
     }
 }

@@ -1,0 +1,538 @@
+//! Rank 0: the paper's master. It holds the scene and sends it once, keeps the state
+//! (camera, settings, time) and sends it as it changes, hands out work on demand — chunks of a
+//! conventional frame's tiles from the schedule, or slices of the frameless pixel order — with a
+//! few pieces in flight per worker to hide the round trip, and writes what comes back into its
+//! frame buffer ([`HostFrame`]). A worker that does not answer a piece within the deadline is
+//! named and the job ends.
+
+use super::cluster::{say, Cluster};
+use super::frame::HostFrame;
+use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
+use crate::render::modes::{chunk_pixels, frameless_sample, resolve_sample, Slices};
+use crate::render::order::Dissolve;
+use crate::render::schedule::tile_grid;
+use crate::render::{Mode, RenderError, Schedule, Settings, StepReport};
+use crate::scene::{Camera, Scene};
+use std::collections::{BTreeMap, VecDeque};
+use std::time::{Duration, Instant};
+
+/// Pieces of work each worker holds at once: one traced, the next already there when it is done.
+pub const IN_FLIGHT: usize = 2;
+
+/// By default a worker must return a piece of work within this long: a chunk or slice takes
+/// milliseconds on lavapipe, and a stall of a minute is a dead rank, not a slow one.
+pub const DEFAULT_DEADLINE: Duration = Duration::from_secs(30);
+
+/// What setting the job up can fail with (each names the rank).
+#[derive(Debug, thiserror::Error)]
+pub enum MasterError {
+    #[error("rank {rank} runs {theirs}, rank 0 runs {ours}: start every rank from the same irt build")]
+    Version { rank: i32, theirs: String, ours: String },
+    #[error("rank {rank} could not open a device: {why}")]
+    Device { rank: i32, why: String },
+    #[error("rank {rank} could not set the scene up: {why}")]
+    Scene { rank: i32, why: String },
+    #[error("rank {rank} said nothing for {seconds:.0} s while {doing}")]
+    Silent { rank: i32, seconds: f64, doing: String },
+    #[error("rank {rank} sent a {what} message where none was expected")]
+    Protocol { rank: i32, what: &'static str },
+    #[error("the scene cannot be sent: {0}")]
+    Encode(String),
+    #[error("{0} with --mpi: the ranks do not split it (drop one of them)")]
+    Unsupported(&'static str),
+    #[error(transparent)]
+    Wire(#[from] super::wire::WireError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+}
+
+/// One worker as the master sees it.
+struct Worker {
+    rank: i32,
+    device: String,
+    /// Pieces sent and not returned, oldest first, with when they were sent.
+    out: VecDeque<(Work, Instant)>,
+}
+
+/// The conventional frame being assembled.
+struct Frame {
+    state: u64,
+    sample: u32,
+    /// The schedule's chunk boundaries over the frame's tiles.
+    chunks: Vec<u32>,
+    next: usize,
+    returned: usize,
+    values: Vec<[f32; 3]>,
+}
+
+/// What the master hands out.
+enum Plan {
+    Frames(Option<Frame>),
+    Slices { slices: Slices, table: Option<Vec<u32>> },
+}
+
+pub struct Master<'a> {
+    cluster: &'a Cluster,
+    workers: Vec<Worker>,
+    deadline: Duration,
+    state: State,
+    frame: HostFrame,
+    plan: Plan,
+    next_id: u64,
+    /// Pieces back before an earlier one, by id: results are applied in the order the pieces
+    /// were handed out, the order one process traces them in, so that the picture is the same
+    /// bit for bit (a frameless pixel's blend depends on the visits before it).
+    early: BTreeMap<u64, (Work, Pixels)>,
+    /// The id of the next piece to apply.
+    next_apply: u64,
+    /// Samples complete since the last change.
+    samples: u32,
+    /// The most shader loop iterations a returned pixel ran (lavapipe's limit).
+    pub max_loop_iterations: u32,
+}
+
+impl<'a> Master<'a> {
+    /// Greets the workers, checks their builds and devices, sends the scene and the first state
+    /// (`scene`'s camera, `settings`) and waits until every worker has set it up.
+    pub fn start(
+        cluster: &'a Cluster,
+        scene: &Scene,
+        settings: Settings,
+        deadline: Duration,
+    ) -> Result<Master<'a>, MasterError> {
+        let settings = for_workers(settings)?;
+        let mut workers = Vec::new();
+        let ours = build_id();
+        // Setting up may include building a large scene's accelerator: a longer wait.
+        let setup = deadline.max(Duration::from_secs(600));
+        for _ in 1..cluster.size() {
+            let (rank, bytes) = expect(cluster, Tag::Hello, setup, "opening its device", None)?;
+            let hello = Hello::decode(&bytes)?;
+            if hello.protocol != PROTOCOL || hello.version != ours {
+                return Err(MasterError::Version { rank, theirs: hello.version, ours });
+            }
+            let device = hello.device.map_err(|why| MasterError::Device { rank, why })?;
+            workers.push(Worker { rank, device, out: VecDeque::new() });
+        }
+        workers.sort_by_key(|w| w.rank);
+        let files = crate::io::toml_write::to_files(scene, "scene").map_err(MasterError::Encode)?;
+        let hash = SceneMsg::digest(&files.toml, &files.textures);
+        let msg = SceneMsg { toml: files.toml, textures: files.textures, hash }.encode();
+        let state = State { version: 1, camera: scene.camera.clone(), settings, time: 0.0 };
+        for w in &workers {
+            cluster.send(w.rank, Tag::Scene, &msg);
+            cluster.send(w.rank, Tag::State, &state.encode());
+        }
+        for _ in &workers {
+            let (rank, bytes) = expect(cluster, Tag::Ready, setup, "setting the scene up", None)?;
+            let ready = Ready::decode(&bytes)?;
+            if let Some(why) = ready.error {
+                return Err(MasterError::Scene { rank, why });
+            }
+            if ready.hash != hash {
+                let why = format!("it holds scene {:016x}, rank 0 sent {hash:016x}", ready.hash);
+                return Err(MasterError::Scene { rank, why });
+            }
+        }
+        let (w, h) = (scene.camera.width, scene.camera.height);
+        let mut m = Master {
+            cluster,
+            workers,
+            deadline,
+            frame: HostFrame::new(w, h),
+            plan: Plan::Frames(None),
+            state,
+            next_id: 0,
+            early: BTreeMap::new(),
+            next_apply: 0,
+            samples: 0,
+            max_loop_iterations: 0,
+        };
+        m.restart()?;
+        Ok(m)
+    }
+
+    /// The workers' ranks and devices.
+    pub fn devices(&self) -> Vec<(i32, &str)> {
+        self.workers.iter().map(|w| (w.rank, w.device.as_str())).collect()
+    }
+
+    pub fn frame(&self) -> &HostFrame {
+        &self.frame
+    }
+
+    pub fn settings(&self) -> &Settings {
+        &self.state.settings
+    }
+
+    pub fn camera(&self) -> &Camera {
+        &self.state.camera
+    }
+
+    /// Samples since the last change: conventional frames assembled, frameless visits handed
+    /// out.
+    pub fn samples(&self) -> u32 {
+        match &self.plan {
+            Plan::Slices { slices, .. } => slices.visit(),
+            Plan::Frames(_) => self.samples,
+        }
+    }
+
+    /// The samples refinement stops at (0: never).
+    fn max_samples(&self) -> u32 {
+        match self.state.settings.mode {
+            Mode::Bands => 1,
+            _ => self.state.settings.max_samples,
+        }
+    }
+
+    /// Refinement reached its sample limit: every piece is handed out (some may be on their
+    /// way back).
+    pub fn converged(&self) -> bool {
+        let max = self.max_samples();
+        max > 0
+            && match &self.plan {
+                Plan::Frames(f) => f.is_none() && self.samples >= max,
+                Plan::Slices { slices, .. } => slices.visit() >= max,
+            }
+    }
+
+    /// Converged, and every piece is back: the picture is final.
+    pub fn done(&self) -> bool {
+        self.converged() && self.workers.iter().all(|w| w.out.is_empty())
+    }
+
+    /// A new camera, settings or time: sent to every worker as the next state, and the work
+    /// handed out from now on traces it (a conventional frame in flight is cancelled).
+    pub fn set_state(&mut self, camera: &Camera, settings: &Settings, time: f64) -> Result<(), MasterError> {
+        let (w, h) = (camera.width, camera.height);
+        let changed =
+            *camera != self.state.camera || *settings != self.state.settings || time != self.state.time;
+        if !changed {
+            return Ok(());
+        }
+        self.state = State {
+            version: self.state.version + 1,
+            camera: camera.clone(),
+            settings: settings.clone(),
+            time,
+        };
+        for wk in &self.workers {
+            self.cluster.send(wk.rank, Tag::State, &self.state.encode());
+        }
+        if [w, h] != [self.frame.width, self.frame.height] {
+            self.frame = HostFrame::new(w, h);
+        }
+        self.restart()
+    }
+
+    /// Refinement starts again with the current state (the frame buffer keeps its pixels: the
+    /// first new sample of each replaces it).
+    fn restart(&mut self) -> Result<(), MasterError> {
+        self.samples = 0;
+        let [w, h] = [self.state.camera.width, self.state.camera.height];
+        self.plan = match self.state.settings.mode {
+            Mode::Frameless { order, .. } => {
+                let (slices, _) = Slices::new(order, [w, h]).map_err(RenderError::from)?;
+                let table = order.table(w, h);
+                Plan::Slices { slices, table }
+            }
+            _ => Plan::Frames(None),
+        };
+        Ok(())
+    }
+
+    /// Hands out work until every worker holds [`IN_FLIGHT`] pieces, takes in what has come
+    /// back, and checks the deadline: one turn of the master's loop, never blocking longer than
+    /// `wait` for a message.
+    pub fn pump(&mut self, wait: Duration) -> Result<StepReport, MasterError> {
+        self.deal()?;
+        let mut report = StepReport { camera_version: self.state.version, ..Default::default() };
+        let t = Instant::now();
+        if let Some((rank, tag, bytes)) = self.cluster.receive_within(wait) {
+            if tag != Tag::Pixels.code() {
+                return Err(MasterError::Protocol { rank, what: "non-pixel" });
+            }
+            let px = Pixels::decode(&bytes)?;
+            self.take(rank, px, &mut report)?;
+            self.deal()?;
+        }
+        report.trace_time = t.elapsed();
+        report.idle = self.done();
+        self.check_deadline()?;
+        Ok(report)
+    }
+
+    fn check_deadline(&self) -> Result<(), MasterError> {
+        for w in &self.workers {
+            if let Some((work, sent)) = w.out.front() {
+                if sent.elapsed() > self.deadline {
+                    return Err(MasterError::Silent {
+                        rank: w.rank,
+                        seconds: sent.elapsed().as_secs_f64(),
+                        doing: describe(work),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The next piece for a worker, if the plan has one.
+    fn next_piece(&mut self) -> Option<(Piece, u32)> {
+        let workers = self.workers.len() as u32;
+        let [w, h] = [self.state.camera.width, self.state.camera.height];
+        let max = self.max_samples();
+        match &mut self.plan {
+            Plan::Frames(frame) => {
+                if frame.is_none() {
+                    if max > 0 && self.samples >= max {
+                        return None;
+                    }
+                    let [tx, ty] = tile_grid(w, h);
+                    let (schedule, p) = match self.state.settings.mode {
+                        Mode::Conventional { schedule, workers: p } => (schedule, p),
+                        _ => (Schedule::default(), 0),
+                    };
+                    let p = if p == 0 { workers } else { p };
+                    *frame = Some(Frame {
+                        state: self.state.version,
+                        sample: self.samples,
+                        chunks: schedule.boundaries(tx * ty, p),
+                        next: 0,
+                        returned: 0,
+                        values: vec![[0.0; 3]; w as usize * h as usize],
+                    });
+                }
+                let f = frame.as_mut().expect("made above");
+                // Every chunk handed out: the next frame waits for this one to come back.
+                if f.next + 1 >= f.chunks.len() {
+                    return None;
+                }
+                let piece = Piece::Tiles { first: f.chunks[f.next], end: f.chunks[f.next + 1] };
+                f.next += 1;
+                Some((piece, f.sample))
+            }
+            Plan::Slices { slices, .. } => {
+                if max > 0 && slices.visit() >= max {
+                    return None;
+                }
+                let Mode::Frameless { slice, .. } = self.state.settings.mode else { return None };
+                let span = slices.next_span(slice);
+                let visit = slices.visit();
+                slices.advance(span);
+                Some((Piece::Slice { first: span.first, len: span.len }, visit))
+            }
+        }
+    }
+
+    fn deal(&mut self) -> Result<(), MasterError> {
+        for i in 0..self.workers.len() {
+            while self.workers[i].out.len() < IN_FLIGHT {
+                let Some((piece, sample)) = self.next_piece() else { return Ok(()) };
+                let work = Work { id: self.next_id, state: self.state.version, sample, piece };
+                self.next_id += 1;
+                self.cluster.send(self.workers[i].rank, Tag::Work, &work.encode());
+                self.workers[i].out.push_back((work, Instant::now()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Pixels back from `rank`: applied now if every earlier piece is, else kept until it is.
+    fn take(&mut self, rank: i32, px: Pixels, report: &mut StepReport) -> Result<(), MasterError> {
+        let w = self
+            .workers
+            .iter_mut()
+            .find(|w| w.rank == rank)
+            .ok_or(MasterError::Protocol { rank, what: "pixel" })?;
+        let Some(at) = w.out.iter().position(|(work, _)| work.id == px.id) else {
+            return Err(MasterError::Protocol { rank, what: "unasked-for pixel" });
+        };
+        let (work, _) = w.out.remove(at).expect("found");
+        self.max_loop_iterations = self.max_loop_iterations.max(px.max_loop_iterations);
+        self.early.insert(work.id, (work, px));
+        while let Some((work, px)) = self.early.remove(&self.next_apply) {
+            self.next_apply += 1;
+            self.apply(work, px, report);
+        }
+        Ok(())
+    }
+
+    /// A piece's pixels into the frame being assembled, or into the frame buffer.
+    fn apply(&mut self, work: Work, px: Pixels, report: &mut StepReport) {
+        let [width, height] = [self.frame.width, self.frame.height];
+        let current = work.state == self.state.version;
+        match (&mut self.plan, work.piece) {
+            (Plan::Frames(frame), Piece::Tiles { first, end }) => {
+                // A cancelled frame's pieces are dropped.
+                let Some(f) = frame.as_mut().filter(|f| f.state == work.state && current) else { return };
+                let [columns, _] = tile_grid(width, height);
+                for (p, v) in chunk_pixels(first..end, columns, width, height).zip(&px.values) {
+                    f.values[p as usize] = *v;
+                }
+                f.returned += 1;
+                report.eye_rays += px.values.len() as u64;
+                if f.returned + 1 == f.chunks.len() {
+                    let s = resolve_sample(f.sample);
+                    for (i, v) in f.values.iter().enumerate() {
+                        self.frame.update(i, *v, &s);
+                    }
+                    self.samples += 1;
+                    report.pixels = f.values.len() as u64;
+                    report.frame_done = true;
+                    *frame = None;
+                }
+            }
+            (Plan::Slices { table, .. }, Piece::Slice { first, len }) => {
+                let Mode::Frameless { blend, jitter_pairs, .. } = self.state.settings.mode else { return };
+                // A slice traced before the last change replaces what it lands on: its sample
+                // does not belong to the refinement of the new state.
+                let visit = if current { work.sample } else { 0 };
+                let s = frameless_sample(visit, blend, jitter_pairs);
+                let pixels = (width * height) as u64;
+                let positions = positions(table.as_deref(), first, len, pixels);
+                for (p, v) in positions.zip(&px.values) {
+                    if let Some(p) = p {
+                        self.frame.update(p as usize, *v, &s);
+                        report.pixels += 1;
+                    }
+                }
+                report.eye_rays += px.values.len() as u64;
+                let pass = if table.is_some() { pixels } else { Dissolve::new(pixels).period() };
+                report.frame_done = (first + len) % pass == 0;
+            }
+            _ => {}
+        }
+    }
+
+    /// Every worker is told the job is over.
+    pub fn finish(self) {
+        for w in &self.workers {
+            self.cluster.send(w.rank, Tag::Bye, &[]);
+        }
+    }
+
+    /// Ends the job: `e` on stderr, every rank stopped.
+    pub fn abort(&self, e: &MasterError) -> ! {
+        self.cluster.abort(&e.to_string())
+    }
+}
+
+/// The settings the workers trace with: the bands' one picture is traced as the tiles of one
+/// conventional frame (the same picture, bit for bit: sample 0 at the pixel centres). What the
+/// ranks cannot split is refused.
+fn for_workers(settings: Settings) -> Result<Settings, MasterError> {
+    if settings.corner_rays {
+        return Err(MasterError::Unsupported("SPD's corner rays (--spd-rules)"));
+    }
+    if settings.count_rays || settings.simd_stats {
+        return Err(MasterError::Unsupported("counting rays (--stats)"));
+    }
+    Ok(match settings.mode {
+        Mode::Bands => Settings {
+            mode: Mode::Conventional { schedule: Schedule::default(), workers: 0 },
+            max_samples: 1,
+            ..settings
+        },
+        _ => settings,
+    })
+}
+
+/// The pixels of positions `[first, first + len)` of the order (its table, or the dissolve over
+/// `pixels` pixels): `None` for the dissolve's values past the image.
+fn positions(
+    table: Option<&[u32]>,
+    first: u64,
+    len: u64,
+    pixels: u64,
+) -> Box<dyn Iterator<Item = Option<u32>> + '_> {
+    match table {
+        Some(t) => Box::new(t[first as usize..(first + len) as usize].iter().map(|&p| Some(p))),
+        None => {
+            let d = Dissolve::new(pixels);
+            let mut s = d.state_at(first);
+            Box::new((0..len).map(move |_| {
+                let v = s;
+                s = d.step(s);
+                (v as u64 <= pixels).then(|| v - 1)
+            }))
+        }
+    }
+}
+
+/// A piece of work in words, for the message that names a silent rank.
+fn describe(w: &Work) -> String {
+    match w.piece {
+        Piece::Tiles { first, end } => format!("tracing tiles {first}..{end} (sample {})", w.sample),
+        Piece::Slice { first, len } => {
+            format!("tracing positions {first}..{} of the pixel order (visit {})", first + len, w.sample)
+        }
+    }
+}
+
+/// The next message of kind `tag` from any worker (or from `from`), within `wait`.
+fn expect(
+    cluster: &Cluster,
+    tag: Tag,
+    wait: Duration,
+    doing: &str,
+    from: Option<i32>,
+) -> Result<(i32, Vec<u8>), MasterError> {
+    let start = Instant::now();
+    match cluster.receive_within(wait) {
+        Some((rank, t, bytes)) if t == tag.code() && from.is_none_or(|f| f == rank) => Ok((rank, bytes)),
+        Some((rank, _, _)) => Err(MasterError::Protocol { rank, what: "out-of-turn" }),
+        None => {
+            let rank = from.unwrap_or(-1);
+            say(0, &format!("no rank answered within {:.0} s while {doing}", start.elapsed().as_secs_f64()));
+            Err(MasterError::Silent { rank, seconds: start.elapsed().as_secs_f64(), doing: doing.into() })
+        }
+    }
+}
+
+/// `irt render --mpi` on rank 0: the workers trace one picture (`settings.max_samples` samples
+/// in the interactive modes; one for the bands, whose picture is traced as conventional tiles);
+/// the image is what one process writes, bit for bit.
+pub fn render(
+    cluster: &Cluster,
+    scene: &Scene,
+    settings: Settings,
+    deadline: Duration,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(crate::image::Image, Vec<(i32, String)>), MasterError> {
+    let mut m = Master::start(cluster, scene, settings, deadline)?;
+    let devices = m.devices().into_iter().map(|(r, d)| (r, d.to_string())).collect();
+    let total =
+        (scene.camera.width as u64 * scene.camera.height as u64) * m.state.settings.max_samples.max(1) as u64;
+    let mut done = 0;
+    while !m.done() {
+        let r = m.pump(Duration::from_millis(50))?;
+        done += r.eye_rays;
+        progress(done.min(total), total);
+    }
+    let image = m.frame.image();
+    m.finish();
+    Ok((image, devices))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dissolve's positions name every pixel once and skip the values past the image, as
+    /// the shader's slice does.
+    #[test]
+    fn dissolve_positions_name_every_pixel_once() {
+        let pixels = 37 * 11;
+        let period = Dissolve::new(pixels).period();
+        let mut seen = vec![0; pixels as usize];
+        for first in (0..period).step_by(50) {
+            let len = 50.min(period - first);
+            for p in positions(None, first, len, pixels).flatten() {
+                seen[p as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&c| c == 1));
+    }
+}

@@ -1,0 +1,150 @@
+//! Ranks 1..N: a worker is the session the window drives, fed by messages. It opens its own
+//! device, says hello, receives the scene once (checked by its hash), opens a session with the
+//! first state, and then traces what the master hands out — tiles of a conventional frame or
+//! slices of the frameless order — always with the newest state it has, until the master says
+//! bye.
+
+use super::cluster::{say, Cluster};
+use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
+use crate::gpu::device::Device;
+use crate::render::{RenderError, Session, SliceSpan};
+use crate::scene::Scene;
+use std::time::Duration;
+
+/// How long a worker waits for the master's next word before it stops waiting: a master that
+/// died leaves the job to mpirun, which ends it; this only bounds a hang.
+const MASTER_SILENCE: Duration = Duration::from_secs(3600);
+
+/// Runs this rank as a worker on the device `open` gives (or the message of why it could not
+/// be opened, which the master reports and ends the job with).
+pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String>) {
+    let rank = cluster.rank();
+    let device = open();
+    let hello = Hello {
+        protocol: PROTOCOL,
+        version: build_id(),
+        device: device
+            .as_ref()
+            .map(|d| format!("{} ({})", d.adapter_name(), d.adapter_driver()))
+            .map_err(Clone::clone),
+    };
+    cluster.send(0, Tag::Hello, &hello.encode());
+    let Ok(ctx) = device else { return wait_for_bye(cluster) };
+    // The scene (and the hash it arrived with), then the first state: the session needs both.
+    let mut scene: Option<(Scene, u64)> = None;
+    let mut state: Option<State> = None;
+    let mut session: Option<Session<D>> = None;
+    loop {
+        let Some((_, tag, bytes)) = cluster.receive_within(MASTER_SILENCE) else {
+            say(rank, "the master has been silent for an hour: stopping");
+            return;
+        };
+        match tag {
+            t if t == Tag::Scene.code() => {
+                session = None;
+                match load_scene(&bytes) {
+                    Ok(loaded) => scene = Some(loaded),
+                    Err(ready) => {
+                        cluster.send(0, Tag::Ready, &ready.encode());
+                        return wait_for_bye(cluster);
+                    }
+                }
+            }
+            t if t == Tag::State.code() => {
+                let st = State::decode(&bytes).unwrap_or_else(|e| cluster.abort(&e.to_string()));
+                if let Some(s) = &mut session {
+                    apply_state(&ctx, s, &st, cluster);
+                }
+                state = Some(st);
+            }
+            t if t == Tag::Work.code() => {
+                let work = Work::decode(&bytes).unwrap_or_else(|e| cluster.abort(&e.to_string()));
+                let (Some(s), Some(st)) = (&mut session, &state) else {
+                    cluster.abort("work arrived before the scene and state: the master broke the protocol")
+                };
+                let pixels = trace(&ctx, s, &work, st.version)
+                    .unwrap_or_else(|e| cluster.abort(&format!("tracing work {}: {e}", work.id)));
+                cluster.send(0, Tag::Pixels, &pixels.encode());
+            }
+            t if t == Tag::Bye.code() => return,
+            t => cluster.abort(&format!("a message with tag {t} is not irt's")),
+        }
+        if let (None, Some((sc, hash)), Some(st)) = (&session, &scene, &state) {
+            let opened = open_session(&ctx, sc, st);
+            let ready = Ready { hash: *hash, error: opened.as_ref().err().cloned() };
+            cluster.send(0, Tag::Ready, &ready.encode());
+            match opened {
+                Ok(s) => session = Some(s),
+                Err(_) => return wait_for_bye(cluster),
+            }
+        }
+    }
+}
+
+/// After a failed start: the master ends the job; until then nothing to do.
+fn wait_for_bye(cluster: &Cluster) {
+    while let Some((_, tag, _)) = cluster.receive_within(MASTER_SILENCE) {
+        if tag == Tag::Bye.code() {
+            return;
+        }
+    }
+}
+
+/// The scene of a [`SceneMsg`] and the hash of what arrived, loaded from a private directory
+/// (no file system is shared with the master); or the [`Ready`] that says why not.
+fn load_scene(bytes: &[u8]) -> Result<(Scene, u64), Ready> {
+    let msg = SceneMsg::decode(bytes).map_err(|e| Ready { hash: 0, error: Some(e.to_string()) })?;
+    let hash = SceneMsg::digest(&msg.toml, &msg.textures);
+    if hash != msg.hash {
+        let error = format!("the scene arrived with hash {hash:016x}, the master sent {:016x}", msg.hash);
+        return Err(Ready { hash, error: Some(error) });
+    }
+    write_and_load(&msg).map(|s| (s, hash)).map_err(|e| Ready { hash, error: Some(e) })
+}
+
+fn write_and_load(msg: &SceneMsg) -> Result<Scene, String> {
+    let dir = std::env::temp_dir().join(format!("irt-rank-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    let result = (|| {
+        for (name, png) in &msg.textures {
+            std::fs::write(dir.join(name), png).map_err(|e| format!("writing {name}: {e}"))?;
+        }
+        let file = dir.join("scene.toml");
+        std::fs::write(&file, &msg.toml).map_err(|e| format!("writing the scene: {e}"))?;
+        crate::io::load(&file).map_err(|e| e.to_string())
+    })();
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+/// A session of `scene` seen by the state's camera, with its settings and time: the same
+/// origin, variant and accelerator as the master's own picture would have.
+fn open_session<D: Device>(ctx: &D, scene: &Scene, st: &State) -> Result<Session<D>, String> {
+    let mut s = scene.clone();
+    s.camera = st.camera.clone();
+    let mut session =
+        Session::from_scene(ctx, s, st.settings.clone()).map_err(|e| format!("setting the scene up: {e}"))?;
+    session.set_time(ctx, st.time).map_err(|e| format!("posing the scene at {} s: {e}", st.time))?;
+    Ok(session)
+}
+
+/// A new state: settings, size, time and camera, each only if it changed.
+fn apply_state<D: Device>(ctx: &D, s: &mut Session<D>, st: &State, cluster: &Cluster) {
+    let applied = s
+        .apply(ctx, st.settings.clone())
+        .and_then(|()| s.set_size(ctx, st.camera.width, st.camera.height))
+        .and_then(|()| s.set_time(ctx, st.time).map(|_| ()));
+    if let Err(e) = applied {
+        cluster.abort(&format!("applying state {}: {e}", st.version));
+    }
+    s.set_camera(ctx, &st.camera);
+}
+
+/// The pixels of `work`, traced with the session's state.
+fn trace<D: Device>(ctx: &D, s: &mut Session<D>, work: &Work, state: u64) -> Result<Pixels, RenderError> {
+    let (values, max) = match work.piece {
+        Piece::Tiles { first, end } => s.try_trace_tiles(ctx, first..end, work.sample)?,
+        Piece::Slice { first, len } => s.try_trace_slice(ctx, SliceSpan { first, len }, work.sample)?,
+    };
+    Ok(Pixels { id: work.id, state, max_loop_iterations: max, values })
+}
