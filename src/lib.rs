@@ -8,6 +8,7 @@
 
 pub mod accel;
 pub mod app;
+mod error;
 pub mod gpu;
 pub mod image;
 pub mod io;
@@ -16,3 +17,5 @@ pub mod metrics;
 pub mod reference;
 pub mod render;
 pub mod scene;
+
+pub use error::ParseError;

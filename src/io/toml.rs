@@ -477,7 +477,7 @@ fn trace(t: &TraceDoc) -> Res<TraceSettings> {
         weight_cutoff: number_or(&t.weight_cutoff, "weight_cutoff", default.weight_cutoff)?,
         shadows: match &t.shadows {
             None => default.shadows,
-            Some(s) => s.get_ref().parse().or_else(|e: String| err(s.span(), e))?,
+            Some(s) => s.get_ref().parse().or_else(|e: crate::ParseError| err(s.span(), e.to_string()))?,
         },
     })
 }
