@@ -743,7 +743,7 @@ impl Builder<'_> {
                             .map(DQuat::from_array)
                             .collect();
                         let channel = Channel { interpolation, times, values };
-                        channel.validate(&what)?;
+                        channel.validate(&what).map_err(|e| e.0)?;
                         // A tangent may be zero; a key's value may not.
                         let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
                         let mut zero = channel.values.iter().skip(per_key / 2).step_by(per_key);
@@ -765,7 +765,7 @@ impl Builder<'_> {
                             .map(DVec3::from_array)
                             .collect();
                         let channel = Channel { interpolation, times, values };
-                        channel.validate(&what)?;
+                        channel.validate(&what).map_err(|e| e.0)?;
                         let entry = keyed.entry(node).or_default();
                         let slot = if property == Property::Scale {
                             let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
