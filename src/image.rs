@@ -2,7 +2,24 @@
 //! (the format chosen by the file name: [`OutputFormat::from_path`], [`Image::save`]).
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// An output file name that names no format irt writes ([`OutputFormat::from_path`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FormatError {
+    #[error(
+        "output '{}' has no extension to choose the image format by; irt writes {}",
+        .path.display(),
+        OutputFormat::supported()
+    )]
+    NoExtension { path: PathBuf },
+    #[error(
+        "output '{}': unsupported image format .{extension}; irt writes {}",
+        .path.display(),
+        OutputFormat::supported()
+    )]
+    Unsupported { path: PathBuf, extension: String },
+}
 
 /// The image file formats irt writes, chosen by the file name's extension (case-insensitive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -20,27 +37,23 @@ impl OutputFormat {
 
     /// The format `path`'s extension names (`.png` or `.exr`, in any case); an error naming the
     /// extension and the supported ones otherwise, to be reported before any work is done.
-    pub fn from_path(path: &Path) -> Result<OutputFormat, String> {
-        let supported = || {
-            let list: Vec<String> =
-                Self::ALL.iter().map(|f| format!(".{} ({})", f.extension(), f.what())).collect();
-            list.join(" or ")
-        };
+    pub fn from_path(path: &Path) -> Result<OutputFormat, FormatError> {
         let Some(ext) = path.extension().filter(|e| !e.is_empty()) else {
-            return Err(format!(
-                "output '{}' has no extension to choose the image format by; irt writes {}",
-                path.display(),
-                supported()
-            ));
+            return Err(FormatError::NoExtension { path: path.to_path_buf() });
         };
         Self::ALL.into_iter().find(|f| ext.eq_ignore_ascii_case(f.extension())).ok_or_else(|| {
-            format!(
-                "output '{}': unsupported image format .{}; irt writes {}",
-                path.display(),
-                ext.to_string_lossy(),
-                supported()
-            )
+            FormatError::Unsupported {
+                path: path.to_path_buf(),
+                extension: ext.to_string_lossy().into_owned(),
+            }
         })
+    }
+
+    /// Every format as messages list them: ".png (8-bit sRGB) or .exr (…)".
+    fn supported() -> String {
+        let list: Vec<String> =
+            Self::ALL.iter().map(|f| format!(".{} ({})", f.extension(), f.what())).collect();
+        list.join(" or ")
     }
 
     /// The file name extension, without the dot.
@@ -220,12 +233,12 @@ mod tests {
         ] {
             assert_eq!(OutputFormat::from_path(Path::new(name)), Ok(format), "{name}");
         }
-        let e = OutputFormat::from_path(Path::new("x.jpg")).unwrap_err();
+        let e = OutputFormat::from_path(Path::new("x.jpg")).unwrap_err().to_string();
         for word in ["x.jpg", "unsupported image format .jpg", ".png", ".exr"] {
             assert!(e.contains(word), "{e}");
         }
         for name in ["x", "dir.png/x", "x."] {
-            let e = OutputFormat::from_path(Path::new(name)).unwrap_err();
+            let e = OutputFormat::from_path(Path::new(name)).unwrap_err().to_string();
             assert!(e.contains(".png") && e.contains(".exr"), "{name}: {e}");
         }
     }

@@ -9,6 +9,7 @@
 pub mod accel;
 pub mod app;
 pub mod dist;
+mod error;
 pub mod gpu;
 pub mod image;
 pub mod io;
@@ -17,3 +18,5 @@ pub mod metrics;
 pub mod reference;
 pub mod render;
 pub mod scene;
+
+pub use error::ParseError;

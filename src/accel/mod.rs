@@ -199,11 +199,11 @@ pub fn auto_for(primitives: usize, moving: bool) -> AccelKind {
 }
 
 impl std::str::FromStr for AccelChoice {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = crate::ParseError;
+    fn from_str(s: &str) -> Result<Self, crate::ParseError> {
         Self::NAMES.iter().find(|(n, _)| *n == s).map(|(_, c)| *c).ok_or_else(|| {
             let names: Vec<&str> = Self::NAMES.iter().map(|(n, _)| *n).collect();
-            format!("unknown accelerator `{s}`: expected {}", names.join(", "))
+            crate::ParseError::unknown("accelerator", s, names.join(", "))
         })
     }
 }

@@ -37,7 +37,7 @@ pub enum MasterError {
     #[error("rank {rank} sent a {what} message where none was expected")]
     Protocol { rank: i32, what: &'static str },
     #[error("the scene cannot be sent: {0}")]
-    Encode(String),
+    Encode(#[from] crate::io::toml_write::TextureError),
     #[error("{0} with --mpi: the ranks do not split it (drop one of them)")]
     Unsupported(&'static str),
     #[error(transparent)]
@@ -115,7 +115,7 @@ impl<'a> Master<'a> {
             workers.push(Worker { rank, device, out: VecDeque::new() });
         }
         workers.sort_by_key(|w| w.rank);
-        let files = crate::io::toml_write::to_files(scene, "scene").map_err(MasterError::Encode)?;
+        let files = crate::io::toml_write::to_files(scene, "scene")?;
         let hash = SceneMsg::digest(&files.toml, &files.textures);
         let msg = SceneMsg { toml: files.toml, textures: files.textures, hash }.encode();
         let state = State { version: 1, camera: scene.camera.clone(), settings, time: 0.0 };

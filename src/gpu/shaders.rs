@@ -237,11 +237,21 @@ pub fn compose(program: Program, variant: Variant) -> String {
     src
 }
 
+/// WGSL naga does not accept ([`validate`]): naga's error text, rendered against the composed
+/// source while it is at hand (it names positions in it).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ShaderError {
+    #[error("{0}")]
+    Parse(String),
+    #[error("{0}")]
+    Invalid(String),
+}
+
 /// Parses and validates `src` as naga does inside wgpu; the error text names file positions
 /// in the composed source.
-pub fn validate(src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
-    let module = naga::front::wgsl::parse_str(src).map_err(|e| e.emit_to_string(src))?;
-    let info = validator().validate(&module).map_err(|e| e.emit_to_string(src))?;
+pub fn validate(src: &str) -> Result<(naga::Module, naga::valid::ModuleInfo), ShaderError> {
+    let module = naga::front::wgsl::parse_str(src).map_err(|e| ShaderError::Parse(e.emit_to_string(src)))?;
+    let info = validator().validate(&module).map_err(|e| ShaderError::Invalid(e.emit_to_string(src)))?;
     Ok((module, info))
 }
 

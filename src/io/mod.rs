@@ -15,7 +15,7 @@ pub mod stage;
 pub mod toml;
 pub mod toml_write;
 
-use crate::scene::Scene;
+use crate::scene::{InvalidScene, Scene};
 use glam::DVec3;
 use std::io::Read;
 use std::path::Path;
@@ -227,21 +227,41 @@ fn format_of(path: &Path) -> Option<&'static Format> {
     FORMATS.iter().find(|f| f.extensions.iter().any(|e| e.eq_ignore_ascii_case(ext)))
 }
 
+/// Why [`read_limited`] read no bytes. The messages do not name the file: callers put them
+/// after its name (a [`LoadError`], a warning).
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    #[error("cannot read the {what}: {error}")]
+    Io { what: &'static str, error: std::io::Error },
+    /// Too big by its metadata.
+    #[error("{what} is {size} bytes; {what}s are limited to {max_bytes} bytes")]
+    TooBig { what: &'static str, size: u64, max_bytes: u64 },
+    /// Too big by the bytes read: a file whose size is not known up front (a pipe).
+    #[error("{what} is more than {max_bytes} bytes; {what}s are limited to {max_bytes} bytes")]
+    TooLong { what: &'static str, max_bytes: u64 },
+}
+
+/// Its message, for a [`LoadError`] (`LoadError::new(origin, e)`), whose message is text.
+impl From<ReadError> for String {
+    fn from(e: ReadError) -> String {
+        e.to_string()
+    }
+}
+
 /// Reads at most `max_bytes` of a `what` (a "scene file", a glTF buffer "file"). The metadata
 /// check refuses big files without touching them; the bounded read also catches files whose size
 /// is not known up front (pipes, `/dev/zero`).
-pub(crate) fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>, String> {
-    let too_big = |size: &str| format!("{what} is {size} bytes; {what}s are limited to {max_bytes} bytes");
-    let cannot = |e: std::io::Error| format!("cannot read the {what}: {e}");
+pub(crate) fn read_limited(path: &Path, max_bytes: u64, what: &'static str) -> Result<Vec<u8>, ReadError> {
+    let cannot = |error| ReadError::Io { what, error };
     let file = std::fs::File::open(path).map_err(cannot)?;
     let size = file.metadata().map_err(cannot)?.len();
     if size > max_bytes {
-        return Err(too_big(&size.to_string()));
+        return Err(ReadError::TooBig { what, size, max_bytes });
     }
     let mut bytes = Vec::with_capacity(size as usize);
     file.take(max_bytes.saturating_add(1)).read_to_end(&mut bytes).map_err(cannot)?;
     if bytes.len() as u64 > max_bytes {
-        return Err(too_big(&format!("more than {max_bytes}")));
+        return Err(ReadError::TooLong { what, max_bytes });
     }
     Ok(bytes)
 }
@@ -299,11 +319,20 @@ pub fn load_or_default(path: Option<&Path>) -> Result<Scene, LoadError> {
     Ok(scene)
 }
 
+/// Why [`check_renderable`] refused a scene (named `origin`).
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum Unrenderable {
+    #[error("{origin} cannot be rendered: {error}")]
+    Invalid { origin: String, error: InvalidScene },
+    #[error("{origin} has no primitives: nothing to render")]
+    Empty { origin: String },
+}
+
 /// Whether `scene` (named `origin` in the message) can be rendered: valid, and not empty.
-pub fn check_renderable(scene: &Scene, origin: &str) -> Result<(), String> {
-    scene.validate().map_err(|e| format!("{origin} cannot be rendered: {e}"))?;
+pub fn check_renderable(scene: &Scene, origin: &str) -> Result<(), Unrenderable> {
+    scene.validate().map_err(|error| Unrenderable::Invalid { origin: origin.into(), error })?;
     if scene.primitive_count() == 0 {
-        return Err(format!("{origin} has no primitives: nothing to render"));
+        return Err(Unrenderable::Empty { origin: origin.into() });
     }
     Ok(())
 }

@@ -1131,7 +1131,7 @@ impl<'w> Materials<'w> {
         let what = format!("texture file '{}'", path.display());
         // The header first: a file that is not a PNG, or too big, is not read whole.
         let decoded = png::read_header(&path)
-            .map_err(Unusable::Refused)
+            .map_err(|e| Unusable::Refused(e.to_string()))
             .and_then(|header| png::checked_size(&header, &what))
             .and_then(|(w, h)| {
                 self.budget.take(w, h).map_err(|m| Unusable::Refused(format!("{what}: {m}")))?;

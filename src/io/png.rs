@@ -5,6 +5,21 @@ use crate::scene::{MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS};
 /// A decoded image: width, height, sRGB-encoded RGBA texels (row 0 at the top).
 pub type Rgba8 = (u32, u32, Vec<[u8; 4]>);
 
+/// Why a PNG could not be written ([`encode`]), a texture file's header read ([`read_header`]) or
+/// one more texture added to a scene ([`PixelBudget::take`]).
+#[derive(Debug, thiserror::Error)]
+pub enum PngError {
+    #[error("cannot encode a {width}x{height} PNG: {error}")]
+    Encode { width: u32, height: u32, error: image::ImageError },
+    #[error("'{}': cannot read the texture file: {error}", .path.display())]
+    Read { path: std::path::PathBuf, error: std::io::Error },
+    #[error(
+        "the textures up to this one have {pixels} pixels together; a scene's textures may have at \
+         most {MAX_TOTAL_TEXTURE_PIXELS}"
+    )]
+    TooManyPixels { pixels: u64 },
+}
+
 /// Why an image cannot be used.
 #[derive(Debug)]
 pub enum Unusable {
@@ -36,12 +51,12 @@ pub fn decode(bytes: &[u8], what: &str) -> Result<Rgba8, Unusable> {
 }
 
 /// Encodes RGBA texels as a PNG (lossless: decoding gives the same texels back).
-pub fn encode(width: u32, height: u32, texels: &[[u8; 4]]) -> Result<Vec<u8>, String> {
+pub fn encode(width: u32, height: u32, texels: &[[u8; 4]]) -> Result<Vec<u8>, PngError> {
     use image::{ExtendedColorType, ImageEncoder};
     let mut out = Vec::new();
     image::codecs::png::PngEncoder::new(&mut out)
         .write_image(texels.as_flattened(), width, height, ExtendedColorType::Rgba8)
-        .map_err(|e| format!("cannot encode a {width}x{height} PNG: {e}"))?;
+        .map_err(|error| PngError::Encode { width, height, error })?;
     Ok(out)
 }
 
@@ -71,14 +86,10 @@ pub fn checked_size(bytes: &[u8], what: &str) -> Result<(u32, u32), Unusable> {
 pub struct PixelBudget(u64);
 
 impl PixelBudget {
-    pub fn take(&mut self, width: u32, height: u32) -> Result<(), String> {
+    pub fn take(&mut self, width: u32, height: u32) -> Result<(), PngError> {
         self.0 += width as u64 * height as u64;
         if self.0 > MAX_TOTAL_TEXTURE_PIXELS {
-            return Err(format!(
-                "the textures up to this one have {} pixels together; a scene's textures may have at \
-                 most {MAX_TOTAL_TEXTURE_PIXELS}",
-                self.0
-            ));
+            return Err(PngError::TooManyPixels { pixels: self.0 });
         }
         Ok(())
     }
@@ -86,9 +97,9 @@ impl PixelBudget {
 
 /// The first bytes of a PNG file, up to its declared size (fewer if the file is shorter), so
 /// that a file can be refused by its header before it is read whole.
-pub fn read_header(path: &std::path::Path) -> Result<Vec<u8>, String> {
+pub fn read_header(path: &std::path::Path) -> Result<Vec<u8>, PngError> {
     use std::io::Read;
-    let cannot = |e: std::io::Error| format!("'{}': cannot read the texture file: {e}", path.display());
+    let cannot = |error| PngError::Read { path: path.to_path_buf(), error };
     let mut header = Vec::with_capacity(HEADER_BYTES);
     let file = std::fs::File::open(path).map_err(cannot)?;
     file.take(HEADER_BYTES as u64).read_to_end(&mut header).map_err(cannot)?;

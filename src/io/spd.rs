@@ -9,6 +9,20 @@
 use std::f64::consts::PI;
 use std::fmt::Write;
 
+/// A size a generator has no scene of that irt loads ([`Generator::nff`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "{} size {size} is out of range: 1 to {} (size {} has {} primitives, above what irt loads)",
+    .generator.name(),
+    .generator.max_size(),
+    .generator.max_size() + 1,
+    .generator.primitives(.generator.max_size() + 1).map_or("too many".into(), |n| n.to_string())
+)]
+pub struct SizeError {
+    pub generator: Generator,
+    pub size: u32,
+}
+
 /// A scalable SPD generator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Generator {
@@ -51,15 +65,9 @@ impl Generator {
     }
 
     /// The NFF text of this database at `size` (SPD's `-s`), or why not.
-    pub fn nff(self, size: u32) -> Result<String, String> {
+    pub fn nff(self, size: u32) -> Result<String, SizeError> {
         if size == 0 || size > self.max_size() {
-            return Err(format!(
-                "{} size {size} is out of range: 1 to {} (size {} has {} primitives, above what irt loads)",
-                self.name(),
-                self.max_size(),
-                self.max_size() + 1,
-                self.primitives(self.max_size() + 1).map_or("too many".into(), |n| n.to_string())
-            ));
+            return Err(SizeError { generator: self, size });
         }
         let mut out = Nff(String::new());
         match self {
@@ -361,9 +369,9 @@ mod tests {
         // triangles would have 50M vertices, past the loader's limit).
         assert_eq!(Generator::Balls.max_size(), 7);
         assert_eq!(Generator::Tetra.max_size(), 11);
-        let err = Generator::Balls.nff(8).unwrap_err();
+        let err = Generator::Balls.nff(8).unwrap_err().to_string();
         assert!(err.contains("1 to 7") && err.contains("48427561"), "{err}");
-        assert!(Generator::Tetra.nff(12).unwrap_err().contains("1 to 11"));
+        assert!(Generator::Tetra.nff(12).unwrap_err().to_string().contains("1 to 11"));
         assert!(Generator::Tetra.nff(0).is_err());
         let scene = crate::io::nff::parse_str(&Generator::Tetra.nff(3).unwrap(), "tetra_s3").unwrap();
         assert_eq!(scene.triangle_count(), 64);

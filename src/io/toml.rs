@@ -477,7 +477,7 @@ fn trace(t: &TraceDoc) -> Res<TraceSettings> {
         weight_cutoff: number_or(&t.weight_cutoff, "weight_cutoff", default.weight_cutoff)?,
         shadows: match &t.shadows {
             None => default.shadows,
-            Some(s) => s.get_ref().parse().or_else(|e: String| err(s.span(), e))?,
+            Some(s) => s.get_ref().parse().or_else(|e: crate::ParseError| err(s.span(), e.to_string()))?,
         },
     })
 }
@@ -574,11 +574,11 @@ fn textures<'a>(docs: &'a [Spanned<TextureDoc>], src: &str, origin: &str) -> Res
     let mut budget = png::PixelBudget::default();
     for (t, (path, ..)) in docs.iter().zip(&settings) {
         let file = &t.get_ref().file;
-        let header = png::read_header(path).map_err(|m| located(file.span(), m))?;
+        let header = png::read_header(path).map_err(|e| located(file.span(), e.to_string()))?;
         let (w, h) = png::checked_size(&header, &texture_what(path)).map_err(|e| match e {
             png::Unusable::Refused(m) | png::Unusable::NotPng(m) => located(file.span(), m),
         })?;
-        budget.take(w, h).map_err(|m| located(file.span(), m))?;
+        budget.take(w, h).map_err(|e| located(file.span(), e.to_string()))?;
     }
     let mut out = Vec::with_capacity(docs.len());
     for (t, (path, wrap, filter)) in docs.iter().zip(settings) {

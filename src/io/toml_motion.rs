@@ -246,6 +246,6 @@ fn property<const N: usize, T: crate::scene::Keyable>(
         (_, None, None) => Channel { interpolation, times: c.times.clone(), values },
         _ => return err(at, format!("`{key}`: tangents apply only to \"cubic\" interpolation")),
     };
-    channel.validate(&format!("`{key}`")).map_err(|e| super::located(at, e))?;
+    channel.validate(&format!("`{key}`")).map_err(|e| super::located(at, e.0))?;
     Ok(Some(channel))
 }

@@ -16,6 +16,22 @@ use glam::{DQuat, DVec2, DVec3};
 use std::collections::HashSet;
 use std::fmt::Write;
 
+/// A texture [`to_files`] could not encode as PNG.
+#[derive(Debug, thiserror::Error)]
+#[error("texture '{texture}': {error}")]
+pub struct TextureError {
+    /// The texture's name in the scene.
+    pub texture: String,
+    pub error: png::PngError,
+}
+
+/// For callers whose errors are still text (`app::viewer::write_scene`).
+impl From<TextureError> for String {
+    fn from(e: TextureError) -> String {
+        e.to_string()
+    }
+}
+
 /// A scene as the files that hold it: the TOML text and one PNG per texture.
 pub struct SceneFiles {
     pub toml: String,
@@ -27,7 +43,7 @@ pub struct SceneFiles {
 /// The scene as files, for a TOML file whose name without `.toml` is `stem`: texture `i` goes to
 /// `<stem>.<i>.png`, or `<stem>.<i>.<name>.png` with the texture's name made safe
 /// ([`texture_file_names`]). PNG is lossless, so loading the files gives back the same texels.
-pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, String> {
+pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, TextureError> {
     let names = texture_file_names(scene, stem);
     let textures = scene
         .textures
@@ -35,10 +51,10 @@ pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, String> {
         .zip(&names)
         .map(|(t, file)| {
             let png = png::encode(t.width, t.height, &t.texels)
-                .map_err(|e| format!("texture '{}': {e}", t.name))?;
+                .map_err(|error| TextureError { texture: t.name.clone(), error })?;
             Ok((file.clone(), png))
         })
-        .collect::<Result<_, String>>()?;
+        .collect::<Result<_, TextureError>>()?;
     Ok(SceneFiles { toml: to_toml(scene, &names), textures })
 }
 

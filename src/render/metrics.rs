@@ -11,6 +11,7 @@
 //! t0 or later.
 
 use super::StepReport;
+use crate::ParseError;
 use std::collections::VecDeque;
 use std::fmt;
 use std::str::FromStr;
@@ -48,15 +49,18 @@ impl fmt::Display for Clock {
 
 /// `real` or `virtual:NS` (nanoseconds per traced pixel).
 impl FromStr for Clock {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
         match s.split_once(':') {
             None if s == "real" => Ok(Clock::Real),
             Some(("virtual", ns)) => match ns.parse::<f64>() {
                 Ok(ns) if ns.is_finite() && ns > 0.0 => Ok(Clock::Virtual { seconds_per_pixel: ns / 1e9 }),
-                _ => Err(format!("`{s}`: expected a number of nanoseconds > 0 after `virtual:`")),
+                _ => Err(ParseError::new(
+                    "clock",
+                    format!("`{s}`: expected a number of nanoseconds > 0 after `virtual:`"),
+                )),
             },
-            _ => Err(format!("unknown clock `{s}`: expected real or virtual:NS (ns per traced pixel)")),
+            _ => Err(ParseError::unknown("clock", s, "real or virtual:NS (ns per traced pixel)")),
         }
     }
 }
@@ -369,6 +373,6 @@ mod tests {
         assert!((v.cost(&r) - 1e-3).abs() < 1e-15);
         assert!((Clock::Real.cost(&r) - 3e-3).abs() < 1e-15);
         assert!("virtual:0".parse::<Clock>().is_err());
-        assert!("virtual".parse::<Clock>().unwrap_err().contains("virtual:NS"));
+        assert!("virtual".parse::<Clock>().unwrap_err().to_string().contains("virtual:NS"));
     }
 }

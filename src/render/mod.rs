@@ -125,13 +125,13 @@ impl fmt::Display for Mode {
 
 /// `bands`, `conventional` or `frameless` (defaults for the rest).
 impl FromStr for Mode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = crate::ParseError;
+    fn from_str(s: &str) -> Result<Self, crate::ParseError> {
         match s {
             "bands" => Ok(Mode::Bands),
             "conventional" => Ok(Mode::conventional()),
             "frameless" => Ok(Mode::frameless()),
-            _ => Err(format!("unknown mode `{s}`: expected bands, conventional or frameless")),
+            _ => Err(crate::ParseError::unknown("mode", s, "bands, conventional or frameless")),
         }
     }
 }

@@ -2,6 +2,7 @@
 //! cut into slices of S pixels per dispatch. Either a host-built table (uploaded once) or an order
 //! computed in the shader (the dissolve, which needs no table).
 
+use crate::ParseError;
 use std::fmt;
 use std::str::FromStr;
 
@@ -78,11 +79,15 @@ impl fmt::Display for PixelOrder {
 }
 
 impl FromStr for PixelOrder {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
         let parts: Vec<&str> = s.split(':').collect();
         let bad = || {
-            format!("unknown pixel order `{s}`: expected hilbert[:CHUNK|auto[:PROCS]], random or dissolve (CHUNK a power of 4)")
+            ParseError::unknown(
+                "pixel order",
+                s,
+                "hilbert[:CHUNK|auto[:PROCS]], random or dissolve (CHUNK a power of 4)",
+            )
         };
         match parts.as_slice() {
             ["random"] => Ok(PixelOrder::Random),

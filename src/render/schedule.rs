@@ -2,6 +2,7 @@
 //! tiles, built on the host. Workgroups take chunk `c` = tiles `[b[c], b[c+1])` with one atomic
 //! fetch-and-increment, so every schedule costs the same on the device; only the sizes differ.
 
+use crate::ParseError;
 use std::fmt;
 use std::str::FromStr;
 
@@ -106,15 +107,18 @@ impl fmt::Display for Schedule {
 }
 
 impl FromStr for Schedule {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
         let (name, arg) = s.split_once(':').map_or((s, None), |(a, b)| (a, Some(b)));
-        let num = |default: u32| -> Result<u32, String> {
+        let num = |default: u32| -> Result<u32, ParseError> {
             match arg {
                 None => Ok(default),
                 Some(a) => match a.parse::<u32>() {
                     Ok(v) if v >= 1 => Ok(v),
-                    _ => Err(format!("`{s}`: expected a whole number >= 1 after `{name}:`")),
+                    _ => Err(ParseError::new(
+                        "schedule",
+                        format!("`{s}`: expected a whole number >= 1 after `{name}:`"),
+                    )),
                 },
             }
         };
@@ -124,8 +128,10 @@ impl FromStr for Schedule {
             "factoring" if arg.is_none() => Ok(Schedule::Factoring),
             "fixed" => Ok(Schedule::Fixed { tiles: num(16)? }),
             "plain" if arg.is_none() => Ok(Schedule::Plain),
-            _ => Err(format!(
-                "unknown schedule `{s}`: expected rtrt[:ROUNDS], guided, factoring, fixed[:TILES] or plain"
+            _ => Err(ParseError::unknown(
+                "schedule",
+                s,
+                "rtrt[:ROUNDS], guided, factoring, fixed[:TILES] or plain",
             )),
         }
     }
@@ -193,6 +199,6 @@ mod tests {
             assert_eq!(s.to_string().parse::<Schedule>().unwrap(), s);
         }
         assert!("fixed:0".parse::<Schedule>().is_err());
-        assert!("nope".parse::<Schedule>().unwrap_err().contains("rtrt"));
+        assert!("nope".parse::<Schedule>().unwrap_err().to_string().contains("rtrt"));
     }
 }

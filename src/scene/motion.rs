@@ -107,33 +107,37 @@ impl<T: Keyable> Channel<T> {
 
     /// Checks what sampling relies on: keys, matching counts, finite strictly increasing
     /// times, finite values. `what` names the channel in the message.
-    pub fn validate(&self, what: &str) -> Result<(), String> {
+    pub fn validate(&self, what: &str) -> Result<(), InvalidScene> {
         let per_key = if self.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
         if self.times.is_empty() {
-            return Err(format!("{what} has no keys"));
+            return Err(InvalidScene(format!("{what} has no keys")));
         }
         if self.values.len() != per_key * self.times.len() {
-            return Err(format!(
+            return Err(InvalidScene(format!(
                 "{what} has {} times but {} values ({} {} needs {per_key} per key)",
                 self.times.len(),
                 self.values.len(),
                 self.interpolation.name(),
                 if per_key == 3 { "spline" } else { "channel" }
-            ));
+            )));
         }
         if let Some(i) = self.times.iter().position(|t| !t.is_finite()) {
-            return Err(format!("{what}: key {i}'s time {} is not finite", self.times[i]));
+            return Err(InvalidScene(format!("{what}: key {i}'s time {} is not finite", self.times[i])));
         }
         if let Some(i) = self.times.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(format!(
+            return Err(InvalidScene(format!(
                 "{what}: key {} at time {} does not come after key {i} at {}: times must increase",
                 i + 1,
                 self.times[i + 1],
                 self.times[i]
-            ));
+            )));
         }
         if let Some(i) = self.values.iter().position(|v| !v.is_finite()) {
-            return Err(format!("{what}: value {} ({:?}) is not finite", i / per_key, self.values[i]));
+            return Err(InvalidScene(format!(
+                "{what}: value {} ({:?}) is not finite",
+                i / per_key,
+                self.values[i]
+            )));
         }
         Ok(())
     }
@@ -286,11 +290,11 @@ impl Stage {
         }
     }
 
-    fn validate(&self, what: &str) -> Result<(), String> {
+    fn validate(&self, what: &str) -> Result<(), InvalidScene> {
         match self {
             Stage::Fixed(m) => {
                 if !(m.matrix3.is_finite() && m.translation.is_finite()) {
-                    return Err(format!("{what}: a fixed transform is not finite"));
+                    return Err(InvalidScene(format!("{what}: a fixed transform is not finite")));
                 }
                 Ok(())
             }
@@ -306,7 +310,9 @@ impl Stage {
                         let per_key = if c.interpolation == Interpolation::CubicSpline { 3 } else { 1 };
                         let mut keys = c.values.iter().skip(per_key / 2).step_by(per_key);
                         if let Some(i) = keys.position(|q| q.length_squared() == 0.0) {
-                            return Err(format!("{what}: rotation value {i} is the zero quaternion"));
+                            return Err(InvalidScene(format!(
+                                "{what}: rotation value {i} is the zero quaternion"
+                            )));
                         }
                     }
                     None => {}
@@ -315,7 +321,7 @@ impl Stage {
                     c.validate(&format!("{what}: scale"))?;
                 }
                 if !(rest.translation.is_finite() && rest.rotation.is_finite() && rest.scale.is_finite()) {
-                    return Err(format!("{what}: the rest transform is not finite"));
+                    return Err(InvalidScene(format!("{what}: the rest transform is not finite")));
                 }
                 Ok(())
             }
@@ -464,7 +470,7 @@ impl Scene {
                 return Err(InvalidScene(format!("{who}: there is no such object ({count} exist)")));
             }
             for s in &a.motion.stages {
-                s.validate(&who).map_err(InvalidScene)?;
+                s.validate(&who)?;
                 for v in s.scales() {
                     if v.abs().min_element() == 0.0 {
                         return Err(InvalidScene(format!("{who}: a scale of 0 flattens the object")));
@@ -549,15 +555,15 @@ mod tests {
     #[test]
     fn validation_names_what_is_wrong() {
         let c = linear(&[0.0, 0.0], &[DVec3::ZERO, DVec3::X]);
-        assert!(c.validate("t").unwrap_err().contains("times must increase"));
+        assert!(c.validate("t").unwrap_err().to_string().contains("times must increase"));
         let c = linear(&[0.0, 1.0], &[DVec3::ZERO]);
-        assert!(c.validate("t").unwrap_err().contains("2 times but 1 values"));
+        assert!(c.validate("t").unwrap_err().to_string().contains("2 times but 1 values"));
         let c = linear(&[0.0, f64::INFINITY], &[DVec3::ZERO, DVec3::X]);
-        assert!(c.validate("t").unwrap_err().contains("not finite"));
+        assert!(c.validate("t").unwrap_err().to_string().contains("not finite"));
         let c = linear(&[0.0, 1.0], &[DVec3::ZERO, DVec3::splat(f64::NAN)]);
-        assert!(c.validate("t").unwrap_err().contains("value 1"));
+        assert!(c.validate("t").unwrap_err().to_string().contains("value 1"));
         let c: Channel<DVec3> = linear(&[], &[]);
-        assert!(c.validate("t").unwrap_err().contains("no keys"));
+        assert!(c.validate("t").unwrap_err().to_string().contains("no keys"));
     }
 
     #[test]

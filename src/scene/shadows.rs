@@ -1,5 +1,6 @@
 //! Shadow modes (docs/shadows.md): what a renderer does to find a light's visibility `s`.
 
+use crate::ParseError;
 use std::f64::consts::PI;
 use std::fmt;
 use std::str::FromStr;
@@ -80,9 +81,14 @@ pub const SHADOW_MODE_SYNTAX: &str =
     "hard | bundle:K[:fixed] (K in 1..=256) | shell[:smoothstep|linear|disc][:min|product]";
 
 impl FromStr for ShadowMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let bad = || format!("unknown shadow mode '{s}': expected {SHADOW_MODE_SYNTAX}");
+    type Err = ParseError;
+    fn from_str(s: &str) -> Result<Self, ParseError> {
+        let bad = || {
+            ParseError::new(
+                "shadow mode",
+                format!("unknown shadow mode '{s}': expected {SHADOW_MODE_SYNTAX}"),
+            )
+        };
         let mut parts = s.split(':');
         let mode = match parts.next().unwrap_or("") {
             "hard" => ShadowMode::Hard,
@@ -90,7 +96,10 @@ impl FromStr for ShadowMode {
                 let k = parts.next().ok_or_else(bad)?;
                 let samples: u32 = k.parse().map_err(|_| bad())?;
                 if !(1..=MAX_BUNDLE).contains(&samples) {
-                    return Err(format!("bundle size {samples} must be between 1 and {MAX_BUNDLE}"));
+                    return Err(ParseError::new(
+                        "shadow mode",
+                        format!("bundle size {samples} must be between 1 and {MAX_BUNDLE}"),
+                    ));
                 }
                 let rotate = match parts.next() {
                     None => true,

@@ -274,7 +274,7 @@ fn accel_names_parse_and_bad_ones_are_errors() {
         assert_eq!(name.parse::<AccelChoice>(), Ok(choice));
         assert_eq!(choice.to_string(), name);
     }
-    let err = "kd-tree".parse::<AccelChoice>().unwrap_err();
+    let err = "kd-tree".parse::<AccelChoice>().unwrap_err().to_string();
     assert!(err.contains("kd-tree") && err.contains("grid, bvh"), "{err}");
 }
 

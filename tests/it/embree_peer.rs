@@ -96,7 +96,7 @@ fn spd_jacks_matches_native() {
 #[test]
 fn refuses_what_it_does_not_trace() {
     let full = irt::io::load_or_default(None).unwrap();
-    let err = EmbreePeer::new(&full).err().expect("full scene (depth > 1) refused");
+    let err = EmbreePeer::new(&full).err().expect("full scene (depth > 1) refused").to_string();
     assert!(err.contains("embree peer") && err.contains("primary-shadow"), "{err}");
 }
 

@@ -88,13 +88,16 @@ fn spd_jacks_matches_gpu() {
 #[test]
 fn workload_is_lambert_and_peer_refuses_the_rest() {
     let full = irt::io::load_or_default(None).unwrap();
-    let err = NativePeer::new(&full, &Grid::build(&full)).err().expect("full scene (depth > 1) refused");
+    let err = NativePeer::new(&full, &Grid::build(&full))
+        .err()
+        .expect("full scene (depth > 1) refused")
+        .to_string();
     assert!(err.contains("primary-shadow"), "{err}");
     let scene = primary_shadow(&full);
     assert_eq!(scene.trace.max_depth, 1);
     assert!(scene.materials.iter().all(|m| matches!(m.kind, irt::scene::MaterialKind::Diffuse { .. })));
     let mut metal = scene.clone();
     metal.materials[0].kind = irt::scene::MaterialKind::Metal { color: glam::DVec3::ONE, exponent: 10.0 };
-    let err = NativePeer::new(&metal, &Grid::build(&metal)).err().expect("metal refused");
+    let err = NativePeer::new(&metal, &Grid::build(&metal)).err().expect("metal refused").to_string();
     assert!(err.contains("diffuse"), "{err}");
 }

@@ -23,7 +23,7 @@
 //! peer's only where the two find different hits (silhouettes and shadow edges, f32 rounding).
 
 use super::native::{cone_normal, cone_t, Caster, Caster8, ConeF, Hit, Shade};
-use super::{Peer, PeerFrame};
+use super::{Peer, PeerError, PeerFrame};
 use crate::accel::{PrimKind, PrimRef};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -272,12 +272,15 @@ fn error_name(e: u32) -> &'static str {
 }
 
 /// The Embree library's version ("3.13.5"), from a device made for the purpose.
-pub fn version() -> Result<String, String> {
+pub fn version() -> Result<String, PeerError> {
     // SAFETY: a null config is allowed; the device is released before returning.
     unsafe {
         let device = rtcNewDevice(std::ptr::null());
         if device.is_null() {
-            return Err(format!("rtcNewDevice: {}", error_name(rtcGetDeviceError(device))));
+            return Err(PeerError::Embree {
+                call: "rtcNewDevice".into(),
+                error: error_name(rtcGetDeviceError(device)),
+            });
         }
         let v = rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_VERSION);
         rtcReleaseDevice(device);
@@ -317,7 +320,7 @@ impl EmbreePeer {
     /// built with `RTC_SCENE_FLAG_ROBUST`: without it Embree's triangle test lets rays through
     /// edges shared by two triangles (measured: SPD rings_s2 at 160², four eye rays along a
     /// quad's diagonal see the background through the floor), while irt's test is watertight.
-    pub fn new(scene: &Scene) -> Result<Self, String> {
+    pub fn new(scene: &Scene) -> Result<Self, PeerError> {
         Self::with_options(scene, true, false)
     }
 
@@ -325,7 +328,7 @@ impl EmbreePeer {
     /// traversal, not watertight; `irt bench --peer embree-fast`), `packets` tracing eight
     /// pixels of a row at a time with `rtcIntersect8` / `rtcOccluded8` (and each light's shadow
     /// rays of those pixels as one packet; `--peer embree-packet`) instead of single rays.
-    pub fn with_options(scene: &Scene, robust: bool, packets: bool) -> Result<Self, String> {
+    pub fn with_options(scene: &Scene, robust: bool, packets: bool) -> Result<Self, PeerError> {
         let shade = Shade::new(scene, "embree")?;
         // SAFETY: every pointer Embree returns is checked before use; buffers are written within
         // the item counts they were created with; the cone user data points into
@@ -333,18 +336,21 @@ impl EmbreePeer {
         unsafe {
             let device = rtcNewDevice(std::ptr::null());
             if device.is_null() {
-                return Err(format!("rtcNewDevice: {}", error_name(rtcGetDeviceError(device))));
+                return Err(PeerError::Embree {
+                    call: "rtcNewDevice".into(),
+                    error: error_name(rtcGetDeviceError(device)),
+                });
             }
             let rtc_scene = rtcNewScene(device);
             if rtc_scene.is_null() {
                 let e = error_name(rtcGetDeviceError(device));
                 rtcReleaseDevice(device);
-                return Err(format!("rtcNewScene: {e}"));
+                return Err(PeerError::Embree { call: "rtcNewScene".into(), error: e });
             }
             // From here on, Drop releases both on an error.
             let mut peer = EmbreePeer { robust, packets, shade, device, scene: rtc_scene, kinds: Vec::new() };
             if packets && rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) == 0 {
-                return Err("this Embree was built without 8-wide ray packets".into());
+                return Err(PeerError::NoPackets);
             }
             rtcSetSceneFlags(rtc_scene, if robust { RTC_SCENE_FLAG_ROBUST } else { RTC_SCENE_FLAG_NONE });
             rtcSetSceneBuildQuality(rtc_scene, RTC_BUILD_QUALITY_HIGH);
@@ -357,11 +363,11 @@ impl EmbreePeer {
         }
     }
 
-    fn check(&self, what: &str) -> Result<(), String> {
+    fn check(&self, what: &'static str) -> Result<(), PeerError> {
         // SAFETY: a live device.
         match unsafe { rtcGetDeviceError(self.device) } {
             RTC_ERROR_NONE => Ok(()),
-            e => Err(format!("{what}: Embree reports {}", error_name(e))),
+            e => Err(PeerError::EmbreeReports { what, error: error_name(e) }),
         }
     }
 
@@ -371,10 +377,11 @@ impl EmbreePeer {
         kind: u32,
         prim: PrimKind,
         fill: impl FnOnce(RTCGeometry),
-    ) -> Result<(), String> {
+    ) -> Result<(), PeerError> {
         let g = rtcNewGeometry(self.device, kind);
         if g.is_null() {
-            return Err(format!("rtcNewGeometry({kind}): {}", error_name(rtcGetDeviceError(self.device))));
+            let error = error_name(rtcGetDeviceError(self.device));
+            return Err(PeerError::Embree { call: format!("rtcNewGeometry({kind})"), error });
         }
         fill(g);
         rtcCommitGeometry(g);
@@ -396,7 +403,7 @@ impl EmbreePeer {
         std::slice::from_raw_parts_mut(p, count)
     }
 
-    unsafe fn add_triangles(&mut self) -> Result<(), String> {
+    unsafe fn add_triangles(&mut self) -> Result<(), PeerError> {
         let n = self.shade.triangles.len();
         if n == 0 {
             return Ok(());
@@ -415,7 +422,7 @@ impl EmbreePeer {
         })
     }
 
-    unsafe fn add_spheres(&mut self) -> Result<(), String> {
+    unsafe fn add_spheres(&mut self) -> Result<(), PeerError> {
         let n = self.shade.spheres.len();
         if n == 0 {
             return Ok(());
@@ -428,7 +435,7 @@ impl EmbreePeer {
         })
     }
 
-    unsafe fn add_cones(&mut self) -> Result<(), String> {
+    unsafe fn add_cones(&mut self) -> Result<(), PeerError> {
         let n = self.shade.cones.len();
         if n == 0 {
             return Ok(());

@@ -14,6 +14,23 @@ pub use native::{PeerFrame, PeerRays};
 use crate::scene::{Ambient, MaterialKind, Scene, ShadowMode};
 use glam::DVec3;
 
+/// Why a peer could not be set up: a scene it does not trace, or (Embree) the library refusing.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PeerError {
+    #[error("the {peer} peer traces the primary-shadow workload only (depth 1, hard shadows)")]
+    NotTheWorkload { peer: &'static str },
+    #[error("the {peer} peer shades diffuse materials only (use the primary-shadow workload)")]
+    NotDiffuse { peer: &'static str },
+    /// An Embree call that returned nothing (`call`: "rtcNewDevice", "rtcNewGeometry(2)").
+    #[error("{call}: {error}")]
+    Embree { call: String, error: &'static str },
+    /// An error code Embree reported after `what`.
+    #[error("{what}: Embree reports {error}")]
+    EmbreeReports { what: &'static str, error: &'static str },
+    #[error("this Embree was built without 8-wide ray packets")]
+    NoPackets,
+}
+
 /// A peer as `irt bench` times it: one frame of the workload on `threads` threads, with its
 /// image and ray counts. Every peer shades through the same code (`native::Shade`) and differs
 /// only in how it finds hits, so images and counts compare directly.

@@ -9,6 +9,7 @@
 //! Only the work [`super::primary_shadow`] leaves: eye rays at pixel centres, one hard-shadow ray
 //! per light facing the hit, diffuse Lambert shading, no ambient, background on a miss.
 
+use super::PeerError;
 use crate::accel::bvh::NodeKind;
 use crate::accel::{Bvh, Grid, PrimKind, PrimRef};
 use crate::gpu::layout::{sphere_anchor, RAY_OFFSET_REL};
@@ -176,18 +177,14 @@ fn f(v: DVec3) -> Vec3 {
 impl Shade {
     /// `scene` must be the primary-shadow workload (see [`super::primary_shadow`]); anything the
     /// peers do not trace is an error, not a silent difference. `who` names the peer in errors.
-    pub(super) fn new(scene: &Scene, who: &str) -> Result<Self, String> {
+    pub(super) fn new(scene: &Scene, peer: &'static str) -> Result<Self, PeerError> {
         if scene.trace.max_depth != 1 || scene.trace.shadows != ShadowMode::Hard {
-            return Err(format!(
-                "the {who} peer traces the primary-shadow workload only (depth 1, hard shadows)"
-            ));
+            return Err(PeerError::NotTheWorkload { peer });
         }
         let eye = scene.camera.eye;
         let color = |m: u32| match scene.materials[m as usize].kind {
             MaterialKind::Diffuse { color } => Ok(f(color)),
-            _ => {
-                Err(format!("the {who} peer shades diffuse materials only (use the primary-shadow workload)"))
-            }
+            _ => Err(PeerError::NotDiffuse { peer }),
         };
         let spheres = scene
             .spheres
@@ -200,7 +197,7 @@ impl Shade {
                     color: color(s.material)?,
                 })
             })
-            .collect::<Result<_, String>>()?;
+            .collect::<Result<_, PeerError>>()?;
         let triangles = scene
             .triangles()
             .map(|t| {
@@ -210,7 +207,7 @@ impl Shade {
                     color: color(t.material)?,
                 })
             })
-            .collect::<Result<_, String>>()?;
+            .collect::<Result<_, PeerError>>()?;
         let cones = scene
             .cones
             .iter()
@@ -223,7 +220,7 @@ impl Shade {
                     color: color(c.material)?,
                 })
             })
-            .collect::<Result<_, String>>()?;
+            .collect::<Result<_, PeerError>>()?;
         let b = scene.camera.basis();
         Ok(Shade {
             width: scene.camera.width,
@@ -436,7 +433,7 @@ impl Shade {
 impl NativePeer {
     /// `scene` must be the primary-shadow workload (see [`super::primary_shadow`]) and `grid` its
     /// grid; anything the peer does not trace is an error, not a silent difference.
-    pub fn new(scene: &Scene, grid: &Grid) -> Result<Self, String> {
+    pub fn new(scene: &Scene, grid: &Grid) -> Result<Self, PeerError> {
         let shade = Shade::new(scene, "native")?;
         let eye = scene.camera.eye;
         let res = grid.res;
@@ -459,7 +456,7 @@ impl NativePeer {
     /// The same peer over irt's BVH (`--peer native-bvh`): the device's default accelerator,
     /// walked as its shader does (stackless, by escape links, children in their stored order:
     /// give it the device's tree, `accel::bvh_for(scene, BvhWalk::Stackless)`).
-    pub fn with_bvh(scene: &Scene, bvh: &Bvh) -> Result<Self, String> {
+    pub fn with_bvh(scene: &Scene, bvh: &Bvh) -> Result<Self, PeerError> {
         let shade = Shade::new(scene, "native-bvh")?;
         let boxes = crate::gpu::layout::bvh_nodes(bvh, scene.camera.eye);
         let nodes = bvh
