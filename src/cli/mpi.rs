@@ -4,7 +4,8 @@
 use anyhow::Result;
 use clap::Args;
 use irt::dist::cluster::Cluster;
-use irt::dist::{master, worker};
+use irt::dist::master::Deadlines;
+use irt::dist::worker;
 use std::time::Duration;
 
 #[derive(Args, Clone, Debug, Default)]
@@ -18,16 +19,26 @@ pub struct MpiArgs {
     pub mpi: bool,
     /// With --mpi: seconds a worker may take to return a piece of work before rank 0 names it
     /// and ends the job.
-    #[arg(long, value_name = "SECONDS", default_value_t = master::DEFAULT_DEADLINE.as_secs_f64(), requires = "mpi")]
+    #[arg(long, value_name = "SECONDS", default_value_t = Deadlines::default().work.as_secs_f64(), requires = "mpi")]
     pub deadline: f64,
+    /// With --mpi: seconds a worker may take to open its device and set the scene up (a large
+    /// model's accelerator is built on every worker).
+    #[arg(long, value_name = "SECONDS", default_value_t = Deadlines::default().setup.as_secs_f64(), requires = "mpi")]
+    pub setup_deadline: f64,
 }
 
 impl MpiArgs {
-    pub fn deadline(&self) -> Result<Duration> {
-        if !(self.deadline.is_finite() && self.deadline > 0.0) {
-            anyhow::bail!("--deadline {}: give a number of seconds above 0", self.deadline);
-        }
-        Ok(Duration::from_secs_f64(self.deadline))
+    pub fn deadlines(&self) -> Result<Deadlines> {
+        let seconds = |flag: &str, v: f64| {
+            if !(v.is_finite() && v > 0.0) {
+                anyhow::bail!("--{flag} {v}: give a number of seconds above 0");
+            }
+            Ok(Duration::from_secs_f64(v))
+        };
+        Ok(Deadlines {
+            work: seconds("deadline", self.deadline)?,
+            setup: seconds("setup-deadline", self.setup_deadline)?,
+        })
     }
 }
 

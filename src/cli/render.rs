@@ -214,7 +214,7 @@ fn distributed(
     scene: &irt::scene::Scene,
     settings: Settings,
 ) -> Result<()> {
-    let deadline = args.mpi.deadline()?;
+    let deadlines = args.mpi.deadlines()?;
     let how = format!("{} over MPI", settings.mode);
     let bar = indicatif::ProgressBar::new(0);
     bar.set_style(
@@ -225,24 +225,15 @@ fn distributed(
         .progress_chars("=> "),
     );
     let t = Instant::now();
-    let (image, devices) =
-        irt::dist::master::render(cluster, scene, settings, deadline, &mut |done, total| {
-            bar.set_length(total);
-            bar.set_position(done);
-        })
-        .unwrap_or_else(|e| cluster.abort(&e.to_string()));
+    let r = irt::dist::master::render(cluster, scene, settings, deadlines, &mut |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    })
+    .unwrap_or_else(|e| cluster.abort(&e.to_string()));
     bar.finish_and_clear();
     let elapsed = t.elapsed();
-    let how = format!("{how}, {} workers", devices.len());
-    write(args, format, &image, scene, elapsed, &worker_devices(&devices), &how)
-}
-
-/// The workers' devices in a few words: one name when they all have the same device.
-fn worker_devices(devices: &[(i32, String)]) -> String {
-    match devices {
-        [(_, first), rest @ ..] if rest.iter().all(|(_, d)| d == first) => format!("the workers' {first}"),
-        _ => devices.iter().map(|(r, d)| format!("rank {r}: {d}")).collect::<Vec<_>>().join("; "),
-    }
+    let how = format!("{how}, {} workers", r.workers);
+    write(args, format, &r.image, scene, elapsed, &r.devices, &how)
 }
 
 fn tracing_bar(rows: u32) -> indicatif::ProgressBar {

@@ -40,7 +40,7 @@ impl Cluster {
     pub fn join() -> Result<Cluster, ClusterError> {
         let (link, rank, size) = link::Link::join()?;
         std::panic::set_hook(Box::new(move |info| {
-            say(rank, &format!("panicked: {info}; ending the job"));
+            say(rank, &format!("{}; ending the job", info.to_string().replace('\n', " ")));
             link::abort_world(101);
         }));
         if size < 2 {

@@ -19,9 +19,22 @@ use std::time::{Duration, Instant};
 /// Pieces of work each worker holds at once: one traced, the next already there when it is done.
 pub const IN_FLIGHT: usize = 2;
 
-/// By default a worker must return a piece of work within this long: a chunk or slice takes
-/// milliseconds on lavapipe, and a stall of a minute is a dead rank, not a slow one.
-pub const DEFAULT_DEADLINE: Duration = Duration::from_secs(30);
+/// How long rank 0 waits for a worker before it names it and ends the job.
+#[derive(Clone, Copy, Debug)]
+pub struct Deadlines {
+    /// For each piece of work handed out: a chunk or slice takes milliseconds on lavapipe, a
+    /// stall of many seconds is a dead rank, not a slow one.
+    pub work: Duration,
+    /// For opening the device and setting the scene up (its accelerator included: a
+    /// 16M-triangle BVH takes a minute on one core).
+    pub setup: Duration,
+}
+
+impl Default for Deadlines {
+    fn default() -> Self {
+        Deadlines { work: Duration::from_secs(30), setup: Duration::from_secs(600) }
+    }
+}
 
 /// What setting the job up can fail with (each names the rank).
 #[derive(Debug, thiserror::Error)]
@@ -98,13 +111,12 @@ impl<'a> Master<'a> {
         cluster: &'a Cluster,
         scene: &Scene,
         settings: Settings,
-        deadline: Duration,
+        deadlines: Deadlines,
     ) -> Result<Master<'a>, MasterError> {
         let settings = for_workers(settings)?;
         let mut workers = Vec::new();
         let ours = build_id();
-        // Setting up may include building a large scene's accelerator: a longer wait.
-        let setup = deadline.max(Duration::from_secs(600));
+        let setup = deadlines.setup;
         for _ in 1..cluster.size() {
             let (rank, bytes) = expect(cluster, Tag::Hello, setup, "opening its device", None)?;
             let hello = Hello::decode(&bytes)?;
@@ -138,7 +150,7 @@ impl<'a> Master<'a> {
         let mut m = Master {
             cluster,
             workers,
-            deadline,
+            deadline: deadlines.work,
             frame: HostFrame::new(w, h),
             plan: Plan::Frames(None),
             state,
@@ -149,12 +161,29 @@ impl<'a> Master<'a> {
             max_loop_iterations: 0,
         };
         m.restart()?;
+        let kib = msg.len().div_ceil(1024);
+        say(
+            0,
+            &format!(
+                "{} workers ready on {}; scene sent ({kib} KiB), tracing",
+                m.workers.len(),
+                m.device_summary()
+            ),
+        );
         Ok(m)
     }
 
-    /// The workers' ranks and devices.
-    pub fn devices(&self) -> Vec<(i32, &str)> {
-        self.workers.iter().map(|w| (w.rank, w.device.as_str())).collect()
+    /// The workers' devices in a few words: one name when they all have the same device.
+    pub fn device_summary(&self) -> String {
+        match self.workers.as_slice() {
+            [first, rest @ ..] if rest.iter().all(|w| w.device == first.device) => first.device.clone(),
+            _ => self
+                .workers
+                .iter()
+                .map(|w| format!("rank {}: {}", w.rank, w.device))
+                .collect::<Vec<_>>()
+                .join("; "),
+        }
     }
 
     pub fn frame(&self) -> &HostFrame {
@@ -491,6 +520,14 @@ fn expect(
     }
 }
 
+/// A picture the workers traced.
+pub struct Rendered {
+    pub image: crate::image::Image,
+    pub workers: usize,
+    /// Their devices, in a few words ([`Master::device_summary`]).
+    pub devices: String,
+}
+
 /// `irt render --mpi` on rank 0: the workers trace one picture (`settings.max_samples` samples
 /// in the interactive modes; one for the bands, whose picture is traced as conventional tiles);
 /// the image is what one process writes, bit for bit.
@@ -498,11 +535,11 @@ pub fn render(
     cluster: &Cluster,
     scene: &Scene,
     settings: Settings,
-    deadline: Duration,
+    deadlines: Deadlines,
     progress: &mut dyn FnMut(u64, u64),
-) -> Result<(crate::image::Image, Vec<(i32, String)>), MasterError> {
-    let mut m = Master::start(cluster, scene, settings, deadline)?;
-    let devices = m.devices().into_iter().map(|(r, d)| (r, d.to_string())).collect();
+) -> Result<Rendered, MasterError> {
+    let mut m = Master::start(cluster, scene, settings, deadlines)?;
+    let (workers, devices) = (m.workers.len(), m.device_summary());
     let total =
         (scene.camera.width as u64 * scene.camera.height as u64) * m.state.settings.max_samples.max(1) as u64;
     let mut done = 0;
@@ -513,7 +550,7 @@ pub fn render(
     }
     let image = m.frame.image();
     m.finish();
-    Ok((image, devices))
+    Ok(Rendered { image, workers, devices })
 }
 
 #[cfg(test)]

@@ -22,7 +22,10 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
     let device = open();
     let hello = Hello {
         protocol: PROTOCOL,
-        version: build_id(),
+        version: match super::fault::armed("version") {
+            true => format!("{}+another-build", build_id()),
+            false => build_id(),
+        },
         device: device
             .as_ref()
             .map(|d| format!("{} ({})", d.adapter_name(), d.adapter_driver()))
@@ -59,6 +62,9 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
             }
             t if t == Tag::Work.code() => {
                 let work = Work::decode(&bytes).unwrap_or_else(|e| cluster.abort(&e.to_string()));
+                if super::fault::armed("panic") {
+                    panic!("IRT_FAULT=panic: the fault injected at work {}", work.id);
+                }
                 let (Some(s), Some(st)) = (&mut session, &state) else {
                     cluster.abort("work arrived before the scene and state: the master broke the protocol")
                 };

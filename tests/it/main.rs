@@ -27,6 +27,7 @@ mod bvh;
 mod cli;
 mod common;
 mod convert;
+mod distributed;
 #[cfg(feature = "embree")]
 mod embree_peer;
 mod extremes;

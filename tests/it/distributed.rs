@@ -1,0 +1,320 @@
+//! `--mpi`: the job as a user starts it, `mpirun --oversubscribe -n 3 irt …` (Open MPI), against
+//! the single-process picture, and the faults a cluster user meets: a rank killed, stopped,
+//! panicking, of another build, without its device. Every job runs in a process group of its own
+//! under a watchdog, and the test kills that group when it is done: nothing is left behind even
+//! when a case fails.
+
+use std::io::{BufRead, BufReader};
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+const IRT: &str = env!("CARGO_BIN_EXE_irt");
+
+fn dir() -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("distributed");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A small picture: the cases are about who traced the pixels, not about the scene.
+const SMALL: [&str; 4] = ["--width", "160", "--height", "120"];
+
+/// One application context of an MPMD job: the environment it adds and irt's arguments.
+struct Ranks<'a> {
+    n: u32,
+    env: &'a [(&'a str, &'a str)],
+    args: Vec<String>,
+}
+
+fn ranks<'a>(n: u32, args: &[&str]) -> Ranks<'a> {
+    Ranks { n, env: &[], args: args.iter().map(|a| a.to_string()).collect() }
+}
+
+/// A running `mpirun`, its stderr lines arriving on a channel.
+struct Job {
+    child: Child,
+    stderr: mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl Job {
+    fn start(contexts: &[Ranks]) -> Job {
+        let mut cmd = Command::new("mpirun");
+        cmd.arg("--oversubscribe");
+        for (i, c) in contexts.iter().enumerate() {
+            if i > 0 {
+                cmd.arg(":");
+            }
+            cmd.args(["-n", &c.n.to_string()]);
+            if !c.env.is_empty() {
+                cmd.arg("env");
+                cmd.args(c.env.iter().map(|(k, v)| format!("{k}={v}")));
+            }
+            cmd.arg(IRT).args(&c.args);
+        }
+        // Root in CI containers: Open MPI refuses root without these.
+        cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1").env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
+        // Two workers on a 2-core machine: one lavapipe thread each.
+        cmd.env("LP_NUM_THREADS", "1");
+        cmd.stdout(Stdio::null()).stderr(Stdio::piped()).process_group(0);
+        let mut child = cmd.spawn().expect("mpirun runs (scripts/setup.sh installs Open MPI)");
+        let (tx, rx) = mpsc::channel();
+        let err = child.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            for line in BufReader::new(err).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Job { child, stderr: rx, seen: Vec::new() }
+    }
+
+    /// Waits for a stderr line containing `needle`, at most `limit`.
+    fn wait_for_line(&mut self, needle: &str, limit: Duration) -> bool {
+        let end = Instant::now() + limit;
+        loop {
+            let left = end.saturating_duration_since(Instant::now());
+            match self.stderr.recv_timeout(left) {
+                Ok(line) => {
+                    let hit = line.contains(needle);
+                    self.seen.push(line);
+                    if hit {
+                        return true;
+                    }
+                }
+                Err(_) => return false,
+            }
+        }
+    }
+
+    /// The exit status, or `None` if the job was still running after `limit` (then it is killed).
+    fn wait(&mut self, limit: Duration) -> Option<ExitStatus> {
+        let end = Instant::now() + limit;
+        while Instant::now() < end {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return Some(status);
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        None
+    }
+
+    /// Everything the job wrote on stderr so far.
+    fn stderr(&mut self) -> String {
+        // The reader thread ends with the pipe; what it has sent is all there is.
+        while let Ok(line) = self.stderr.recv_timeout(Duration::from_millis(200)) {
+            self.seen.push(line);
+        }
+        self.seen.join("\n")
+    }
+
+    /// The pid of MPI rank `rank`: a child of mpirun that Open MPI told its rank.
+    fn rank_pid(&self, rank: u32) -> Option<u32> {
+        let parent = self.child.id();
+        std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
+            let pid: u32 = e.file_name().to_str()?.parse().ok()?;
+            let stat = std::fs::read_to_string(e.path().join("stat")).ok()?;
+            // pid (comm) state ppid …: the command may hold spaces, the last ')' ends it.
+            let ppid: u32 = stat[stat.rfind(')')? + 2..].split(' ').nth(1)?.parse().ok()?;
+            let env = std::fs::read(e.path().join("environ")).ok()?;
+            let want = format!("OMPI_COMM_WORLD_RANK={rank}");
+            let is_rank = env.split(|&b| b == 0).any(|v| v == want.as_bytes());
+            (ppid == parent && is_rank).then_some(pid)
+        })
+    }
+
+    /// The processes still in the job's group.
+    fn left_behind(&self) -> Vec<u32> {
+        let group = self.child.id();
+        let Ok(entries) = std::fs::read_dir("/proc") else { return Vec::new() };
+        entries
+            .flatten()
+            .filter_map(|e| {
+                let pid: u32 = e.file_name().to_str()?.parse().ok()?;
+                let stat = std::fs::read_to_string(e.path().join("stat")).ok()?;
+                let mut fields = stat[stat.rfind(')')? + 2..].split(' ');
+                let state = fields.next()?;
+                let pgrp: u32 = fields.nth(1)?.parse().ok()?;
+                // A zombie is dead already, only not reaped.
+                (pgrp == group && state != "Z").then_some(pid)
+            })
+            .collect()
+    }
+}
+
+impl Drop for Job {
+    fn drop(&mut self) {
+        // The whole group, stopped ones too, whatever the test saw.
+        let group = format!("-{}", self.child.id());
+        let _ = Command::new("kill").args(["-KILL", "--", &group]).stderr(Stdio::null()).status();
+        let _ = self.child.wait();
+    }
+}
+
+fn signal(pid: u32, sig: &str) {
+    assert!(Command::new("kill").args([sig, &pid.to_string()]).status().unwrap().success());
+}
+
+/// Renders `args` in one process and as an MPI job of a master and two workers; both files
+/// must be the same bytes.
+fn assert_same_as_one_process(name: &str, args: &[&str]) {
+    let one = dir().join(format!("{name}-one.png"));
+    let mpi = dir().join(format!("{name}-mpi.png"));
+    let out = Command::new(IRT).arg("render").args(args).args(SMALL).arg("--out").arg(&one).output().unwrap();
+    assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    let mut job_args = vec!["render", "--mpi", "--out", mpi.to_str().unwrap()];
+    job_args.extend(args);
+    job_args.extend(SMALL);
+    let mut job = Job::start(&[ranks(3, &job_args)]);
+    let status = job.wait(Duration::from_secs(240));
+    let err = job.stderr();
+    assert!(status.is_some_and(|s| s.success()), "{name}: {status:?}\n{err}");
+    assert!(std::fs::read(&one).unwrap() == std::fs::read(&mpi).unwrap(), "{name}: the MPI picture differs");
+    assert!(job.left_behind().is_empty(), "{name}: processes left: {:?}", job.left_behind());
+}
+
+#[test]
+fn the_picture_is_one_process_s_bit_for_bit() {
+    // The bands' one picture, traced as the tiles of a conventional frame.
+    assert_same_as_one_process("bands", &[]);
+    // Progressive samples accumulate on rank 0 keyed by sample, whichever rank traced them;
+    // bundle shadows rotate their points by sample.
+    assert_same_as_one_process(
+        "conventional",
+        &["--mode", "conventional", "--samples", "3", "--shadows", "bundle:8"],
+    );
+    // Frameless blends each visit into the pixel: applied in the order they were handed out.
+    assert_same_as_one_process(
+        "frameless",
+        &["--mode", "frameless", "--samples", "2", "--shadows", "bundle:8"],
+    );
+    // An animated scene posed at a time by every rank.
+    let animated = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/animated.toml");
+    assert_same_as_one_process(
+        "animated",
+        &[animated, "--time", "0.7", "--mode", "frameless", "--samples", "2"],
+    );
+}
+
+/// A job that must fail: it ends non-zero within `limit`, its stderr says `words`, and nothing
+/// of it is left running.
+fn assert_fails_loudly(job: &mut Job, limit: Duration, words: &[&str]) -> String {
+    let start = Instant::now();
+    let status = job.wait(limit);
+    let err = job.stderr();
+    assert!(status.is_some(), "still running after {limit:?}:\n{err}");
+    assert!(!status.unwrap().success(), "exited 0:\n{err}");
+    for w in words {
+        assert!(err.contains(w), "stderr lacks {w:?}:\n{err}");
+    }
+    // mpirun's children end with it; give the kernel a moment to reap them.
+    let end = Instant::now() + Duration::from_secs(5);
+    while !job.left_behind().is_empty() && Instant::now() < end {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(job.left_behind().is_empty(), "processes left: {:?}", job.left_behind());
+    eprintln!("ended in {:.1} s", start.elapsed().as_secs_f64());
+    err
+}
+
+/// Never ends by itself: the fault has time to happen mid-job.
+fn endless(out: &Path) -> Vec<String> {
+    let mut a: Vec<String> =
+        ["render", "--mpi", "--mode", "frameless", "--samples", "1000000", "--deadline", "3"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+    a.extend(SMALL.iter().map(|s| s.to_string()));
+    a.extend(["--out".to_string(), out.to_str().unwrap().to_string()]);
+    a
+}
+
+#[test]
+fn a_worker_that_stops_answering_is_named_after_the_deadline() {
+    let out = dir().join("stopped.png");
+    let args = endless(&out);
+    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let mut job = Job::start(&[ranks(3, &args)]);
+    assert!(
+        job.wait_for_line("tracing", Duration::from_secs(120)),
+        "the job never started:\n{}",
+        job.stderr()
+    );
+    let pid = job.rank_pid(1).expect("rank 1 runs");
+    signal(pid, "-STOP");
+    // The deadline is 3 s a piece; the rest is Open MPI ending the ranks.
+    assert_fails_loudly(&mut job, Duration::from_secs(30), &["rank 1 said nothing for", "tracing positions"]);
+    assert!(!out.exists(), "a failed job wrote its picture");
+}
+
+#[test]
+fn a_killed_worker_ends_the_job() {
+    let out = dir().join("killed.png");
+    let args = endless(&out);
+    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let mut job = Job::start(&[ranks(3, &args)]);
+    assert!(
+        job.wait_for_line("tracing", Duration::from_secs(120)),
+        "the job never started:\n{}",
+        job.stderr()
+    );
+    let pid = job.rank_pid(2).expect("rank 2 runs");
+    signal(pid, "-KILL");
+    // Open MPI names the rank and the signal.
+    assert_fails_loudly(&mut job, Duration::from_secs(30), &["rank 2", "signal 9"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn a_panicking_worker_ends_the_job_with_its_message() {
+    let out = dir().join("panic.png");
+    let args = endless(&out);
+    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let mut job = Job::start(&[
+        ranks(1, &args),
+        Ranks { n: 1, env: &[("IRT_FAULT", "panic")], args: ranks(1, &args).args },
+    ]);
+    assert_fails_loudly(&mut job, Duration::from_secs(120), &["irt rank 1: panicked at", "IRT_FAULT=panic"]);
+}
+
+#[test]
+fn ranks_of_another_build_refuse_to_start() {
+    let out = dir().join("version.png");
+    let args = endless(&out);
+    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let mut job = Job::start(&[
+        ranks(2, &args),
+        Ranks { n: 1, env: &[("IRT_FAULT", "version")], args: ranks(1, &args).args },
+    ]);
+    assert_fails_loudly(
+        &mut job,
+        Duration::from_secs(120),
+        &["rank 2 runs irt", "start every rank from the same irt build"],
+    );
+}
+
+#[test]
+fn a_worker_without_its_device_says_so_before_the_first_frame() {
+    let out = dir().join("device.png");
+    let args = endless(&out);
+    let mut theirs = args.clone();
+    theirs.extend(["--adapter".to_string(), "no-such-device".to_string()]);
+    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let theirs: Vec<&str> = theirs.iter().map(|s| s.as_str()).collect();
+    let mut job = Job::start(&[ranks(1, &args), ranks(1, &theirs)]);
+    assert_fails_loudly(
+        &mut job,
+        Duration::from_secs(120),
+        &["rank 1 could not open a device", "no-such-device"],
+    );
+}
+
+#[test]
+fn one_rank_is_told_how_to_launch() {
+    let mut job = Job::start(&[ranks(1, &["render", "--mpi", "--out", "/nonexistent/x.png"])]);
+    assert_fails_loudly(&mut job, Duration::from_secs(60), &["mpirun -n 3 irt render --mpi", "at least 2"]);
+}
