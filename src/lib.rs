@@ -10,6 +10,7 @@ pub mod accel;
 pub mod app;
 pub mod dist;
 mod error;
+pub mod farm;
 pub mod gpu;
 pub mod image;
 pub mod io;

@@ -6,6 +6,7 @@
 
 mod bench;
 mod convert;
+mod farm;
 mod info;
 mod mpi;
 mod render;
@@ -54,6 +55,9 @@ pub enum Command {
     View(irt::app::ViewArgs),
     /// Replay a camera path; measure latency, pixel age and dynamic error (docs/interactive.md).
     Replay(irt::render::replay::ReplayArgs),
+    /// Stitch the tiles of `irt render --tile I/N --out DIR` into one picture (a render farm's
+    /// last step; refuses while a tile is missing).
+    Merge(farm::MergeArgs),
 }
 
 impl Command {
@@ -68,6 +72,7 @@ impl Command {
             Command::Spd(a) => spd::run(a),
             Command::View(a) => irt::app::run(a),
             Command::Replay(a) => irt::render::replay::run(a),
+            Command::Merge(a) => farm::merge(a),
         }
     }
 }

@@ -58,6 +58,12 @@ pub struct RenderArgs {
     pub device: DeviceArgs,
     #[command(flatten)]
     pub mpi: super::mpi::MpiArgs,
+    /// Render only tile I of N (I from 0: a band of whole rows, split evenly) into the directory
+    /// --out, for a task of a render farm's job array (e.g. --tile $SLURM_ARRAY_TASK_ID/4);
+    /// `irt merge DIR --out F` then writes the picture, the same bit for bit as without --tile.
+    /// Written atomically; a tile already there is left alone. See examples/slurm.
+    #[arg(long, value_name = "I/N", conflicts_with_all = ["mpi", "frames"])]
+    pub tile: Option<irt::farm::TileSpec>,
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
@@ -69,13 +75,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         },
         false => None,
     };
+    if let Some(spec) = args.tile {
+        return super::farm::tile(&args, spec);
+    }
     // The output is checked first: a mistyped name should not wait for the scene to load.
     check_output_path(&args.out)?;
     let format = OutputFormat::from_path(&args.out).map_err(anyhow::Error::msg)?;
-    let mut scene = load_scene(&args.scene)?;
-    if args.spd_rules {
-        irt::io::nff::apply_spd_rules(&mut scene);
-    }
+    let scene = scene_of(&args)?;
     let mode = args.mode.mode().map_err(anyhow::Error::msg)?;
     if let Some(frames) = args.frames.clone() {
         if args.stats {
@@ -83,20 +89,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         return super::sequence::run(&args, &scene, frames, mode);
     }
-    if let Some(t) = args.time {
-        if !t.is_finite() {
-            anyhow::bail!("--time {t}: give a finite number of seconds");
-        }
-        if !scene.is_animated() {
-            log::info!("the scene has no motion: --time {t} renders it as it is");
-        }
-        scene = scene.at(t);
-        scene.validate().map_err(|e| anyhow::anyhow!("at time {t} s: {}", e.0))?;
-    }
     if let Some(cluster) = &cluster {
-        let settings = Settings { max_samples: args.samples, ..bands_settings(&args) };
-        let settings = Settings { mode: mode.unwrap_or(Mode::Bands), ..settings };
-        return distributed(cluster, &args, format, &scene, settings);
+        return distributed(cluster, &args, format, &scene, whole_settings(&args, mode));
     }
     if let Some(mode) = mode {
         if args.stats {
@@ -124,6 +118,31 @@ pub fn run(args: RenderArgs) -> Result<()> {
             "bands, ash",
         ),
     }
+}
+
+/// The scene to render: loaded, with the SPD rules if asked, posed at --time.
+pub fn scene_of(args: &RenderArgs) -> Result<irt::scene::Scene> {
+    let mut scene = load_scene(&args.scene)?;
+    if args.spd_rules {
+        irt::io::nff::apply_spd_rules(&mut scene);
+    }
+    if let Some(t) = args.time {
+        if !t.is_finite() {
+            anyhow::bail!("--time {t}: give a finite number of seconds");
+        }
+        if !scene.is_animated() {
+            log::info!("the scene has no motion: --time {t} renders it as it is");
+        }
+        scene = scene.at(t);
+        scene.validate().map_err(|e| anyhow::anyhow!("at time {t} s: {}", e.0))?;
+    }
+    Ok(scene)
+}
+
+/// The settings of the whole picture when others trace its pieces (MPI workers, farm tiles):
+/// the bands, or `mode` with --samples.
+pub fn whole_settings(args: &RenderArgs, mode: Option<Mode>) -> Settings {
+    Settings { mode: mode.unwrap_or(Mode::Bands), max_samples: args.samples, ..bands_settings(args) }
 }
 
 /// The bands on `ctx`'s path, with a bar for the setup and one for the tracing. The scene is

@@ -10,6 +10,7 @@ use super::frame::HostFrame;
 use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
 use crate::render::modes::{chunk_pixels, frameless_sample, resolve_sample, Slices};
 use crate::render::order::Dissolve;
+use crate::render::pieces::split_settings;
 use crate::render::schedule::tile_grid;
 use crate::render::{Mode, RenderError, Schedule, Settings, StepReport};
 use crate::scene::{Camera, Scene};
@@ -113,7 +114,7 @@ impl<'a> Master<'a> {
         settings: Settings,
         deadlines: Deadlines,
     ) -> Result<Master<'a>, MasterError> {
-        let settings = for_workers(settings)?;
+        let settings = split_settings(settings).map_err(MasterError::Unsupported)?;
         let mut workers = Vec::new();
         let ours = build_id();
         let setup = deadlines.setup;
@@ -446,26 +447,6 @@ impl<'a> Master<'a> {
     pub fn abort(&self, e: &MasterError) -> ! {
         self.cluster.abort(&e.to_string())
     }
-}
-
-/// The settings the workers trace with: the bands' one picture is traced as the tiles of one
-/// conventional frame (the same picture, bit for bit: sample 0 at the pixel centres). What the
-/// ranks cannot split is refused.
-fn for_workers(settings: Settings) -> Result<Settings, MasterError> {
-    if settings.corner_rays {
-        return Err(MasterError::Unsupported("SPD's corner rays (--spd-rules)"));
-    }
-    if settings.count_rays || settings.simd_stats {
-        return Err(MasterError::Unsupported("counting rays (--stats)"));
-    }
-    Ok(match settings.mode {
-        Mode::Bands => Settings {
-            mode: Mode::Conventional { schedule: Schedule::default(), workers: 0 },
-            max_samples: 1,
-            ..settings
-        },
-        _ => settings,
-    })
 }
 
 /// The pixels of positions `[first, first + len)` of the order (its table, or the dissolve over

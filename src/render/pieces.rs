@@ -6,10 +6,31 @@
 use super::modes::{chunk_pixels, frame_sample, Queue, SliceSpan};
 use super::schedule::tile_grid;
 use super::session::{ModeState, Session};
-use super::RenderError;
+use super::{Mode, RenderError, Schedule, Settings};
 use crate::gpu::device::{BoundKernel, Device};
 use crate::gpu::layout::TILE_H;
 use std::ops::Range;
+
+/// The settings a picture's pieces are traced with, or what cannot be split (for the message
+/// "… cannot be split: drop it"): the bands' one picture is traced as the tiles of one
+/// conventional frame (the same picture, bit for bit: sample 0 at the pixel centres); the SPD
+/// rules' corner rays and the ray counters have no pieces.
+pub fn split_settings(settings: Settings) -> Result<Settings, &'static str> {
+    if settings.corner_rays {
+        return Err("SPD's corner rays (--spd-rules)");
+    }
+    if settings.count_rays || settings.simd_stats {
+        return Err("counting rays (--stats)");
+    }
+    Ok(match settings.mode {
+        Mode::Bands => Settings {
+            mode: Mode::Conventional { schedule: Schedule::default(), workers: 0 },
+            max_samples: 1,
+            ..settings
+        },
+        _ => settings,
+    })
+}
 
 /// A piece's pixels (rgb, in the piece's order) and the most loop iterations any of them ran.
 pub type PieceValues = (Vec<[f32; 3]>, u32);

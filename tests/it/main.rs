@@ -31,6 +31,7 @@ mod distributed;
 #[cfg(feature = "embree")]
 mod embree_peer;
 mod extremes;
+mod farm;
 mod gltf;
 mod gltf_animation;
 mod golden;
