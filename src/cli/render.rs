@@ -1,18 +1,17 @@
 //! `irt render`: one frame of a scene, written to an image file.
 
-use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
+use super::args::{load_scene, BackendArgs, DeviceArgs, ModeArgs, SceneArgs};
+use super::{check_output_path, open_device};
 use anyhow::{Context, Result};
 use clap::Args;
-use irt::gpu::device::Device;
+use irt::gpu::device::{Backend, Device};
 use irt::image::{Image, OutputFormat};
-use irt::render::{Mode, ModeArgs, Picture, Session, Settings};
+use irt::render::{Mode, Picture, Session, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    #[command(flatten)]
-    pub scene: SceneArgs,
     /// Output image, written atomically; the extension picks the format: .png (8-bit sRGB) or
     /// .exr (OpenEXR: linear radiance as 32-bit float RGB, values above 1 kept). With --frames,
     /// a pattern with the frame number as `%d` or zero-padded `%04d` (e.g. 'frame_%04d.png').
@@ -39,17 +38,17 @@ pub struct RenderArgs {
     /// SPD's testing rules, to compare --stats with the published ray counts: eye rays through
     /// the pixel corners ((W+1)x(H+1) rays, each pixel the mean of its corners), depth at most 5,
     /// a reflection ray at every reflective hit, hard shadows. See docs/nff.md.
-    #[arg(long, conflicts_with_all = ["shadows", "mode"])]
+    #[arg(long, conflicts_with_all = ["shadows", "max_depth", "mode"])]
     pub spd_rules: bool,
+    #[command(flatten)]
+    pub scene: SceneArgs,
     /// Without --mode the image is traced in bands of rows (the plain headless path); with it,
     /// one complete frame (conventional) or pass (frameless) of the interactive modes, which
     /// give the same picture bit for bit.
     #[command(flatten)]
     pub mode: ModeArgs,
-    /// Device path: wgpu (default), or ash (raw Vulkan: the same shaders, bands, modes and
-    /// frames). See docs/backends.md.
-    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
-    pub backend: super::Backend,
+    #[command(flatten)]
+    pub backend: BackendArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -62,7 +61,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.spd_rules {
         irt::io::nff::apply_spd_rules(&mut scene);
     }
-    let mode = args.mode.mode().map_err(anyhow::Error::msg)?;
+    let mode = args.mode.mode()?;
     if let Some(frames) = args.frames.clone() {
         if args.stats {
             anyhow::bail!("--stats counts rays of one frame: drop --frames to use it");
@@ -84,9 +83,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
         let settings = one_picture(&args, mode);
-        return match args.backend {
-            super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
-            super::Backend::Ash => one_pass(
+        return match args.backend.backend {
+            Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
+            Backend::Ash => one_pass(
                 &super::open_vk_device(&args.device, Default::default())?,
                 &args,
                 format,
@@ -95,9 +94,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             ),
         };
     }
-    match args.backend {
-        super::Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, scene, "bands"),
-        super::Backend::Ash => bands(
+    match args.backend.backend {
+        Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, scene, "bands"),
+        Backend::Ash => bands(
             &super::open_vk_device(&args.device, Default::default())?,
             &args,
             format,
@@ -169,9 +168,9 @@ fn one_pass<D: Device>(
     session.try_complete_pass(ctx)?;
     let elapsed = t.elapsed();
     let image = session.try_read_image(ctx)?;
-    let how = match args.backend {
-        super::Backend::Wgpu => mode.to_string(),
-        super::Backend::Ash => format!("{mode}, ash"),
+    let how = match args.backend.backend {
+        Backend::Wgpu => mode.to_string(),
+        Backend::Ash => format!("{mode}, ash"),
     };
     write(args, format, &image, scene, elapsed, ctx.adapter_name(), &how)
 }

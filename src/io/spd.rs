@@ -10,7 +10,7 @@ use std::f64::consts::PI;
 use std::fmt::Write;
 
 /// A scalable SPD generator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Generator {
     /// Sphereflake: a sphere with nine children, recursively; (9^(size+1) - 1) / 8 spheres on a floor.
     Balls,

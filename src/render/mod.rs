@@ -16,7 +16,6 @@
 //! ([`background`]) live beside the session.
 
 pub mod animation;
-pub mod args;
 pub mod background;
 pub mod metrics;
 pub mod modes;
@@ -27,7 +26,6 @@ pub mod schedule;
 pub mod session;
 pub mod updates;
 
-pub use args::ModeArgs;
 pub use background::Adoption;
 pub use order::PixelOrder;
 pub use picture::{LoopMeter, Picture};
