@@ -5,6 +5,7 @@ use super::{command_args, machine_line, open_device};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use irt::gpu::device::{Backend, Device};
+use irt::render::Settings;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -14,6 +15,8 @@ use std::time::Instant;
     "320x240",
     "small: the f64 ground truth traces STRATA² shadow rays per light and shading point on the CPU",
 )))]
+// Every shadow mode is measured (--modes chooses): --shadows is refused, and not offered.
+#[command(mut_arg("shadows", |a| a.hide(true)))]
 pub struct TradeoffArgs {
     /// Where table.md and plot.svg go (created if missing).
     #[arg(long, default_value = "tradeoff")]
@@ -39,7 +42,11 @@ pub struct TradeoffArgs {
 
 pub fn run(args: TradeoffArgs) -> Result<()> {
     let scene_args = args.scene;
+    if scene_args.shadows.is_some() {
+        bail!("--shadows: irt tradeoff measures every shadow mode; choose them with --modes");
+    }
     let scene = load_scene(&scene_args)?;
+    let base = Settings { f64: scene_args.f64(), accel: scene_args.accel, ..Settings::bands() };
     if scene.lights.iter().all(|l| l.radius == 0.0) {
         bail!("every light is a point light (radius 0): soft shadows equal hard ones; give the lights a radius (--light-radius R)");
     }
@@ -73,10 +80,11 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     };
     let load_start = load();
     let (rows, device) = match args.backend.backend {
-        Backend::Wgpu => measure(&open_device(&args.device)?, &scene, &modes, &truth, args.frames)?,
+        Backend::Wgpu => measure(&open_device(&args.device)?, &scene, &base, &modes, &truth, args.frames)?,
         Backend::Ash => measure(
             &super::open_vk_device(&args.device, Default::default())?,
             &scene,
+            &base,
             &modes,
             &truth,
             args.frames,
@@ -110,12 +118,13 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
 fn measure<D: Device>(
     ctx: &D,
     scene: &irt::scene::Scene,
+    base: &Settings,
     modes: &[irt::scene::ShadowMode],
     truth: &irt::image::Image,
     frames: u32,
 ) -> Result<(Vec<irt::lab::tradeoff::Row>, String)> {
     let bar = indicatif::ProgressBar::new_spinner();
-    let rows = irt::lab::tradeoff::measure_all(ctx, scene, modes, truth, frames, &mut |m| {
+    let rows = irt::lab::tradeoff::measure_all(ctx, scene, base, modes, truth, frames, &mut |m| {
         bar.set_message(m.to_string());
         bar.tick();
     })

@@ -101,13 +101,22 @@ fn help_is_true() {
         let h = help(&[command, "--help"]);
         assert!(h.contains("--size <WxH>") && !h.contains("--width") && !h.contains("--height"), "{h}");
         assert!(h.contains(formats) && h.contains("--accel <ACCEL>"), "{command}: {h}");
-        assert!(h.contains("--shadows <MODE>") && h.contains("--precision <BITS>"), "{command}: {h}");
+        // A flag a command refuses is not offered.
+        assert_eq!(h.contains("--shadows <MODE>"), command != "tradeoff", "{command}: {h}");
+        assert_eq!(h.contains("--precision <BITS>"), command != "stability", "{command}: {h}");
         assert_eq!(h.contains("--backend"), command != "view", "{command}: {h}");
     }
     assert!(help(&["view", "--help"]).contains("Keys and mouse:"));
     assert!(help(&["bench", "--help"]).contains("[default: 512x512]"));
     assert!(help(&["tradeoff", "--help"]).contains("[default: 320x240]"));
     assert!(help(&["stability", "--help"]).contains("[default: 160x120]"));
+}
+
+/// The measurement commands refuse a scene flag they would otherwise ignore.
+#[test]
+fn measurements_refuse_flags_they_would_ignore() {
+    fails_with(&irt(&["tradeoff", "--shadows", "hard"]), &["--shadows", "--modes"]);
+    fails_with(&irt(&["stability", "--precision", "f64"]), &["--precision", "side by side"]);
 }
 
 #[test]
