@@ -22,14 +22,15 @@ pub struct RenderArgs {
     #[arg(long, value_name = "SECONDS", conflicts_with = "frames")]
     pub time: Option<f64>,
     /// Render frames A up to (not including) B of the animation as an image sequence, frame k at
-    /// time k / --fps; the scene stays on the device and only what moved is rebuilt per frame.
+    /// time k / --fps; the scene stays on the device and each frame updates what moved.
     #[arg(long, value_name = "A..B", value_parser = parse_frames)]
     pub frames: Option<std::ops::Range<u32>>,
     /// Frames per second of --frames.
     #[arg(long, default_value_t = 24.0, requires = "frames")]
     pub fps: f64,
-    /// With --frames: rebuild the whole grid every frame instead of re-inserting only what
-    /// moves (the same grid either way; for measuring what the update saves).
+    /// With --frames on the grid (--accel grid): rebuild the whole grid every frame instead of
+    /// re-inserting only what moves (the same grid either way; for measuring what the update
+    /// saves). A BVH is rebuilt whole whenever geometry moves, with or without it.
     #[arg(long, requires = "frames")]
     pub full_rebuild: bool,
     /// Print rays traced by kind (eye, reflection, refraction, shadow) and the eye rays that hit.
