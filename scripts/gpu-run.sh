@@ -57,7 +57,7 @@ done
 step "default scene, all rays, both device paths, 512² and 2048²"
 for b in wgpu ash; do
     for side in 512 2048; do
-        "$irt" bench --backend $b --frames 9 --width $side --height $side 2>&1 | grep -E '^(scene|device|first frame|frame|readback|rays/frame|throughput)'
+        "$irt" bench --backend $b --frames 9 --size ${side}x$side 2>&1 | grep -E '^(scene|device|first frame|frame|readback|rays/frame|throughput)'
     done
 done
 
@@ -67,7 +67,7 @@ for side in 512 2048; do
         for a in grid bvh bvh-stack; do
             echo "-- $sc $a ${side}²"
             "$irt" bench $(arg "$sc") --backend ash --profile --workload primary-shadow --accel $a --frames 9 \
-                --width $side --height $side 2>&1 | grep -E '^(frame|readback|rays/frame|throughput)'
+                --size ${side}x$side 2>&1 | grep -E '^(frame|readback|rays/frame|throughput)'
         done
     done
 done

@@ -12,7 +12,7 @@ grep -v '^texture = ' "$dir/duck.toml" >"$dir/duck-untextured.toml"
 table_header scripts/texture-cost.sh "first frame ms"
 for _ in 1 2 3; do
     for s in duck duck-untextured; do
-        $irt bench "$dir/$s.toml" --width 512 --height 512 --frames 21 --markdown 2>/dev/null |
+        $irt bench "$dir/$s.toml" --size 512x512 --frames 21 --markdown 2>/dev/null |
             sed "s#$dir/##"
     done
 done

@@ -2,6 +2,7 @@
 //! window with a wgpu surface on the same device, the session's frame buffer blitted to it
 //! ([`blit`]), a camera controller ([`camera`], pure math), an egui HUD ([`hud`]) and the loop
 //! ([`viewer`]). `--frames N --screenshot FILE` is its headless-like twin for scripts and tests.
+//! It runs with plain [`ViewOptions`]; `irt view`'s arguments are read in src/cli/view.rs.
 
 pub mod blit;
 pub mod camera;
@@ -9,8 +10,8 @@ pub mod edit;
 pub mod hud;
 pub mod viewer;
 
-use crate::render::{Mode, ModeArgs, Settings};
-use crate::scene::{Scene, ShadowMode};
+use crate::render::{Mode, Settings};
+use crate::scene::Scene;
 use anyhow::Result;
 use std::path::PathBuf;
 
@@ -75,169 +76,40 @@ Examples:
   irt view --shadows bundle:16 --scale 1/2
   irt view --frames 3 --screenshot shot.png --size 256x192";
 
-fn keys_help() -> String {
-    let mut s = String::from("Keys and mouse:\n");
-    for (k, what) in KEYS {
-        s += &format!("  {k:<16}{what}\n");
-    }
-    s
-}
-
-#[derive(clap::Args, Clone, Debug)]
-#[command(about = ABOUT, long_about = LONG_ABOUT, after_long_help = keys_help())]
-pub struct ViewArgs {
-    /// Scene file (.toml, .gltf, .glb, .nff); the built-in default scene when omitted.
-    pub scene: Option<PathBuf>,
-    /// Window size in pixels, WxH (default: the scene camera's size, at least 320x240).
-    #[arg(long, value_name = "WxH", value_parser = parse_size)]
-    pub size: Option<[u32; 2]>,
-    /// The dispatch mode (frameless unless --mode says otherwise; M switches in the window)
-    /// and its parameters, as `irt render` spells them.
-    #[command(flatten)]
-    pub mode: ModeArgs,
-    /// Frameless: present after exactly N slices (0: as many slices as fit in one display
-    /// interval, ~16 ms, at least one).
-    #[arg(long, value_name = "N", default_value_t = 0)]
-    pub present_every: u32,
-    /// Shadow mode (overrides the scene's): hard, bundle:K, shell (see `irt render --help`).
-    #[arg(long, value_name = "MODE")]
-    pub shadows: Option<ShadowMode>,
-    /// Maximum ray depth (overrides the scene's; eye ray = 1).
-    #[arg(long, value_name = "N")]
-    pub max_depth: Option<u32>,
-    /// Accelerator: grid, bvh, bvh-stack or auto (see `irt render --help`).
-    #[arg(long, value_name = "ACCEL", default_value_t = crate::accel::AccelChoice::default())]
-    pub accel: crate::accel::AccelChoice,
-    /// Refinement stops after this many samples per pixel (0: never); the window then waits.
-    #[arg(long, value_name = "N", default_value_t = 64)]
-    pub max_samples: u32,
-    /// Resolution scale of the render against the window: 1, 1/2 or 1/4.
-    #[arg(long, value_name = "SCALE", default_value = "1", value_parser = parse_scale)]
+/// What the window runs with: `irt view`'s arguments without the command line (src/cli/view.rs
+/// builds them), beside the scene it shows.
+#[derive(Clone, Debug)]
+pub struct ViewOptions {
+    /// The window's size in pixels.
+    pub size: [u32; 2],
+    /// Resolution divisor of the render against the window: 1, 2 or 4.
     pub scale: u32,
-    /// Start with the HUD hidden (H shows it).
-    #[arg(long)]
+    /// Start with the HUD hidden.
     pub no_hud: bool,
-    /// Show N pictures (each after at least one step), write the screenshot and exit 0.
-    #[arg(long, value_name = "N")]
+    /// Show this many pictures (each after at least one step), write the screenshot and exit.
     pub frames: Option<u32>,
-    /// Where P (and --frames) writes the PNG, atomically; otherwise irt-YYYYmmdd-HHMMSS.png (UTC)
-    /// in the current directory.
-    #[arg(long, value_name = "FILE")]
+    /// Where P (and `frames`) writes the PNG; otherwise irt-YYYYmmdd-HHMMSS.png (UTC).
     pub screenshot: Option<PathBuf>,
-    /// Where T (and the HUD's save button) writes the edited scene as TOML, atomically, with its
-    /// textures beside it; otherwise irt-scene-YYYYmmdd-HHMMSS.toml (UTC) in the current directory.
-    #[arg(long, value_name = "FILE")]
+    /// Where T writes the edited scene as TOML; otherwise irt-scene-YYYYmmdd-HHMMSS.toml (UTC).
     pub save: Option<PathBuf>,
-    /// Animated scenes: the scene time to start at, in seconds (a still ignores it).
-    #[arg(long, value_name = "T", default_value_t = 0.0)]
+    /// Animated scenes: the scene time to start at, in seconds.
     pub time: f64,
-    /// Animated scenes: start paused (Space plays).
-    #[arg(long)]
+    /// Animated scenes: start paused.
     pub paused: bool,
-    /// Vulkan adapter: "lavapipe" (default), "gpu" (best hardware GPU), or part of a device
-    /// name. Also read from $IRT_ADAPTER.
-    #[arg(long, value_name = "NAME")]
+    /// The Vulkan adapter ([`crate::gpu::AdapterChoice::from_arg_or_env`]).
     pub adapter: Option<String>,
-    /// Do not read or write the on-disk pipeline cache (also: IRT_CACHE_DIR=off).
-    #[arg(long)]
+    /// No on-disk pipeline cache ([`crate::gpu::CacheSetting::from_flag_or_env`]).
     pub no_cache: bool,
+    /// The scene's name in the window's title and messages.
+    pub scene_name: String,
+    /// The session's settings at the start; their mode is one of the two below.
+    pub settings: Settings,
+    /// The modes M switches between (frameless with its `present_every`).
+    pub frameless: Mode,
+    pub conventional: Mode,
 }
 
-/// `WxH` with both at least 1.
-pub fn parse_size(s: &str) -> Result<[u32; 2], String> {
-    let bad = || format!("size `{s}`: expected WxH, e.g. 640x480");
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 || w > crate::scene::MAX_IMAGE_SIDE || h > crate::scene::MAX_IMAGE_SIDE {
-        return Err(format!("size `{s}`: each side must be 1 to {}", crate::scene::MAX_IMAGE_SIDE));
-    }
-    Ok([w, h])
-}
-
-/// `1`, `1/2` or `1/4` (also `0.5`, `0.25`) as the divisor 1, 2 or 4.
-pub fn parse_scale(s: &str) -> Result<u32, String> {
-    match s.trim() {
-        "1" | "1/1" | "1.0" => Ok(1),
-        "1/2" | "0.5" => Ok(2),
-        "1/4" | "0.25" => Ok(4),
-        _ => Err(format!("scale `{s}`: expected 1, 1/2 or 1/4")),
-    }
-}
-
-impl ViewArgs {
-    /// The frameless mode with `--order`, `--slice`, `--blend`, `--jitter-pairs` and
-    /// `--present-every` applied (what M switches to).
-    pub fn frameless(&self) -> Mode {
-        Mode::Frameless {
-            order: self.mode.order,
-            slice: self.mode.slice.max(1),
-            present_every: self.present_every,
-            blend: self.mode.blend,
-            jitter_pairs: self.mode.jitter_pairs,
-        }
-    }
-
-    /// The conventional mode with `--schedule` and `--workers` applied.
-    pub fn conventional(&self) -> Mode {
-        Mode::Conventional { schedule: self.mode.schedule, workers: self.mode.workers }
-    }
-
-    /// The session settings these arguments ask for.
-    pub fn settings(&self) -> Settings {
-        let mode = match self.mode.mode.as_deref() {
-            Some("conventional") => self.conventional(),
-            _ => self.frameless(),
-        };
-        Settings {
-            mode,
-            shadows: self.shadows,
-            max_depth: self.max_depth,
-            max_samples: self.max_samples,
-            accel: self.accel,
-            ..Settings::default()
-        }
-    }
-
-    /// The scene (file or built-in), checked as `irt render` checks it.
-    pub fn load_scene(&self) -> Result<Scene> {
-        let scene = crate::io::load_or_default(self.scene.as_deref())?;
-        self.mode.mode().map_err(anyhow::Error::msg)?;
-        let mut checked = scene.clone();
-        self.settings().apply_to(&mut checked);
-        crate::io::check_renderable(&checked, &self.scene_name()).map_err(anyhow::Error::msg)?;
-        Ok(scene)
-    }
-
-    /// The window's size: `--size`, else the scene camera's (at least 320×240).
-    pub fn window_size(&self, scene: &Scene) -> [u32; 2] {
-        self.size.unwrap_or([scene.camera.width.max(320), scene.camera.height.max(240)])
-    }
-
-    /// The name the window's title shows.
-    pub fn scene_name(&self) -> String {
-        self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string())
-    }
-}
-
-/// `irt view`: runs the window until it is closed (or `--frames` are shown).
-pub fn run(args: ViewArgs) -> Result<()> {
-    viewer::run(args)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sizes_and_scales_parse() {
-        assert_eq!(parse_size("256x192"), Ok([256, 192]));
-        assert_eq!(parse_size("1X1"), Ok([1, 1]));
-        assert!(parse_size("0x10").is_err());
-        assert!(parse_size("640").is_err());
-        assert!(parse_size("axb").is_err());
-        assert_eq!(parse_scale("1/2"), Ok(2));
-        assert_eq!(parse_scale("0.25"), Ok(4));
-        assert!(parse_scale("1/3").is_err());
-    }
+/// `irt view`: runs the window on `scene` until it is closed (or `options.frames` are shown).
+pub fn run(options: ViewOptions, scene: Scene) -> Result<()> {
+    viewer::run(options, scene)
 }

@@ -16,7 +16,7 @@ use super::blit::Blit;
 use super::camera::{camera_toml, scene_bounds, CameraController, FlyInput};
 use super::edit::{self, Picker, Playback, Selection, CLICK_SLOP};
 use super::hud::{self, EditView, HudRequest, HudView, Stats, SCALES, SHADOW_CHOICES};
-use super::ViewArgs;
+use super::ViewOptions;
 use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use crate::render::metrics::AgeTracker;
 use crate::render::UpdateReport;
@@ -44,8 +44,7 @@ const EGUI_FOLLOWUPS: u32 = 10;
 /// A tap of a movement key moves at least this long's worth.
 const TAP: Duration = Duration::from_millis(50);
 
-pub fn run(args: ViewArgs) -> Result<()> {
-    let scene = args.load_scene()?;
+pub fn run(args: ViewOptions, scene: Scene) -> Result<()> {
     let wayland = wayland_reachable();
     // Before the event loop and the device: Mesa's Wayland probe stays quiet (gpu::instance).
     crate::gpu::instance::ensure_runtime_dir();
@@ -88,7 +87,7 @@ fn wayland_reachable() -> bool {
 }
 
 struct App {
-    args: ViewArgs,
+    args: ViewOptions,
     scene: Option<Scene>,
     viewer: Option<Viewer>,
     error: Option<anyhow::Error>,
@@ -214,7 +213,7 @@ struct Egui {
 }
 
 struct Viewer {
-    args: ViewArgs,
+    args: ViewOptions,
     window: Arc<Window>,
     instance: wgpu::Instance,
     surface: wgpu::Surface<'static>,
@@ -324,10 +323,10 @@ fn utc_stamp(t: SystemTime) -> String {
 }
 
 impl Viewer {
-    fn new(event_loop: &ActiveEventLoop, args: &ViewArgs, scene: Scene) -> Result<Self> {
-        let [ww, wh] = args.window_size(&scene);
+    fn new(event_loop: &ActiveEventLoop, args: &ViewOptions, scene: Scene) -> Result<Self> {
+        let [ww, wh] = args.size;
         let attrs = Window::default_attributes()
-            .with_title(format!("irt — {}", args.scene_name()))
+            .with_title(format!("irt — {}", args.scene_name))
             .with_inner_size(PhysicalSize::new(ww, wh));
         let window = Arc::new(event_loop.create_window(attrs).context("creating the window")?);
 
@@ -374,10 +373,10 @@ impl Viewer {
         let mut traced = scene.clone();
         traced.camera.width = rw;
         traced.camera.height = rh;
-        let settings = args.settings();
+        let settings = args.settings.clone();
         let other_mode = match settings.mode {
-            Mode::Conventional { .. } | Mode::Bands => args.frameless(),
-            Mode::Frameless { .. } => args.conventional(),
+            Mode::Conventional { .. } | Mode::Bands => args.frameless,
+            Mode::Frameless { .. } => args.conventional,
         };
         let mut session = Session::new_interactive(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
         let playback = scene.is_animated().then(|| Playback::new(scene.duration(), args.time, args.paused));
@@ -455,7 +454,7 @@ impl Viewer {
         };
         eprintln!(
             "irt view: {} on {}{}",
-            args.scene_name(),
+            args.scene_name,
             v.ctx.info.name,
             if v.ctx.info.device_type == wgpu::DeviceType::Cpu {
                 " (CPU: expect a few frames per second)"

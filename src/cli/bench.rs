@@ -1,9 +1,10 @@
 //! `irt bench`: accelerator build time, time to first frame, steady frame time and Mrays/s.
 
-use super::{load_scene, open_device_with, DeviceArgs, SceneArgs};
+use super::args::{fixed_size, load_scene, AshArgs, BackendArgs, DeviceArgs, SceneArgs};
+use super::open_device_with;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-use irt::gpu::device::Device;
+use irt::gpu::device::{Backend, Device};
 use irt::gpu::layout::SIMD_LOOPS;
 use irt::gpu::{CacheSetting, GpuError};
 use irt::render::{Session, Settings};
@@ -11,11 +12,10 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 #[derive(Args)]
+#[command(mut_arg("size", |a| fixed_size(a, "512x512", "one size for every scene, so that scenes compare")))]
 pub struct BenchArgs {
-    #[command(flatten)]
-    pub scene: SceneArgs,
     /// Timed frames after the first (median reported).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, value_name = "N", default_value_t = 5)]
     pub frames: u32,
     /// Start with an empty Mesa shader cache and an empty irt pipeline cache, to measure a cold
     /// time to first frame.
@@ -50,10 +50,6 @@ pub struct BenchArgs {
     /// Threads for each peer (default: all cores).
     #[arg(long)]
     pub peer_threads: Option<usize>,
-    /// Device path: wgpu (default) or ash (raw Vulkan: the same shaders, and --peer too). See
-    /// docs/backends.md.
-    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
-    pub backend: super::Backend,
     /// Also time this many tiny dispatches (one workgroup of a readback kernel, one item):
     /// dispatch + submit + wait, median reported: the per-dispatch overhead of the device path.
     #[arg(long, value_name = "N", default_value_t = 0)]
@@ -65,7 +61,11 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with_all = ["peer", "markdown", "accels"])]
     pub simd: bool,
     #[command(flatten)]
-    pub ash: super::AshArgs,
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
+    #[command(flatten)]
+    pub ash: AshArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -248,9 +248,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.peer.iter().any(|&p| !matches!(p, Peer::Native | Peer::NativeBvh)) && !cfg!(feature = "embree") {
         bail!(NO_EMBREE);
     }
-    let mut scene_args = args.scene;
-    scene_args.width = scene_args.width.or(Some(512));
-    scene_args.height = scene_args.height.or(Some(512));
+    let scene_args = args.scene;
     let mut scene = load_scene(&scene_args)?;
     if args.workload == Workload::PrimaryShadow {
         scene = irt::lab::peer::primary_shadow(&scene);
@@ -262,8 +260,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let opts = Settings { uber_shader: args.uber, f64: scene_args.f64(), ..Settings::bands() };
         let name = scene_args.name_or("default");
         let (accels, frames, markdown) = (&args.accels, args.frames, args.markdown);
-        return match args.backend {
-            super::Backend::Wgpu => accel_rounds(
+        return match args.backend.backend {
+            Backend::Wgpu => accel_rounds(
                 &name,
                 &scene,
                 &open_device_with(&args.device, &cache)?,
@@ -272,7 +270,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 frames,
                 markdown,
             ),
-            super::Backend::Ash => {
+            Backend::Ash => {
                 let ctx = super::open_vk_device(&args.device, args.ash.options())?;
                 accel_rounds(&name, &scene, &ctx, opts, accels, frames, markdown)
             }
@@ -288,7 +286,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let grid_build = median(builds);
     let f64 = scene_args.f64();
     let opts = Settings { uber_shader: args.uber, f64, accel: scene_args.accel, ..Settings::bands() };
-    if args.backend != super::Backend::Ash && args.ash.any() {
+    if args.backend.backend != Backend::Ash && args.ash.any() {
         bail!(
             "--robust, --push-tile, --profile and --spirv-val are levers of the ash path: add --backend ash"
         );
@@ -305,12 +303,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         simd: args.simd,
     };
     let t = Instant::now();
-    let measured = match args.backend {
-        super::Backend::Wgpu => {
+    let measured = match args.backend.backend {
+        Backend::Wgpu => {
             let ctx = open_device_with(&args.device, &cache)?;
             job.on(&ctx, t.elapsed(), &ctx.cache_status)?
         }
-        super::Backend::Ash => {
+        Backend::Ash => {
             let ctx = super::open_vk_device(&args.device, args.ash.options())?;
             let measured = job.on(&ctx, t.elapsed(), "none (the ash path has no pipeline cache yet)")?;
             match measured {
@@ -357,7 +355,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         );
     } else {
         println!("scene            {name} ({w}x{h}, {} primitives)", scene.primitive_count());
-        println!("device           {device} ({driver_info}), {:?} backend", args.backend);
+        println!("device           {device} ({driver_info}), {:?} backend", args.backend.backend);
         println!("accelerator      {stats}");
         println!(
             "build            {:.2} ms (median of 5; --accel {})",
@@ -388,7 +386,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             "readback         {:.2} ms of it (output mapped and decoded into the image on the host, median)",
             readback.as_secs_f64() * 1e3
         );
-        if args.backend == super::Backend::Ash {
+        if args.backend.backend == Backend::Ash {
             let o = args.ash.options();
             println!(
                 "ash levers       robust {}, tile in {}, spirv-val {}",

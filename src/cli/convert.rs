@@ -1,5 +1,6 @@
 //! `irt convert`: any scene irt loads, written as a native TOML scene.
 
+use super::args::not_a_directory;
 use super::check_output_path;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -19,6 +20,7 @@ pub fn run(args: ConvertArgs) -> Result<()> {
         bail!("output '{}' must be a .toml file: irt writes its native TOML format", args.output.display());
     }
     check_output_path(&args.output)?;
+    not_a_directory(&args.input)?;
     let scene = irt::io::load(&args.input)?;
     let stem = args.output.file_stem().map_or("scene".into(), |s| s.to_string_lossy());
     let files = irt::io::toml_write::to_files(&scene, &stem).map_err(anyhow::Error::msg)?;

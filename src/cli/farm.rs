@@ -2,10 +2,11 @@
 //! `irt merge DIR --out F` once every task is done (src/farm.rs; examples/slurm, examples/k8s).
 
 use super::render::{scene_of, whole_settings, RenderArgs};
-use super::{check_output_path, open_device, open_vk_device, Backend};
+use super::{check_output_path, open_device, open_vk_device};
 use anyhow::{bail, Result};
 use clap::Args;
 use irt::farm::{self, TileSpec, Written};
+use irt::gpu::device::Backend;
 use irt::gpu::device::Device;
 use irt::image::OutputFormat;
 use std::path::PathBuf;
@@ -34,7 +35,7 @@ pub fn tile(args: &RenderArgs, spec: TileSpec) -> Result<()> {
         return Ok(());
     }
     let t = Instant::now();
-    let (tile, device) = match args.backend {
+    let (tile, device) = match args.backend.backend {
         Backend::Wgpu => trace(&open_device(&args.device)?, scene, settings, spec)?,
         Backend::Ash => trace(&open_vk_device(&args.device, Default::default())?, scene, settings, spec)?,
     };

@@ -1,6 +1,7 @@
 //! `irt info`: the Vulkan adapters, and the device, features and limits irt would use.
 
-use super::{open_device, DeviceArgs};
+use super::args::DeviceArgs;
+use super::open_device;
 use anyhow::Result;
 use clap::Args;
 

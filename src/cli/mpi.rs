@@ -44,7 +44,7 @@ impl MpiArgs {
 
 /// Joins the job: `Some(cluster)` on rank 0, which leads; on a worker rank, traces on the
 /// device the arguments name (its path `backend`) until rank 0 ends the job, then `None`.
-pub fn join(backend: super::Backend, device: &super::DeviceArgs) -> Result<Option<Cluster>> {
+pub fn join(backend: irt::gpu::device::Backend, device: &super::args::DeviceArgs) -> Result<Option<Cluster>> {
     let cluster = Cluster::join()?;
     if cluster.rank() == 0 {
         return Ok(Some(cluster));
@@ -52,8 +52,10 @@ pub fn join(backend: super::Backend, device: &super::DeviceArgs) -> Result<Optio
     share_the_cores(cluster.size());
     let words = |e: anyhow::Error| format!("{e:#}");
     match backend {
-        super::Backend::Wgpu => worker::run(&cluster, || super::open_device(device).map_err(words)),
-        super::Backend::Ash => {
+        irt::gpu::device::Backend::Wgpu => {
+            worker::run(&cluster, || super::open_device(device).map_err(words))
+        }
+        irt::gpu::device::Backend::Ash => {
             worker::run(&cluster, || super::open_vk_device(device, Default::default()).map_err(words))
         }
     }

@@ -1,18 +1,17 @@
 //! `irt render`: one frame of a scene, written to an image file.
 
-use super::{check_output_path, load_scene, open_device, DeviceArgs, SceneArgs};
+use super::args::{load_scene, BackendArgs, DeviceArgs, ModeArgs, SceneArgs};
+use super::{check_output_path, open_device};
 use anyhow::{Context, Result};
 use clap::Args;
-use irt::gpu::device::Device;
+use irt::gpu::device::{Backend, Device};
 use irt::image::{Image, OutputFormat};
-use irt::render::{Mode, ModeArgs, Picture, Session, Settings};
+use irt::render::{Mode, Picture, Session, Settings};
 use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    #[command(flatten)]
-    pub scene: SceneArgs,
     /// Output image, written atomically; the extension picks the format: .png (8-bit sRGB) or
     /// .exr (OpenEXR: linear radiance as 32-bit float RGB, values above 1 kept). With --frames,
     /// a pattern with the frame number as `%d` or zero-padded `%04d` (e.g. 'frame_%04d.png').
@@ -23,14 +22,15 @@ pub struct RenderArgs {
     #[arg(long, value_name = "SECONDS", conflicts_with = "frames")]
     pub time: Option<f64>,
     /// Render frames A up to (not including) B of the animation as an image sequence, frame k at
-    /// time k / --fps; the scene stays on the device and only what moved is rebuilt per frame.
+    /// time k / --fps; the scene stays on the device and each frame updates what moved.
     #[arg(long, value_name = "A..B", value_parser = parse_frames)]
     pub frames: Option<std::ops::Range<u32>>,
     /// Frames per second of --frames.
     #[arg(long, default_value_t = 24.0, requires = "frames")]
     pub fps: f64,
-    /// With --frames: rebuild the whole grid every frame instead of re-inserting only what
-    /// moves (the same grid either way; for measuring what the update saves).
+    /// With --frames on the grid (--accel grid): rebuild the whole grid every frame instead of
+    /// re-inserting only what moves (the same grid either way; for measuring what the update
+    /// saves). A BVH is rebuilt whole whenever geometry moves, with or without it.
     #[arg(long, requires = "frames")]
     pub full_rebuild: bool,
     /// Print rays traced by kind (eye, reflection, refraction, shadow) and the eye rays that hit.
@@ -39,8 +39,10 @@ pub struct RenderArgs {
     /// SPD's testing rules, to compare --stats with the published ray counts: eye rays through
     /// the pixel corners ((W+1)x(H+1) rays, each pixel the mean of its corners), depth at most 5,
     /// a reflection ray at every reflective hit, hard shadows. See docs/nff.md.
-    #[arg(long, conflicts_with_all = ["shadows", "mode"])]
+    #[arg(long, conflicts_with_all = ["shadows", "max_depth", "mode"])]
     pub spd_rules: bool,
+    #[command(flatten)]
+    pub scene: SceneArgs,
     /// Without --mode the image is traced in bands of rows (the plain headless path); with it,
     /// one complete frame (conventional) or pass (frameless) of the interactive modes, which
     /// give the same picture bit for bit.
@@ -50,10 +52,8 @@ pub struct RenderArgs {
     /// --mode only).
     #[arg(long, value_name = "N", default_value_t = 1, requires = "mode")]
     pub samples: u32,
-    /// Device path: wgpu (default), or ash (raw Vulkan: the same shaders, bands, modes and
-    /// frames). See docs/backends.md.
-    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
-    pub backend: super::Backend,
+    #[command(flatten)]
+    pub backend: BackendArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
     #[command(flatten)]
@@ -69,7 +69,7 @@ pub struct RenderArgs {
 pub fn run(args: RenderArgs) -> Result<()> {
     // Under mpirun every rank runs this command: the workers trace until rank 0 ends the job.
     let cluster = match args.mpi.mpi {
-        true => match super::mpi::join(args.backend, &args.device)? {
+        true => match super::mpi::join(args.backend.backend, &args.device)? {
             Some(c) => Some(c),
             None => return Ok(()),
         },
@@ -82,7 +82,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     check_output_path(&args.out)?;
     let format = OutputFormat::from_path(&args.out).map_err(anyhow::Error::msg)?;
     let scene = scene_of(&args)?;
-    let mode = args.mode.mode().map_err(anyhow::Error::msg)?;
+    let mode = args.mode.mode()?;
     if let Some(frames) = args.frames.clone() {
         if args.stats {
             anyhow::bail!("--stats counts rays of one frame: drop --frames to use it");
@@ -97,9 +97,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
         let settings = Settings { max_samples: args.samples.max(1), ..one_picture(&args, mode) };
-        return match args.backend {
-            super::Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
-            super::Backend::Ash => one_pass(
+        return match args.backend.backend {
+            Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
+            Backend::Ash => one_pass(
                 &super::open_vk_device(&args.device, Default::default())?,
                 &args,
                 format,
@@ -108,9 +108,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             ),
         };
     }
-    match args.backend {
-        super::Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, scene, "bands"),
-        super::Backend::Ash => bands(
+    match args.backend.backend {
+        Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, scene, "bands"),
+        Backend::Ash => bands(
             &super::open_vk_device(&args.device, Default::default())?,
             &args,
             format,
@@ -209,9 +209,9 @@ fn one_pass<D: Device>(
     }
     let elapsed = t.elapsed();
     let image = session.try_read_image(ctx)?;
-    let how = match args.backend {
-        super::Backend::Wgpu => mode.to_string(),
-        super::Backend::Ash => format!("{mode}, ash"),
+    let how = match args.backend.backend {
+        Backend::Wgpu => mode.to_string(),
+        Backend::Ash => format!("{mode}, ash"),
     };
     write(args, format, &image, scene, elapsed, ctx.adapter_name(), &how)
 }

@@ -4,7 +4,7 @@
 
 use super::render::RenderArgs;
 use anyhow::{bail, Context, Result};
-use irt::gpu::device::Device;
+use irt::gpu::device::{Backend, Device};
 use irt::image::OutputFormat;
 use irt::render::schedule::Schedule;
 use irt::render::{Mode, Session, Settings, UpdateReport};
@@ -39,9 +39,9 @@ pub fn run(args: &RenderArgs, scene: &Scene, frames: Range<u32>, mode: Option<Mo
     let mode = mode.unwrap_or(Mode::Conventional { schedule: Schedule::Plain, workers: 0 });
     let settings = super::render::one_picture(args, mode);
     let job = Job { args, scene, frames, pattern, format, settings };
-    match args.backend {
-        super::Backend::Wgpu => job.run(&super::open_device(&args.device)?),
-        super::Backend::Ash => job.run(&super::open_vk_device(&args.device, Default::default())?),
+    match args.backend.backend {
+        Backend::Wgpu => job.run(&super::open_device(&args.device)?),
+        Backend::Ash => job.run(&super::open_vk_device(&args.device, Default::default())?),
     }
 }
 

@@ -1,5 +1,6 @@
 //! `irt spd`: one of Haines' scalable Standard Procedural Databases at any size, as NFF.
 
+use super::args::choices;
 use super::check_output_path;
 use anyhow::{Context, Result};
 use clap::Args;
@@ -13,6 +14,7 @@ irt spd balls --size 7 --out balls_s7.nff   # 5 380 840 spheres, 228 MB\n  irt b
 Sizes 1, 2 and 4 of balls and 4 of tetra are the files in scenes/spd/, byte for byte.")]
 pub struct SpdArgs {
     /// Which database.
+    #[arg(value_name = "GENERATOR", value_parser = choices(GENERATORS))]
     pub generator: Generator,
     /// SPD's size factor (-s): balls 1-7, tetra 1-11.
     #[arg(long, short, default_value_t = 4)]
@@ -21,6 +23,16 @@ pub struct SpdArgs {
     #[arg(long, short)]
     pub out: PathBuf,
 }
+
+/// The databases.
+const GENERATORS: &[(&str, Generator, &str)] = &[
+    (
+        "balls",
+        Generator::Balls,
+        "Sphereflake: a sphere with nine children, recursively; (9^(size+1) - 1) / 8 spheres on a floor",
+    ),
+    ("tetra", Generator::Tetra, "Sierpinski tetrahedron: 4^size triangles"),
+];
 
 pub fn run(args: SpdArgs) -> Result<()> {
     check_output_path(&args.out)?;

@@ -1,38 +1,41 @@
 //! `irt stability`: the GPU's error against the f64 reference as the scene moves away from the
 //! origin; table + plot.
 
-use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
-use anyhow::{Context, Result};
+use super::args::{fixed_size, load_scene, BackendArgs, DeviceArgs, SceneArgs};
+use super::{command_args, machine_line, open_device};
+use anyhow::{bail, Context, Result};
 use clap::Args;
-use irt::gpu::device::Device;
+use irt::gpu::device::{Backend, Device};
+use irt::render::Settings;
 use std::path::PathBuf;
 
 #[derive(Args)]
+#[command(mut_arg("size", |a| fixed_size(a, "160x120", "small: the f64 reference renders every distance")))]
+// f32 and f64 are measured side by side: --precision is refused, and not offered.
+#[command(mut_arg("precision", |a| a.hide(true)))]
 pub struct StabilityArgs {
-    #[command(flatten)]
-    pub scene: SceneArgs,
     /// Where table.md and plot.svg go (created if missing).
     #[arg(long, default_value = "stability")]
     pub out_dir: PathBuf,
-    /// Device path: wgpu (default) or ash (raw Vulkan).
-    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
-    pub backend: super::Backend,
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
 
 pub fn run(args: StabilityArgs) -> Result<()> {
-    let mut scene_args = args.scene;
-    // The f64 reference renders every distance: keep it small unless told.
-    if scene_args.width.is_none() && scene_args.height.is_none() {
-        scene_args.width = Some(160);
-        scene_args.height = Some(120);
+    let scene_args = args.scene;
+    if scene_args.f64() {
+        bail!("--precision: irt stability measures f32 and f64 side by side; drop it");
     }
     let scene = load_scene(&scene_args)?;
+    let base = Settings { accel: scene_args.accel, ..Settings::bands() };
     std::fs::create_dir_all(&args.out_dir).with_context(|| format!("creating {}", args.out_dir.display()))?;
-    let (rows, device) = match args.backend {
-        super::Backend::Wgpu => measure(&open_device(&args.device)?, &scene)?,
-        super::Backend::Ash => measure(&super::open_vk_device(&args.device, Default::default())?, &scene)?,
+    let (rows, device) = match args.backend.backend {
+        Backend::Wgpu => measure(&open_device(&args.device)?, &scene, &base)?,
+        Backend::Ash => measure(&super::open_vk_device(&args.device, Default::default())?, &scene, &base)?,
     };
     let name = scene_args.name_or("default scene");
     let (w, h) = (scene.camera.width, scene.camera.height);
@@ -56,12 +59,16 @@ pub fn run(args: StabilityArgs) -> Result<()> {
 }
 
 /// Every distance on `ctx`'s path, with a bar; and the adapter's name.
-fn measure<D: Device>(ctx: &D, scene: &irt::scene::Scene) -> Result<(Vec<irt::lab::stability::Row>, String)> {
+fn measure<D: Device>(
+    ctx: &D,
+    scene: &irt::scene::Scene,
+    base: &Settings,
+) -> Result<(Vec<irt::lab::stability::Row>, String)> {
     let bar = indicatif::ProgressBar::new(irt::lab::stability::DISTANCES.len() as u64);
     let mut rows = Vec::new();
     for d in irt::lab::stability::DISTANCES {
         bar.set_message(format!("{d:e}"));
-        rows.push(irt::lab::stability::measure(ctx, scene, d).map_err(anyhow::Error::msg)?);
+        rows.push(irt::lab::stability::measure(ctx, scene, base, d).map_err(anyhow::Error::msg)?);
         bar.inc(1);
     }
     bar.finish_and_clear();

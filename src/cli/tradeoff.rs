@@ -1,16 +1,23 @@
 //! `irt tradeoff`: every shadow mode's time and error against an f64 ground truth; table + plot.
 
-use super::{command_args, load_scene, machine_line, open_device, DeviceArgs, SceneArgs};
+use super::args::{fixed_size, load_scene, BackendArgs, DeviceArgs, SceneArgs};
+use super::{command_args, machine_line, open_device};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use irt::gpu::device::Device;
+use irt::gpu::device::{Backend, Device};
+use irt::render::Settings;
 use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Args)]
+#[command(mut_arg("size", |a| fixed_size(
+    a,
+    "320x240",
+    "small: the f64 ground truth traces STRATA² shadow rays per light and shading point on the CPU",
+)))]
+// Every shadow mode is measured (--modes chooses): --shadows is refused, and not offered.
+#[command(mut_arg("shadows", |a| a.hide(true)))]
 pub struct TradeoffArgs {
-    #[command(flatten)]
-    pub scene: SceneArgs,
     /// Where table.md and plot.svg go (created if missing).
     #[arg(long, default_value = "tradeoff")]
     pub out_dir: PathBuf,
@@ -25,22 +32,21 @@ pub struct TradeoffArgs {
     /// docs/tradeoff.md when omitted. `hard` is added first if missing (the `× hard` column).
     #[arg(long, value_delimiter = ',', value_name = "MODE,...")]
     pub modes: Vec<irt::scene::ShadowMode>,
-    /// Device path: wgpu (default) or ash (raw Vulkan).
-    #[arg(long, value_enum, default_value_t = super::Backend::Wgpu)]
-    pub backend: super::Backend,
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub backend: BackendArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
 
 pub fn run(args: TradeoffArgs) -> Result<()> {
-    let mut scene_args = args.scene;
-    // Half the default scene's size unless told: the f64 ground truth traces `strata²` rays per
-    // shading point on the CPU.
-    if scene_args.width.is_none() && scene_args.height.is_none() {
-        scene_args.width = Some(320);
-        scene_args.height = Some(240);
+    let scene_args = args.scene;
+    if scene_args.shadows.is_some() {
+        bail!("--shadows: irt tradeoff measures every shadow mode; choose them with --modes");
     }
     let scene = load_scene(&scene_args)?;
+    let base = Settings { f64: scene_args.f64(), accel: scene_args.accel, ..Settings::bands() };
     if scene.lights.iter().all(|l| l.radius == 0.0) {
         bail!("every light is a point light (radius 0): soft shadows equal hard ones; give the lights a radius (--light-radius R)");
     }
@@ -73,11 +79,12 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
         std::fs::read_to_string("/proc/loadavg").ok().and_then(|s| s.split(' ').next().map(str::to_string))
     };
     let load_start = load();
-    let (rows, device) = match args.backend {
-        super::Backend::Wgpu => measure(&open_device(&args.device)?, &scene, &modes, &truth, args.frames)?,
-        super::Backend::Ash => measure(
+    let (rows, device) = match args.backend.backend {
+        Backend::Wgpu => measure(&open_device(&args.device)?, &scene, &base, &modes, &truth, args.frames)?,
+        Backend::Ash => measure(
             &super::open_vk_device(&args.device, Default::default())?,
             &scene,
+            &base,
             &modes,
             &truth,
             args.frames,
@@ -111,12 +118,13 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
 fn measure<D: Device>(
     ctx: &D,
     scene: &irt::scene::Scene,
+    base: &Settings,
     modes: &[irt::scene::ShadowMode],
     truth: &irt::image::Image,
     frames: u32,
 ) -> Result<(Vec<irt::lab::tradeoff::Row>, String)> {
     let bar = indicatif::ProgressBar::new_spinner();
-    let rows = irt::lab::tradeoff::measure_all(ctx, scene, modes, truth, frames, &mut |m| {
+    let rows = irt::lab::tradeoff::measure_all(ctx, scene, base, modes, truth, frames, &mut |m| {
         bar.set_message(m.to_string());
         bar.tick();
     })

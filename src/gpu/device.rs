@@ -13,7 +13,7 @@ use super::vk::VkError;
 use std::convert::Infallible;
 
 /// The device path of a command (`--backend`): wgpu, or raw Vulkan through ash.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Backend {
     /// wgpu (Vulkan only), the window's path too.
     #[default]

@@ -24,7 +24,7 @@ pub struct SizeError {
 }
 
 /// A scalable SPD generator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Generator {
     /// Sphereflake: a sphere with nine children, recursively; (9^(size+1) - 1) / 8 spheres on a floor.
     Balls,

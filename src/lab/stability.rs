@@ -28,8 +28,14 @@ pub struct Row {
     pub f64_time: Duration,
 }
 
-/// Measures `scene` moved `distance` from where it is.
-pub fn measure<D: Device>(ctx: &D, scene: &Scene, distance: f64) -> Result<Row, RenderError> {
+/// Measures `scene` moved `distance` from where it is, in `base`'s mode and accelerator with f32
+/// and with f64 arithmetic.
+pub fn measure<D: Device>(
+    ctx: &D,
+    scene: &Scene,
+    base: &Settings,
+    distance: f64,
+) -> Result<Row, RenderError> {
     let s = scene.transformed(1.0, offset(distance));
     let r = reference::render(&s);
     let reference = crate::image::Image {
@@ -38,7 +44,7 @@ pub fn measure<D: Device>(ctx: &D, scene: &Scene, distance: f64) -> Result<Row, 
         pixels: r.pixels.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32]).collect(),
     };
     let run = |f64| -> Result<(ImageDiff, Duration), RenderError> {
-        let mut session = Session::new(ctx, &s, Settings { f64, ..Settings::bands() })?;
+        let mut session = Session::new(ctx, &s, Settings { f64, ..base.clone() })?;
         let image = session.try_picture(ctx, &mut |_, _| {}).map_err(Into::into)?.image;
         let (time, _) = session.try_median_picture_times(ctx, 3).map_err(Into::into)?;
         Ok((compare(&image, &reference), time))

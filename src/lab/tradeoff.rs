@@ -39,25 +39,27 @@ pub fn modes() -> Vec<ShadowMode> {
     v
 }
 
-/// Renders `scene` in every mode of `modes` and compares each with `truth`; times them
+/// Renders `scene` in every mode of `modes` (with `base`'s other settings: the bands, the
+/// precision and accelerator asked for) and compares each with `truth`; times them
 /// interleaved: `frames` rounds, each timing one warm frame of every mode in turn, and each
 /// mode's median. On a shared, loaded machine the load then falls on all modes alike, so the
 /// ratios to hard shadows hold within one run even where absolute times drift.
 pub fn measure_all<D: Device>(
     ctx: &D,
     scene: &Scene,
+    base: &Settings,
     modes: &[ShadowMode],
     truth: &Image,
     frames: u32,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<Row>, RenderError> {
     let mut prepared = vec![];
-    let counting = Settings { count_rays: true, ..Settings::bands() };
+    let counting = Settings { count_rays: true, ..base.clone() };
     for &mode in modes {
         progress(&format!("{mode}: first frame"));
         let mut s = scene.clone();
         s.trace.shadows = mode;
-        let mut session = Session::new(ctx, &s, Settings::bands())?;
+        let mut session = Session::new(ctx, &s, base.clone())?;
         let image = session.try_picture(ctx, &mut |_, _| {}).map_err(Into::into)?.image;
         let rays = Session::new(ctx, &s, counting.clone())?
             .try_picture(ctx, &mut |_, _| {})

@@ -16,7 +16,6 @@
 //! ([`background`]) live beside the session.
 
 pub mod animation;
-pub mod args;
 pub mod background;
 pub mod metrics;
 pub mod modes;
@@ -28,7 +27,6 @@ pub mod schedule;
 pub mod session;
 pub mod updates;
 
-pub use args::ModeArgs;
 pub use background::Adoption;
 pub use modes::SliceSpan;
 pub use order::PixelOrder;

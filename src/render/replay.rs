@@ -24,16 +24,14 @@
 use super::metrics::{AgeStats, AgeTracker, Clock, LatencyStats, LatencyTracker, LATENCY_LEVELS};
 use super::{Mode, Session, Settings};
 use crate::gpu::device::Device;
-use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use crate::image::Image;
 use crate::io::LoadError;
-use crate::scene::{Camera, Scene, ShadowMode};
+use crate::scene::{Camera, Scene};
 use glam::DVec3;
 use serde::Deserialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 use toml::Spanned;
 
 /// What a replay can fail with.
@@ -159,7 +157,7 @@ impl CameraPath {
             if let Some(v) = k.width.as_ref().or(k.height.as_ref()) {
                 return Err(at((
                     v.span(),
-                    "a path key takes no image size: it comes from the scene or --width/--height".into(),
+                    "a path key takes no image size: it comes from the scene or --size".into(),
                 )));
             }
             let need = |name: &str| at((span.clone(), format!("a [[key]] needs `{name}`")));
@@ -709,160 +707,7 @@ pub fn calibrate<D: Device>(
     Ok(times[times.len() / 2].as_secs_f64() / (w as f64 * h as f64))
 }
 
-// ---- The command ---------------------------------------------------------------------------
-
-/// `--clock`: `real`, `virtual` (calibrated: ns per pixel of a conventional frame measured
-/// first) or `virtual:NS`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum ClockArg {
-    Calibrated,
-    Given(Clock),
-}
-
-impl FromStr for ClockArg {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        if s == "virtual" {
-            Ok(ClockArg::Calibrated)
-        } else {
-            s.parse().map(ClockArg::Given).map_err(|e| format!("{e}, or virtual (calibrated)"))
-        }
-    }
-}
-
-/// `irt replay PATH.toml [SCENE]`.
-#[derive(clap::Args, Clone, Debug)]
-pub struct ReplayArgs {
-    /// Camera path: a TOML file of [[key]] tables (t, eye, look_at, optional up and fov, as in a
-    /// scene's [camera]); see scenes/paths/orbit.toml.
-    pub path: PathBuf,
-    /// Scene file (.toml, .gltf, .glb, .nff); the built-in default scene when omitted.
-    pub scene: Option<PathBuf>,
-    /// Image width in pixels (overrides the scene's camera).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height in pixels (overrides the scene's camera).
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// The dispatch mode (frameless unless --mode says otherwise) and its parameters, as
-    /// `irt render` and `irt view` spell them.
-    #[command(flatten)]
-    pub mode: super::ModeArgs,
-    /// Clock: real (measured dispatch time), virtual (a fixed cost per traced pixel, calibrated
-    /// from a conventional frame first: modes compare at equal rays/s, and runs repeat exactly)
-    /// or virtual:NS (NS nanoseconds per pixel).
-    #[arg(long, default_value = "virtual", value_name = "CLOCK")]
-    pub clock: ClockArg,
-    /// Display refreshes and input reads per second of clock time.
-    #[arg(long, default_value_t = DEFAULT_DISPLAY_HZ, value_name = "HZ")]
-    pub rate: f64,
-    /// Refinement stops after this many samples per pixel (1: none, so a picture that keeps up
-    /// with the camera has zero dynamic error).
-    #[arg(long, default_value_t = 1)]
-    pub max_samples: u32,
-    /// Measure the dynamic error at every K-th refresh (0: not at all; each costs a whole frame).
-    #[arg(long, default_value_t = 0, value_name = "K")]
-    pub error_every: u32,
-    /// Write every present as DIR/frame_0000.png, …
-    #[arg(long, value_name = "DIR")]
-    pub frames: Option<PathBuf>,
-    /// Write every present and refresh (time, ages, error) as CSV.
-    #[arg(long, value_name = "FILE")]
-    pub csv: Option<PathBuf>,
-    /// Shadow mode (overrides the scene's [trace] shadows).
-    #[arg(long, value_name = "MODE")]
-    pub shadows: Option<ShadowMode>,
-    /// Vulkan adapter: "lavapipe" (default), "gpu", or part of a device name (also $IRT_ADAPTER).
-    #[arg(long, value_name = "NAME")]
-    pub adapter: Option<String>,
-    /// Do not read or write the on-disk pipeline cache (wgpu; the ash path has none).
-    #[arg(long)]
-    pub no_cache: bool,
-    /// Device path: wgpu (default) or ash (raw Vulkan; the same modes and pictures).
-    #[arg(long, value_enum, default_value_t = crate::gpu::device::Backend::Wgpu)]
-    pub backend: crate::gpu::device::Backend,
-}
-
-impl ReplayArgs {
-    /// The settings the arguments describe.
-    pub fn settings(&self) -> anyhow::Result<Settings> {
-        let mode = self.mode.mode().map_err(anyhow::Error::msg)?.unwrap_or(Mode::Frameless {
-            order: self.mode.order,
-            slice: self.mode.slice,
-            present_every: 0,
-            blend: self.mode.blend,
-            jitter_pairs: self.mode.jitter_pairs,
-        });
-        Ok(Settings { mode, shadows: self.shadows, max_samples: self.max_samples, ..Settings::default() })
-    }
-
-    /// The scene the arguments name, sized.
-    pub fn scene(&self) -> anyhow::Result<Scene> {
-        let mut scene = crate::io::load_or_default(self.scene.as_deref())?;
-        if let Some(w) = self.width {
-            scene.camera.width = w;
-        }
-        if let Some(h) = self.height {
-            scene.camera.height = h;
-        }
-        let name = self.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
-        crate::io::check_renderable(&scene, &name).map_err(anyhow::Error::msg)?;
-        Ok(scene)
-    }
-}
-
-/// Runs `irt replay`: loads the path and scene, replays, prints what was measured.
-pub fn run(args: ReplayArgs) -> anyhow::Result<()> {
-    let path = CameraPath::load(&args.path)?;
-    let scene = args.scene()?;
-    let settings = args.settings()?;
-    let choice = AdapterChoice::from_arg_or_env(args.adapter.as_deref());
-    match args.backend {
-        crate::gpu::device::Backend::Wgpu => {
-            let ctx = GpuContext::with_cache(&choice, &CacheSetting::from_flag_or_env(args.no_cache))?;
-            run_on(&ctx, &args, &path, &scene, &settings)
-        }
-        crate::gpu::device::Backend::Ash => {
-            run_on(&crate::gpu::vk::VkContext::new(&choice)?, &args, &path, &scene, &settings)
-        }
-    }
-}
-
-/// `irt replay` on `ctx`'s device path.
-fn run_on<D: Device>(
-    ctx: &D,
-    args: &ReplayArgs,
-    path: &CameraPath,
-    scene: &Scene,
-    settings: &Settings,
-) -> anyhow::Result<()> {
-    let clock = match args.clock {
-        ClockArg::Given(c) => c,
-        ClockArg::Calibrated => {
-            let mut s = scene.clone();
-            s.camera = path.camera_at(0.0, scene.camera.width, scene.camera.height);
-            let spp = calibrate(ctx, &s, settings, 3)?;
-            Clock::Virtual { seconds_per_pixel: spp }
-        }
-    };
-    let opts = ReplayOptions {
-        clock,
-        display_hz: args.rate,
-        error_every: args.error_every,
-        frames_dir: args.frames.clone(),
-        progress: true,
-    };
-    let t = Instant::now();
-    let report = replay(ctx, scene, settings, path, &opts)?;
-    let scene_name = args.scene.as_deref().map_or("default scene".into(), |p| p.display().to_string());
-    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), ctx));
-    eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());
-    if let Some(csv) = &args.csv {
-        crate::image::write_atomic(csv, samples_csv(&report).as_bytes())?;
-        eprintln!("wrote {}", csv.display());
-    }
-    Ok(())
-}
+// ---- What `irt replay` prints --------------------------------------------------------------
 
 fn ms(s: f64) -> String {
     format!("{:.1} ms", s * 1e3)
@@ -985,12 +830,5 @@ mod tests {
             let path = CameraPath::load(Path::new(env!("CARGO_MANIFEST_DIR")).join(p).as_path()).unwrap();
             assert!(path.duration() >= 2.0, "{p}");
         }
-    }
-
-    #[test]
-    fn clock_arguments_parse() {
-        assert_eq!("virtual".parse::<ClockArg>().unwrap(), ClockArg::Calibrated);
-        assert_eq!("real".parse::<ClockArg>().unwrap(), ClockArg::Given(Clock::Real));
-        assert!("fast".parse::<ClockArg>().unwrap_err().contains("virtual (calibrated)"));
     }
 }

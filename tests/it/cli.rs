@@ -27,9 +27,11 @@ fn fails_with(out: &Output, words: &[&str]) {
 
 #[test]
 fn renders_the_default_scene_to_png() {
-    let out_path = tmp("default.png");
-    let _ = std::fs::remove_file(&out_path);
-    let out = irt(&["render", "--width", "64", "--height", "48", "--out", out_path.to_str().unwrap()]);
+    // A directory of its own: other tests write (temporary files) beside `tmp`'s at the same time.
+    let out_path = tmp("default").join("default.png");
+    let _ = std::fs::remove_dir_all(out_path.parent().unwrap());
+    std::fs::create_dir_all(out_path.parent().unwrap()).unwrap();
+    let out = irt(&["render", "--size", "64x48", "--out", out_path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let img = image::open(&out_path).expect("a readable PNG").to_rgb8();
     assert_eq!(img.dimensions(), (64, 48));
@@ -50,8 +52,7 @@ fn renders_the_default_scene_to_png() {
 #[test]
 fn stats_prints_ray_counts_by_kind() {
     let out_path = tmp("stats.png");
-    let out =
-        irt(&["render", "--width", "32", "--height", "24", "--stats", "--out", out_path.to_str().unwrap()]);
+    let out = irt(&["render", "--size", "32x24", "--stats", "--out", out_path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8_lossy(&out.stdout);
     // One eye ray per pixel.
@@ -66,25 +67,76 @@ fn missing_scene_file() {
     fails_with(&irt(&["render", "no/such/scene.toml", "--out", "x.png"]), &["error:", "no/such/scene.toml"]);
 }
 
+/// A directory given as the scene is named as one (not "unknown scene file extension"), by
+/// every command that reads a scene, before any device or window is opened.
+#[test]
+fn a_directory_is_not_a_scene() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes");
+    let png = tmp("dir.png");
+    for args in [
+        &["render", dir, "--out", png.to_str().unwrap()][..],
+        &["view", dir],
+        &["replay", concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/paths/orbit.toml"), dir],
+        &["bench", dir],
+        &["convert", dir, tmp("dir.toml").to_str().unwrap()],
+    ] {
+        fails_with(&irt(args), &["error:", "is a directory", ".toml", ".ply"]);
+    }
+}
+
+/// The help a user reads: one spelling of the image size, the formats irt reads, the keys of
+/// the window, each command's own default size.
+#[test]
+fn help_is_true() {
+    let help = |args: &[&str]| {
+        let out = irt(args);
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let top = help(&["--help"]);
+    assert!(top.contains("--size 800x600") && !top.contains("--width"), "{top}");
+    assert!(top.contains("(TOML, glTF/GLB, NFF, OBJ, PLY)") && top.contains("accelerator build"), "{top}");
+    let formats = ".toml, .gltf, .glb, .nff, .obj, .ply";
+    for command in ["render", "view", "replay", "bench", "tradeoff", "stability"] {
+        let h = help(&[command, "--help"]);
+        assert!(h.contains("--size <WxH>") && !h.contains("--width") && !h.contains("--height"), "{h}");
+        assert!(h.contains(formats) && h.contains("--accel <ACCEL>"), "{command}: {h}");
+        // A flag a command refuses is not offered.
+        assert_eq!(h.contains("--shadows <MODE>"), command != "tradeoff", "{command}: {h}");
+        assert_eq!(h.contains("--precision <BITS>"), command != "stability", "{command}: {h}");
+        assert_eq!(h.contains("--backend"), command != "view", "{command}: {h}");
+    }
+    assert!(help(&["view", "--help"]).contains("Keys and mouse:"));
+    assert!(help(&["bench", "--help"]).contains("[default: 512x512]"));
+    assert!(help(&["tradeoff", "--help"]).contains("[default: 320x240]"));
+    assert!(help(&["stability", "--help"]).contains("[default: 160x120]"));
+}
+
+/// The measurement commands refuse a scene flag they would otherwise ignore.
+#[test]
+fn measurements_refuse_flags_they_would_ignore() {
+    fails_with(&irt(&["tradeoff", "--shadows", "hard"]), &["--shadows", "--modes"]);
+    fails_with(&irt(&["stability", "--precision", "f64"]), &["--precision", "side by side"]);
+}
+
 #[test]
 fn zero_resolution() {
     fails_with(
-        &irt(&["render", "--width", "0", "--out", tmp("z.png").to_str().unwrap()]),
+        &irt(&["render", "--size", "0x48", "--out", tmp("z.png").to_str().unwrap()]),
         &["error:", "resolution"],
     );
 }
 
 #[test]
 fn huge_resolution_is_refused_before_allocating() {
-    let out =
-        irt(&["render", "--width", "100000", "--height", "100000", "--out", tmp("h.png").to_str().unwrap()]);
+    let out = irt(&["render", "--size", "100000x100000", "--out", tmp("h.png").to_str().unwrap()]);
     fails_with(&out, &["error:", "exceeds"]);
 }
 
 #[test]
 fn output_directory_must_exist() {
     fails_with(
-        &irt(&["render", "--width", "8", "--height", "8", "--out", "/no/such/dir/x.png"]),
+        &irt(&["render", "--size", "8x8", "--out", "/no/such/dir/x.png"]),
         &["error:", "/no/such/dir"],
     );
 }
@@ -93,10 +145,8 @@ fn output_directory_must_exist() {
 fn unknown_adapter_lists_the_available_ones() {
     let out = irt(&[
         "render",
-        "--width",
-        "8",
-        "--height",
-        "8",
+        "--size",
+        "8x8",
         "--adapter",
         "no-such-gpu",
         "--out",
@@ -107,8 +157,10 @@ fn unknown_adapter_lists_the_available_ones() {
 
 #[test]
 fn bad_arguments_are_usage_errors() {
-    let out = irt(&["render", "--width", "-3"]);
-    fails_with(&out, &["--width"]);
+    let out = irt(&["render", "--size", "-3x4"]);
+    fails_with(&out, &["--size", "expected WxH"]);
+    let out = irt(&["render", "--size", "64"]);
+    fails_with(&out, &["--size", "expected WxH"]);
     let out = irt(&["frobnicate"]);
     fails_with(&out, &["frobnicate"]);
 }
@@ -127,10 +179,8 @@ fn spd_rules_trace_the_pixel_corners() {
     let out = irt(&[
         "render",
         scene,
-        "--width",
-        "16",
-        "--height",
-        "16",
+        "--size",
+        "16x16",
         "--stats",
         "--spd-rules",
         "--out",
@@ -187,7 +237,7 @@ fn exr_output_is_the_linear_radiance_behind_the_png() {
     let (exr, png) = (tmp("radiance.exr"), tmp("radiance.png"));
     for path in [&exr, &png] {
         let _ = std::fs::remove_file(path);
-        let out = irt(&["render", "--width", "32", "--height", "24", "--out", path.to_str().unwrap()]);
+        let out = irt(&["render", "--size", "32x24", "--out", path.to_str().unwrap()]);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     }
     let linear = read_exr(&exr);
@@ -207,12 +257,12 @@ fn unsupported_output_extension_is_refused_before_rendering() {
     for name in ["x.jpg", "x"] {
         let path = tmp(name);
         let _ = std::fs::remove_file(&path);
-        let out = irt(&["render", "--width", "8", "--height", "8", "--out", path.to_str().unwrap()]);
+        let out = irt(&["render", "--size", "8x8", "--out", path.to_str().unwrap()]);
         fails_with(&out, &["error:", name, ".png", ".exr"]);
         assert!(!path.exists(), "{} was created", path.display());
     }
     fails_with(
-        &irt(&["render", "--width", "8", "--height", "8", "--out", tmp("x.jpg").to_str().unwrap()]),
+        &irt(&["render", "--size", "8x8", "--out", tmp("x.jpg").to_str().unwrap()]),
         &["unsupported image format .jpg"],
     );
     // Refused before the scene is even read.
@@ -224,7 +274,7 @@ fn upper_case_extensions_choose_the_format_too() {
     let (png, exr) = (tmp("UPPER.PNG"), tmp("UPPER.EXR"));
     for path in [&png, &exr] {
         let _ = std::fs::remove_file(path);
-        let out = irt(&["render", "--width", "16", "--height", "8", "--out", path.to_str().unwrap()]);
+        let out = irt(&["render", "--size", "16x8", "--out", path.to_str().unwrap()]);
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     }
     let bytes = std::fs::read(&png).unwrap();
@@ -269,7 +319,7 @@ fn no_runtime_dir_complaint_without_xdg_runtime_dir() {
 #[test]
 fn interactive_modes_render_the_same_file_headless() {
     let bands = tmp("modes-bands.png");
-    let size = ["--width", "160", "--height", "100"];
+    let size = ["--size", "160x100"];
     let run = |extra: &[&str], out: &PathBuf| {
         let mut a = vec!["render", "--out", out.to_str().unwrap()];
         a.extend_from_slice(&size);
@@ -314,10 +364,8 @@ fn bench_races_the_native_peer_on_the_same_rays() {
         "primary-shadow",
         "--peer",
         "native",
-        "--width",
-        "64",
-        "--height",
-        "64",
+        "--size",
+        "64x64",
         "--frames",
         "1",
     ]);
@@ -329,17 +377,14 @@ fn bench_races_the_native_peer_on_the_same_rays() {
     assert_eq!(counts.len(), 2, "{line}");
     assert_eq!(counts[0].trim_end_matches(','), counts[1], "irt and the peer traced different rays: {line}");
     assert!(stdout.contains("irt / native"), "{stdout}");
-    fails_with(
-        &irt(&["bench", "--peer", "native", "--width", "8", "--height", "8"]),
-        &["--workload primary-shadow"],
-    );
+    fails_with(&irt(&["bench", "--peer", "native", "--size", "8x8"]), &["--workload primary-shadow"]);
 }
 
 /// `irt bench --simd`: a line per shader loop with its efficiency, a percentage no larger than
 /// 100; with the peer rounds (which print their own table), a clear refusal.
 #[test]
 fn bench_prints_each_loops_simd_efficiency() {
-    let out = irt(&["bench", "--simd", "--width", "32", "--height", "24", "--frames", "1"]);
+    let out = irt(&["bench", "--simd", "--size", "32x24", "--frames", "1"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(stdout.contains("SIMD efficiency"), "{stdout}");
@@ -372,10 +417,8 @@ fn frames_write_a_numbered_sequence_of_the_animation() {
     let out = irt(&[
         "render",
         scene,
-        "--width",
-        "64",
-        "--height",
-        "48",
+        "--size",
+        "64x48",
         "--frames",
         "2..5",
         "--fps",
@@ -392,18 +435,7 @@ fn frames_write_a_numbered_sequence_of_the_animation() {
     assert_eq!(names, ["f_002.png", "f_003.png", "f_004.png"]);
     // Frame 3 at 2 frames/s is t = 1.5 s.
     let single = dir.join("single.png");
-    let out = irt(&[
-        "render",
-        scene,
-        "--width",
-        "64",
-        "--height",
-        "48",
-        "--time",
-        "1.5",
-        "--out",
-        single.to_str().unwrap(),
-    ]);
+    let out = irt(&["render", scene, "--size", "64x48", "--time", "1.5", "--out", single.to_str().unwrap()]);
     assert!(out.status.success());
     // Pixels off by more than 2 of 255 in a channel (the golden tolerance's measure).
     let off = |a: &std::path::Path, b: &std::path::Path| {
@@ -437,7 +469,7 @@ fn animation_arguments_are_checked() {
 #[test]
 fn bench_embree_peer_or_how_to_build_it() {
     let args = ["bench", "--workload", "primary-shadow", "--peer", "native,embree"];
-    let size = ["--width", "64", "--height", "64", "--frames", "1"];
+    let size = ["--size", "64x64", "--frames", "1"];
     let out = irt(&[&args[..], &size[..]].concat());
     if cfg!(feature = "embree") {
         let stdout = String::from_utf8_lossy(&out.stdout);
@@ -460,7 +492,7 @@ fn bench_embree_peer_or_how_to_build_it() {
 /// wgpu path writes, byte for byte.
 #[test]
 fn ash_renders_modes_and_sequences_like_wgpu() {
-    let size = ["--width", "64", "--height", "48"];
+    let size = ["--size", "64x48"];
     let cases: [(&str, &[&str]); 3] = [
         ("frameless", &["--mode", "frameless"]),
         ("conventional", &["--mode", "conventional"]),

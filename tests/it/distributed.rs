@@ -20,7 +20,7 @@ fn dir() -> PathBuf {
 }
 
 /// A small picture: the cases are about who traced the pixels, not about the scene.
-const SMALL: [&str; 4] = ["--width", "160", "--height", "120"];
+const SMALL: [&str; 2] = ["--size", "160x120"];
 
 /// One application context of an MPMD job: the environment it adds and irt's arguments.
 struct Ranks<'a> {

@@ -28,7 +28,7 @@ fn ok(args: &[&str]) -> String {
 }
 
 fn size(w: u32, h: u32) -> Vec<String> {
-    vec!["--width".into(), w.to_string(), "--height".into(), h.to_string()]
+    vec!["--size".into(), format!("{w}x{h}")]
 }
 
 /// Renders `args` whole and as `n` tiles merged, to `ext`; the files must be the same bytes.
@@ -96,7 +96,7 @@ fn the_merge_refuses_missing_or_foreign_tiles_and_writes_nothing() {
 fn a_task_run_again_changes_nothing() {
     let d = dir("again");
     let t = d.join("tiles");
-    let args = ["render", "--tile", "1/2", "--out", t.to_str().unwrap(), "--width", "64", "--height", "32"];
+    let args = ["render", "--tile", "1/2", "--out", t.to_str().unwrap(), "--size", "64x32"];
     ok(&args);
     let file = t.join(Tile::file_name("1/2".parse().unwrap()));
     let (bytes, modified) =
@@ -119,10 +119,8 @@ fn a_task_killed_at_any_moment_leaves_a_whole_tile_or_none() {
         "0/1",
         "--out",
         t.to_str().unwrap(),
-        "--width",
-        "200",
-        "--height",
-        "150",
+        "--size",
+        "200x150",
         "--mode",
         "conventional",
         "--samples",

@@ -13,7 +13,7 @@ fn dir(name: &str) -> PathBuf {
 /// Renders the default scene at 48x32 into `out` with `IRT_CACHE_DIR=cache` and `extra` args.
 fn render(cache: &str, out: &Path, extra: &[&str]) -> Output {
     let out = Command::new(env!("CARGO_BIN_EXE_irt"))
-        .args(["render", "--width", "48", "--height", "32", "--out", out.to_str().unwrap()])
+        .args(["render", "--size", "48x32", "--out", out.to_str().unwrap()])
         .args(extra)
         .env("IRT_CACHE_DIR", cache)
         .env("RUST_LOG", "warn")

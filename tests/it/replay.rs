@@ -1,10 +1,11 @@
 //! `irt replay` on lavapipe: a short replay on a tiny image is deterministic on the virtual
 //! clock, frameless reaches 90% of the screen sooner than conventional at equal cost, a resting
-//! camera has no dynamic error, and the command reports bad paths by file and line.
+//! camera has no dynamic error, and both device paths agree. (The command's arguments are
+//! tested in src/cli/replay.rs and tests/it/cli.rs.)
 use crate::common;
 
 use irt::render::metrics::Clock;
-use irt::render::replay::{replay, CameraPath, ReplayArgs, ReplayOptions, ReplayReport};
+use irt::render::replay::{replay, CameraPath, ReplayOptions, ReplayReport};
 use irt::render::{Mode, PixelOrder, Settings};
 use std::time::Duration;
 
@@ -111,62 +112,6 @@ fn a_resting_camera_has_no_dynamic_error() {
         assert_eq!(r.latency.inputs, 0, "{mode}: no input without a camera change");
         assert_eq!(r.steps, 0, "{mode}: nothing to trace after the warm start");
     }
-}
-
-#[test]
-fn bad_path_files_are_reported_by_file_and_line() {
-    let dir = std::env::temp_dir().join(format!("irt-replay-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("bad.toml");
-    std::fs::write(&file, "[[key]]\nt = 0\neye = [0, 2, 7.8]\nlook_at = [0, 0.75, -0.3]\n\n[[key]]\nt = 1\neye = [0, 2, 7.8]\nlook_at = [0, 0.75]\n").unwrap();
-    use clap::Parser;
-    let line = [
-        "replay",
-        file.to_str().unwrap(),
-        "--width",
-        "16",
-        "--height",
-        "16",
-        "--clock",
-        "real",
-        "--no-cache",
-    ];
-    let args = Cli::try_parse_from(line).unwrap().args;
-    let err = format!("{:#}", irt::render::replay::run(args).unwrap_err());
-    let want = format!("{}:9:11: `look_at` needs 3 numbers, found 2", file.display());
-    assert!(err.starts_with(&want), "got {err}\nwant {want}");
-    std::fs::remove_dir_all(&dir).unwrap();
-}
-
-#[derive(clap::Parser)]
-struct Cli {
-    #[command(flatten)]
-    args: ReplayArgs,
-}
-
-#[test]
-fn replay_arguments_parse_into_settings() {
-    use clap::{CommandFactory, Parser};
-    Cli::command().debug_assert();
-    let parse = |line: &str| Cli::try_parse_from(line.split_whitespace()).map(|c| c.args);
-    let a =
-        parse("replay p.toml s.nff --mode conventional --schedule guided --workers 8 --clock virtual:300")
-            .unwrap();
-    assert_eq!(a.scene.as_deref(), Some(std::path::Path::new("s.nff")));
-    assert_eq!(a.clock, irt::render::replay::ClockArg::Given(Clock::Virtual { seconds_per_pixel: 300e-9 }));
-    let s = a.settings().unwrap();
-    assert_eq!(s.mode, Mode::Conventional { schedule: irt::render::Schedule::Guided, workers: 8 });
-    assert_eq!(s.max_samples, 1);
-    let f = parse("replay p.toml --order dissolve --slice 1000").unwrap().settings().unwrap();
-    assert!(
-        matches!(f.mode, Mode::Frameless { order: PixelOrder::Dissolve, slice: 1000, .. }),
-        "{:?}",
-        f.mode
-    );
-    let bad = parse("replay p.toml --slice 0").unwrap().settings().unwrap_err();
-    assert!(bad.to_string().contains("--slice 0"), "{bad}");
-    assert!(parse("replay p.toml --clock fast").is_err());
-    assert!(parse("replay p.toml --mode sideways").is_err());
 }
 
 /// `irt replay --backend ash`: the same replay on raw Vulkan, on a virtual clock, reports the same

@@ -314,7 +314,7 @@ fn scripted_screenshot_matches_headless_render() {
             // One sample: also what `irt render` writes at that size.
             let out = dir.join("render.png");
             let status = Command::new(env!("CARGO_BIN_EXE_irt"))
-                .args(["render", "--width", "256", "--height", "192", "--out", out.to_str().unwrap()])
+                .args(["render", "--size", "256x192", "--out", out.to_str().unwrap()])
                 .env("IRT_CACHE_DIR", "off")
                 .stderr(Stdio::null())
                 .status()

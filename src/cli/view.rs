@@ -1,0 +1,122 @@
+//! `irt view`: the interactive window ([`irt::app`]), its arguments turned into the library's
+//! [`ViewOptions`].
+
+use super::args::{load_scene, DeviceArgs, ModeArgs, SceneArgs};
+use anyhow::{bail, Result};
+use clap::Args;
+use irt::app::{ViewOptions, ABOUT, KEYS, LONG_ABOUT};
+use irt::render::{Mode, Settings};
+use std::path::PathBuf;
+
+fn keys_help() -> String {
+    let mut s = String::from("Keys and mouse:\n");
+    for (k, what) in KEYS {
+        s += &format!("  {k:<16}{what}\n");
+    }
+    s
+}
+
+#[derive(Args, Clone, Debug)]
+#[command(
+    about = ABOUT,
+    long_about = LONG_ABOUT,
+    after_long_help = keys_help(),
+    mut_arg("size", |a| a.help("Window size in pixels, WxH (default: the scene camera's, at least 320x240)"))
+)]
+pub struct ViewArgs {
+    /// Frameless: present after exactly N slices (0: as many slices as fit in one display
+    /// interval, ~16 ms, at least one).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub present_every: u32,
+    /// Refinement stops after this many samples per pixel (0: never); the window then waits.
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub max_samples: u32,
+    /// Resolution scale of the render against the window: 1, 1/2 or 1/4.
+    #[arg(long, value_name = "SCALE", default_value = "1", value_parser = parse_scale)]
+    pub scale: u32,
+    /// Start with the HUD hidden (H shows it).
+    #[arg(long)]
+    pub no_hud: bool,
+    /// Show N pictures (each after at least one step), write the screenshot and exit 0.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u32>,
+    /// Where P (and --frames) writes the PNG, atomically; otherwise irt-YYYYmmdd-HHMMSS.png (UTC)
+    /// in the current directory.
+    #[arg(long, value_name = "FILE")]
+    pub screenshot: Option<PathBuf>,
+    /// Where T (and the HUD's save button) writes the edited scene as TOML, atomically, with its
+    /// textures beside it; otherwise irt-scene-YYYYmmdd-HHMMSS.toml (UTC) in the current directory.
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<PathBuf>,
+    /// Animated scenes: the scene time to start at, in seconds (a still ignores it).
+    #[arg(long, value_name = "T", default_value_t = 0.0)]
+    pub time: f64,
+    /// Animated scenes: start paused (Space plays).
+    #[arg(long)]
+    pub paused: bool,
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The dispatch mode (frameless unless --mode says otherwise; M switches in the window)
+    /// and its parameters, as `irt render` spells them.
+    #[command(flatten)]
+    pub mode: ModeArgs,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+/// `1`, `1/2` or `1/4` (also `0.5`, `0.25`) as the divisor 1, 2 or 4.
+pub fn parse_scale(s: &str) -> Result<u32> {
+    match s.trim() {
+        "1" | "1/1" | "1.0" => Ok(1),
+        "1/2" | "0.5" => Ok(2),
+        "1/4" | "0.25" => Ok(4),
+        _ => bail!("scale `{s}`: expected 1, 1/2 or 1/4"),
+    }
+}
+
+/// `irt view`: runs the window until it is closed (or `--frames` are shown).
+pub fn run(args: ViewArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let frameless = args.mode.frameless(args.present_every);
+    let conventional = args.mode.conventional();
+    let mode = match args.mode.mode()? {
+        Some(Mode::Conventional { .. }) => conventional,
+        _ => frameless,
+    };
+    let settings = Settings {
+        mode,
+        max_samples: args.max_samples,
+        f64: args.scene.f64(),
+        accel: args.scene.accel,
+        ..Settings::default()
+    };
+    let options = ViewOptions {
+        size: args.scene.size.unwrap_or([scene.camera.width.max(320), scene.camera.height.max(240)]),
+        scale: args.scale,
+        no_hud: args.no_hud,
+        frames: args.frames,
+        screenshot: args.screenshot,
+        save: args.save,
+        time: args.time,
+        paused: args.paused,
+        adapter: args.device.adapter,
+        no_cache: args.device.no_cache,
+        scene_name: args.scene.name_or("default scene"),
+        settings,
+        frameless,
+        conventional,
+    };
+    irt::app::run(options, scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scales_parse() {
+        assert_eq!(parse_scale("1/2").unwrap(), 2);
+        assert_eq!(parse_scale("0.25").unwrap(), 4);
+        assert!(parse_scale("1/3").is_err());
+    }
+}
