@@ -5,8 +5,8 @@
 # bookworm-backports suite. Newer is not faster: Debian 13's backports (Mesa 26.1.6, LLVM 19) run irt
 # 1.1-1.4x slower than 25.0.7, so elsewhere the distribution's own package is kept (docs/performance.md,
 # "A newer lavapipe"). Safe to run again: it changes nothing when a new enough driver is there.
-# Also installs what the window tests use (Xvfb, xdotool) and the distributed path (Open MPI) when
-# missing.
+# Also installs what the window tests use (Xvfb, xdotool), the distributed path (Open MPI) and the
+# render-farm test (Slurm, munge) when missing.
 # Optional: `--with-embree` (or IRT_WITH_EMBREE=1) also installs libembree-dev, for the Embree
 # benchmark peer (`cargo build --release --features embree`); not installed by default.
 set -euo pipefail
@@ -118,6 +118,14 @@ if ! command -v mpicc >/dev/null || ! command -v mpirun >/dev/null \
     || ! ldconfig -p 2>/dev/null | grep 'libclang' >/dev/null; then
     echo "setup: installing Open MPI and libclang for the distributed path (openmpi-bin, libopenmpi-dev, libclang-dev)"
     install_pkgs openmpi-bin libopenmpi-dev libclang-dev
+fi
+
+# The render-farm test (tests/it/farm.rs) runs the Slurm job array of examples/slurm on a real
+# single-node Slurm that it starts itself (no systemd, nothing left running), with munge for auth.
+if ! command -v sbatch >/dev/null || ! command -v slurmctld >/dev/null \
+    || ! command -v slurmd >/dev/null || ! command -v munged >/dev/null; then
+    echo "setup: installing Slurm and munge for the render-farm test (slurm-wlm, munge)"
+    install_pkgs slurm-wlm munge
 fi
 
 # The window tests (tests/it/viewer.rs) drive `irt view` under a virtual X server.

@@ -51,6 +51,7 @@ mod scene_nff;
 mod scene_toml;
 mod shaders_validate;
 mod simd_counters;
+mod slurm;
 mod soft_shadows;
 mod spd;
 mod specialisation;
