@@ -75,33 +75,45 @@ pub fn run(args: RenderArgs) -> Result<()> {
         },
         false => None,
     };
+    let result = render(&args, cluster.as_ref());
+    if let (Err(e), Some(cluster)) = (&result, &cluster) {
+        // The workers wait for rank 0: an error here must end them too, never leave them waiting.
+        cluster.abort(&format!("error: {e:#}"));
+    }
+    result
+}
+
+fn render(args: &RenderArgs, cluster: Option<&irt::dist::cluster::Cluster>) -> Result<()> {
     if let Some(spec) = args.tile {
-        return super::farm::tile(&args, spec);
+        return super::farm::tile(args, spec);
     }
     // The output is checked first: a mistyped name should not wait for the scene to load.
     check_output_path(&args.out)?;
     let format = OutputFormat::from_path(&args.out).map_err(anyhow::Error::msg)?;
-    let scene = scene_of(&args)?;
+    let scene = scene_of(args)?;
     let mode = args.mode.mode()?;
     if let Some(frames) = args.frames.clone() {
+        if cluster.is_some() {
+            anyhow::bail!("--frames runs in one process: for an animation on many machines, give each task of a job array a frame range (examples/slurm/frames.sbatch)");
+        }
         if args.stats {
             anyhow::bail!("--stats counts rays of one frame: drop --frames to use it");
         }
-        return super::sequence::run(&args, &scene, frames, mode);
+        return super::sequence::run(args, &scene, frames, mode);
     }
-    if let Some(cluster) = &cluster {
-        return distributed(cluster, &args, format, &scene, whole_settings(&args, mode));
+    if let Some(cluster) = cluster {
+        return distributed(cluster, args, format, &scene, whole_settings(args, mode));
     }
     if let Some(mode) = mode {
         if args.stats {
             anyhow::bail!("--stats counts rays of the band renderer: drop --mode to use it");
         }
-        let settings = Settings { max_samples: args.samples.max(1), ..one_picture(&args, mode) };
+        let settings = Settings { max_samples: args.samples.max(1), ..one_picture(args, mode) };
         return match args.backend.backend {
-            Backend::Wgpu => one_pass(&open_device(&args.device)?, &args, format, &scene, settings),
+            Backend::Wgpu => one_pass(&open_device(&args.device)?, args, format, &scene, settings),
             Backend::Ash => one_pass(
                 &super::open_vk_device(&args.device, Default::default())?,
-                &args,
+                args,
                 format,
                 &scene,
                 settings,
@@ -109,10 +121,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
         };
     }
     match args.backend.backend {
-        Backend::Wgpu => bands(&open_device(&args.device)?, &args, format, scene, "bands"),
+        Backend::Wgpu => bands(&open_device(&args.device)?, args, format, scene, "bands"),
         Backend::Ash => bands(
             &super::open_vk_device(&args.device, Default::default())?,
-            &args,
+            args,
             format,
             scene,
             "bands, ash",
@@ -251,6 +263,19 @@ fn distributed(
     .unwrap_or_else(|e| cluster.abort(&e.to_string()));
     bar.finish_and_clear();
     let elapsed = t.elapsed();
+    let kib = |b: u64| b.div_ceil(1024);
+    irt::dist::cluster::say(
+        0,
+        &format!(
+            "traced in {:.3} s after {:.3} s of setup; sent {} KiB in {} messages, received {} KiB in {}",
+            r.trace.as_secs_f64(),
+            r.setup.as_secs_f64(),
+            kib(r.traffic.sent),
+            r.traffic.messages_sent,
+            kib(r.traffic.received),
+            r.traffic.messages_received
+        ),
+    );
     let how = format!("{how}, {} workers", r.workers);
     write(args, format, &r.image, scene, elapsed, &r.devices, &how)
 }

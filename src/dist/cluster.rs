@@ -4,6 +4,7 @@
 //! MPI universe, whose `MPI_Finalize` waits for the other ranks for ever.
 
 use super::wire::Tag;
+use std::cell::Cell;
 use std::io::Write as _;
 use std::time::Duration;
 
@@ -12,6 +13,28 @@ pub struct Cluster {
     link: link::Link,
     rank: i32,
     size: i32,
+    traffic: Cell<Traffic>,
+}
+
+/// Bytes and messages this rank sent and received (payloads, not MPI's envelopes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Traffic {
+    pub sent: u64,
+    pub received: u64,
+    pub messages_sent: u64,
+    pub messages_received: u64,
+}
+
+impl std::ops::Sub for Traffic {
+    type Output = Traffic;
+    fn sub(self, o: Traffic) -> Traffic {
+        Traffic {
+            sent: self.sent - o.sent,
+            received: self.received - o.received,
+            messages_sent: self.messages_sent - o.messages_sent,
+            messages_received: self.messages_received - o.messages_received,
+        }
+    }
 }
 
 /// What setting up the job can fail with.
@@ -46,7 +69,7 @@ impl Cluster {
         if size < 2 {
             return Err(ClusterError::TooFew(size));
         }
-        Ok(Cluster { link, rank, size })
+        Ok(Cluster { link, rank, size, traffic: Cell::default() })
     }
 
     pub fn rank(&self) -> i32 {
@@ -60,12 +83,26 @@ impl Cluster {
 
     /// Sends `bytes` to rank `to` under `tag` (returns once the buffer may be reused).
     pub fn send(&self, to: i32, tag: Tag, bytes: &[u8]) {
-        self.link.send(to, tag.code(), bytes)
+        self.link.send(to, tag.code(), bytes);
+        let mut t = self.traffic.get();
+        t.sent += bytes.len() as u64;
+        t.messages_sent += 1;
+        self.traffic.set(t);
     }
 
     /// The next message from any rank, if one has arrived: (from, tag, bytes).
     pub fn try_receive(&self) -> Option<(i32, i32, Vec<u8>)> {
-        self.link.try_receive()
+        let m = self.link.try_receive()?;
+        let mut t = self.traffic.get();
+        t.received += m.2.len() as u64;
+        t.messages_received += 1;
+        self.traffic.set(t);
+        Some(m)
+    }
+
+    /// What this rank has sent and received so far.
+    pub fn traffic(&self) -> Traffic {
+        self.traffic.get()
     }
 
     /// The next message from any rank, waiting for it at most `deadline`: first spinning, then

@@ -507,6 +507,13 @@ pub struct Rendered {
     pub workers: usize,
     /// Their devices, in a few words ([`Master::device_summary`]).
     pub devices: String,
+    /// From the first greeting to every worker holding the scene (devices opened, scene sent,
+    /// accelerators built).
+    pub setup: Duration,
+    /// From then to the last pixel back.
+    pub trace: Duration,
+    /// Rank 0's traffic during `trace` (the scene's bytes are in setup's).
+    pub traffic: super::cluster::Traffic,
 }
 
 /// `irt render --mpi` on rank 0: the workers trace one picture (`settings.max_samples` samples
@@ -519,8 +526,10 @@ pub fn render(
     deadlines: Deadlines,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Rendered, MasterError> {
+    let t = Instant::now();
     let mut m = Master::start(cluster, scene, settings, deadlines)?;
     let (workers, devices) = (m.workers.len(), m.device_summary());
+    let (setup, traffic, t) = (t.elapsed(), cluster.traffic(), Instant::now());
     let total =
         (scene.camera.width as u64 * scene.camera.height as u64) * m.state.settings.max_samples.max(1) as u64;
     let mut done = 0;
@@ -529,9 +538,10 @@ pub fn render(
         done += r.eye_rays;
         progress(done.min(total), total);
     }
+    let (trace, traffic) = (t.elapsed(), cluster.traffic() - traffic);
     let image = m.frame.image();
     m.finish();
-    Ok(Rendered { image, workers, devices })
+    Ok(Rendered { image, workers, devices, setup, trace, traffic })
 }
 
 #[cfg(test)]

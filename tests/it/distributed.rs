@@ -318,3 +318,16 @@ fn one_rank_is_told_how_to_launch() {
     let mut job = Job::start(&[ranks(1, &["render", "--mpi", "--out", "/nonexistent/x.png"])]);
     assert_fails_loudly(&mut job, Duration::from_secs(60), &["mpirun -n 3 irt render --mpi", "at least 2"]);
 }
+
+#[test]
+fn a_scene_rank_0_cannot_load_ends_every_rank() {
+    // The workers wait for rank 0's scene: rank 0's error must end them, not leave the job
+    // waiting in MPI_Finalize.
+    let out = dir().join("noscene.png");
+    let mut job =
+        Job::start(&[ranks(3, &["render", "no-such-scene.nff", "--mpi", "--out", out.to_str().unwrap()])]);
+    assert_fails_loudly(&mut job, Duration::from_secs(60), &["irt rank 0: error", "no-such-scene.nff"]);
+    let mut job =
+        Job::start(&[ranks(3, &["render", "--mpi", "--frames", "0..2", "--out", out.to_str().unwrap()])]);
+    assert_fails_loudly(&mut job, Duration::from_secs(60), &["irt rank 0: error", "job array"]);
+}

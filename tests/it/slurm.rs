@@ -180,10 +180,7 @@ impl Slurm {
 
 impl Drop for Slurm {
     fn drop(&mut self) {
-        let _ = self
-            .cmd("scancel")
-            .args(["--user", &run(Command::new("id").arg("-un")).trim().to_string()])
-            .output();
+        let _ = self.cmd("scancel").args(["--user", run(Command::new("id").arg("-un")).trim()]).output();
         // slurmd, slurmctld, then munged: SIGTERM is their way to stop.
         for d in self.daemons.iter_mut().rev() {
             let _ = Command::new("kill").arg(d.id().to_string()).status();

@@ -6,6 +6,7 @@
 mod backends;
 mod deal;
 mod dispatch_floor;
+mod distributed;
 mod ply_speed;
 mod scale;
 mod study;
@@ -16,11 +17,16 @@ use clap::Parser;
 /// (name, what it measures, the harness)
 type Harness = (&'static str, &'static str, fn(&[String]) -> anyhow::Result<()>);
 
-const HARNESSES: [Harness; 7] = [
+const HARNESSES: [Harness; 8] = [
     (
         "backends",
         "wgpu against ash: device open, first frame, frame, tiny dispatch, slices (docs/backends.md)",
         backends::run,
+    ),
+    (
+        "distributed",
+        "render --mpi against one process, and tiles + merge against one render (docs/distributed.md)",
+        distributed::run_all,
     ),
     ("deal", "bands' tiles dealt to lavapipe's threads against in order (docs/performance.md)", deal::run),
     (
