@@ -59,6 +59,19 @@ impl fmt::Display for TileSpec {
     }
 }
 
+/// Why a file's bytes are not a tile.
+#[derive(Debug, thiserror::Error)]
+pub enum TileDecodeError {
+    #[error("not an irt tile (irt render --tile writes them)")]
+    NotATile,
+    #[error("tile format {0} (this irt reads {FORMAT})")]
+    Format(u32),
+    #[error("its header is inconsistent (tile {index} of {count}, {width}x{height}, rows {y0}..{y1})")]
+    Header { index: u32, count: u32, width: u32, height: u32, y0: u32, y1: u32 },
+    #[error("{have} bytes where its header promises {want}")]
+    Length { have: usize, want: usize },
+}
+
 /// What a farm command can fail with.
 #[derive(Debug, thiserror::Error)]
 pub enum FarmError {
@@ -69,7 +82,7 @@ pub enum FarmError {
     #[error("{0}")]
     Io(String),
     #[error("{path}: {why}")]
-    BadTile { path: PathBuf, why: String },
+    BadTile { path: PathBuf, why: TileDecodeError },
     #[error("{dir}: tile {index} of {count} is already there from another render ({why}): give this render a directory of its own, or delete the old tiles")]
     Foreign { dir: PathBuf, index: u32, count: u32, why: String },
     #[error("{dir}: no tiles (irt render SCENE --tile I/N --out {dir} writes them)")]
@@ -142,29 +155,27 @@ impl Tile {
     }
 
     /// A tile from its file's bytes; with `header_only`, without its pixels.
-    pub fn decode(bytes: &[u8], header_only: bool) -> Result<Tile, String> {
+    pub fn decode(bytes: &[u8], header_only: bool) -> Result<Tile, TileDecodeError> {
         if bytes.len() < HEADER || &bytes[..8] != MAGIC {
-            return Err("not an irt tile (irt render --tile writes them)".into());
+            return Err(TileDecodeError::NotATile);
         }
         let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
         if u32_at(8) != FORMAT {
-            return Err(format!("tile format {} (this irt reads {FORMAT})", u32_at(8)));
+            return Err(TileDecodeError::Format(u32_at(8)));
         }
         let key = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
         let [index, count, width, height, y0, y1] = std::array::from_fn(|i| u32_at(20 + 4 * i));
         let spec = TileSpec { index, count };
         let expected = tile_rows(height, spec).ok().filter(|r| *r == (y0..y1) && width > 0 && index < count);
         if expected.is_none() {
-            return Err(format!(
-                "its header is inconsistent (tile {index} of {count}, {width}x{height}, rows {y0}..{y1})"
-            ));
+            return Err(TileDecodeError::Header { index, count, width, height, y0, y1 });
         }
         let n = width as usize * (y1 - y0) as usize;
         let pixels = if header_only {
             Vec::new()
         } else {
             if bytes.len() != HEADER + n * 12 {
-                return Err(format!("{} bytes where its header promises {}", bytes.len(), HEADER + n * 12));
+                return Err(TileDecodeError::Length { have: bytes.len(), want: HEADER + n * 12 });
             }
             bytes[HEADER..]
                 .chunks_exact(12)

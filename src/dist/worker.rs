@@ -9,6 +9,7 @@ use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, W
 use crate::gpu::device::Device;
 use crate::render::{RenderError, Session, SliceSpan};
 use crate::scene::Scene;
+use std::path::PathBuf;
 use std::time::Duration;
 
 /// How long a worker waits for the master's next word before it stops waiting: a master that
@@ -77,7 +78,7 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
         }
         if let (None, Some((sc, hash)), Some(st)) = (&session, &scene, &state) {
             let opened = open_session(&ctx, sc, st);
-            let ready = Ready { hash: *hash, error: opened.as_ref().err().cloned() };
+            let ready = Ready { hash: *hash, error: opened.as_ref().err().map(|e| e.to_string()) };
             cluster.send(0, Tag::Ready, &ready.encode());
             match opened {
                 Ok(s) => session = Some(s),
@@ -105,19 +106,34 @@ fn load_scene(bytes: &[u8]) -> Result<(Scene, u64), Ready> {
         let error = format!("the scene arrived with hash {hash:016x}, the master sent {:016x}", msg.hash);
         return Err(Ready { hash, error: Some(error) });
     }
-    write_and_load(&msg).map(|s| (s, hash)).map_err(|e| Ready { hash, error: Some(e) })
+    write_and_load(&msg).map(|s| (s, hash)).map_err(|e| Ready { hash, error: Some(e.to_string()) })
 }
 
-fn write_and_load(msg: &SceneMsg) -> Result<Scene, String> {
+/// Why a worker could not set the scene up; its words go back to the master in [`Ready`].
+#[derive(Debug, thiserror::Error)]
+enum SetupError {
+    #[error("writing {0}: {1}")]
+    Write(PathBuf, std::io::Error),
+    #[error(transparent)]
+    Load(#[from] crate::io::LoadError),
+    #[error("setting the scene up: {0}")]
+    Session(RenderError),
+    #[error("posing the scene at {0} s: {1}")]
+    Pose(f64, RenderError),
+}
+
+fn write_and_load(msg: &SceneMsg) -> Result<Scene, SetupError> {
     let dir = std::env::temp_dir().join(format!("irt-rank-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    let write =
+        |path: PathBuf, bytes: &[u8]| std::fs::write(&path, bytes).map_err(|e| SetupError::Write(path, e));
+    std::fs::create_dir_all(&dir).map_err(|e| SetupError::Write(dir.clone(), e))?;
     let result = (|| {
         for (name, png) in &msg.textures {
-            std::fs::write(dir.join(name), png).map_err(|e| format!("writing {name}: {e}"))?;
+            write(dir.join(name), png)?;
         }
         let file = dir.join("scene.toml");
-        std::fs::write(&file, &msg.toml).map_err(|e| format!("writing the scene: {e}"))?;
-        crate::io::load(&file).map_err(|e| e.to_string())
+        write(file.clone(), msg.toml.as_bytes())?;
+        Ok(crate::io::load(&file)?)
     })();
     let _ = std::fs::remove_dir_all(&dir);
     result
@@ -125,12 +141,11 @@ fn write_and_load(msg: &SceneMsg) -> Result<Scene, String> {
 
 /// A session of `scene` seen by the state's camera, with its settings and time: the same
 /// origin, variant and accelerator as the master's own picture would have.
-fn open_session<D: Device>(ctx: &D, scene: &Scene, st: &State) -> Result<Session<D>, String> {
+fn open_session<D: Device>(ctx: &D, scene: &Scene, st: &State) -> Result<Session<D>, SetupError> {
     let mut s = scene.clone();
     s.camera = st.camera.clone();
-    let mut session =
-        Session::from_scene(ctx, s, st.settings.clone()).map_err(|e| format!("setting the scene up: {e}"))?;
-    session.set_time(ctx, st.time).map_err(|e| format!("posing the scene at {} s: {e}", st.time))?;
+    let mut session = Session::from_scene(ctx, s, st.settings.clone()).map_err(SetupError::Session)?;
+    session.set_time(ctx, st.time).map_err(|e| SetupError::Pose(st.time, e))?;
     Ok(session)
 }
 

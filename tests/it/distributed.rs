@@ -233,10 +233,9 @@ fn endless(out: &Path) -> Vec<String> {
     a
 }
 
-#[test]
-fn a_worker_that_stops_answering_is_named_after_the_deadline() {
-    let out = dir().join("stopped.png");
-    let args = endless(&out);
+/// An [`endless`] job of three ranks, once rank 0 says it is tracing.
+fn tracing(out: &Path) -> Job {
+    let args = endless(out);
     let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
     let mut job = Job::start(&[ranks(3, &args)]);
     assert!(
@@ -244,6 +243,13 @@ fn a_worker_that_stops_answering_is_named_after_the_deadline() {
         "the job never started:\n{}",
         job.stderr()
     );
+    job
+}
+
+#[test]
+fn a_worker_that_stops_answering_is_named_after_the_deadline() {
+    let out = dir().join("stopped.png");
+    let mut job = tracing(&out);
     let pid = job.rank_pid(1).expect("rank 1 runs");
     signal(pid, "-STOP");
     // The deadline is 3 s a piece; the rest is Open MPI ending the ranks.
@@ -254,14 +260,7 @@ fn a_worker_that_stops_answering_is_named_after_the_deadline() {
 #[test]
 fn a_killed_worker_ends_the_job() {
     let out = dir().join("killed.png");
-    let args = endless(&out);
-    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-    let mut job = Job::start(&[ranks(3, &args)]);
-    assert!(
-        job.wait_for_line("tracing", Duration::from_secs(120)),
-        "the job never started:\n{}",
-        job.stderr()
-    );
+    let mut job = tracing(&out);
     let pid = job.rank_pid(2).expect("rank 2 runs");
     signal(pid, "-KILL");
     // Open MPI names the rank and the signal.
