@@ -267,9 +267,10 @@ fn distributed(
     irt::dist::cluster::say(
         0,
         &format!(
-            "traced in {:.3} s after {:.3} s of setup; sent {} KiB in {} messages, received {} KiB in {}",
+            "traced in {:.3} s after {:.3} s of setup, leading on {:.0}% of a core; sent {} KiB in {} messages, received {} KiB in {}",
             r.trace.as_secs_f64(),
             r.setup.as_secs_f64(),
+            100.0 * r.cpu.as_secs_f64() / r.trace.as_secs_f64().max(1e-9),
             kib(r.traffic.sent),
             r.traffic.messages_sent,
             kib(r.traffic.received),

@@ -514,6 +514,17 @@ pub struct Rendered {
     pub trace: Duration,
     /// Rank 0's traffic during `trace` (the scene's bytes are in setup's).
     pub traffic: super::cluster::Traffic,
+    /// Rank 0's CPU time during `trace`: how much of a core leading takes.
+    pub cpu: Duration,
+}
+
+/// This process's CPU time so far (user and system).
+fn cpu_time() -> Duration {
+    // SAFETY: getrusage writes the struct it is given and nothing else.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
+    let tv = |t: libc::timeval| Duration::new(t.tv_sec as u64, t.tv_usec as u32 * 1000);
+    tv(u.ru_utime) + tv(u.ru_stime)
 }
 
 /// `irt render --mpi` on rank 0: the workers trace one picture (`settings.max_samples` samples
@@ -529,7 +540,7 @@ pub fn render(
     let t = Instant::now();
     let mut m = Master::start(cluster, scene, settings, deadlines)?;
     let (workers, devices) = (m.workers.len(), m.device_summary());
-    let (setup, traffic, t) = (t.elapsed(), cluster.traffic(), Instant::now());
+    let (setup, traffic, cpu, t) = (t.elapsed(), cluster.traffic(), cpu_time(), Instant::now());
     let total =
         (scene.camera.width as u64 * scene.camera.height as u64) * m.state.settings.max_samples.max(1) as u64;
     let mut done = 0;
@@ -538,10 +549,10 @@ pub fn render(
         done += r.eye_rays;
         progress(done.min(total), total);
     }
-    let (trace, traffic) = (t.elapsed(), cluster.traffic() - traffic);
+    let (trace, traffic, cpu) = (t.elapsed(), cluster.traffic() - traffic, cpu_time() - cpu);
     let image = m.frame.image();
     m.finish();
-    Ok(Rendered { image, workers, devices, setup, trace, traffic })
+    Ok(Rendered { image, workers, devices, setup, trace, traffic, cpu })
 }
 
 #[cfg(test)]

@@ -66,6 +66,8 @@ struct Run {
     sent: f64,
     received: f64,
     messages: f64,
+    /// Rank 0's CPU time over the trace's wall time, in percent of a core.
+    lead: f64,
 }
 
 /// The number before `unit` in `line`, after `after`.
@@ -138,7 +140,8 @@ impl Config {
                     trace: number_before(line, "traced in", " s").context(line.to_string())?,
                     sent: kib("sent").unwrap_or(f64::NAN),
                     received: kib("received").unwrap_or(f64::NAN),
-                    messages: number_before(line, " in ", " messages").unwrap_or(f64::NAN),
+                    messages: number_before(line, "KiB in", " messages").unwrap_or(f64::NAN),
+                    lead: number_before(line, "leading on", "%").unwrap_or(f64::NAN),
                 })
             }
         }
@@ -181,8 +184,8 @@ pub fn run_all(args: &[String]) -> Result<()> {
         o.size, o.samples, o.rounds
     )?;
     writeln!(table, "Speed-up against one process at 1 thread of the same mode; efficiency = speed-up / workers (or threads).\n")?;
-    writeln!(table, "| mode | configuration | trace (s) | frame (ms) | pixel updates/s (M) | speed-up | efficiency | rank 0 sent / received per frame (KiB) | messages per frame |")?;
-    writeln!(table, "|---|---|---|---|---|---|---|---|---|")?;
+    writeln!(table, "| mode | configuration | trace (s) | frame (ms) | pixel updates/s (M) | speed-up | efficiency | rank 0 sent / received per frame (KiB) | messages per frame | rank 0 busy |")?;
+    writeln!(table, "|---|---|---|---|---|---|---|---|---|---|")?;
     let mut points: Vec<(&str, f64, f64)> = Vec::new();
     for (c, r) in configs.iter().zip(&runs) {
         let trace = median(r.iter().map(|x| x.trace).collect());
@@ -196,12 +199,13 @@ pub fn run_all(args: &[String]) -> Result<()> {
         let per_frame = |f: fn(&Run) -> f64| median(r.iter().map(f).collect()) / o.samples as f64;
         let traffic = match c.workers {
             Some(_) => format!(
-                "{:.0} / {:.0} | {:.0}",
+                "{:.0} / {:.0} | {:.0} | {:.0}%",
                 per_frame(|x| x.sent) / 1024.0,
                 per_frame(|x| x.received) / 1024.0,
-                per_frame(|x| x.messages)
+                per_frame(|x| x.messages),
+                median(r.iter().map(|x| x.lead).collect())
             ),
-            None => "— | —".into(),
+            None => "— | — | —".into(),
         };
         writeln!(
             table,
