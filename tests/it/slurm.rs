@@ -210,7 +210,7 @@ fn a_slurm_array_of_tiles_and_its_merge_make_the_render() {
     let slurm = Slurm::start("array");
     let work = slurm.dir.join("work");
     let args = ["--size", "120x90", "--mode", "conventional", "--samples", "2"];
-    let printed = run(slurm.cmd(SUBMIT).args(["", "merged.png", "3"]).args(args));
+    let printed = run(slurm.cmd(SUBMIT).args(["", "merged.png", "4"]).args(args));
     let (tiles, merge) = job_ids(&printed);
     assert_eq!(slurm.wait(&merge, Duration::from_secs(120)), "COMPLETED", "{printed}");
     assert_eq!(slurm.state(&format!("{tiles}_0")), "COMPLETED");
@@ -220,12 +220,12 @@ fn a_slurm_array_of_tiles_and_its_merge_make_the_render() {
         std::fs::read(&whole).unwrap() == std::fs::read(work.join("merged.png")).unwrap(),
         "the merge differs from the render"
     );
-    // Three tiles, each said so in its task's log.
+    // Four tiles, each said so in its task's log.
     let logs = std::fs::read_dir(&work).unwrap().filter_map(|e| {
         let name = e.ok()?.file_name().into_string().ok()?;
         name.starts_with("irt-tiles-").then_some(name)
     });
-    assert_eq!(logs.count(), 3);
+    assert_eq!(logs.count(), 4);
 
     // A failing array: the merge is cancelled, not left pending, and writes nothing.
     let printed = run(slurm.cmd(SUBMIT).args(["", "broken.png", "2", "--size", "0x0"]));
