@@ -15,6 +15,7 @@
 //! plain functions of its state ([`modes`]); animation ([`animation`]) and the background BVH
 //! ([`background`]) live beside the session.
 
+pub mod adapt;
 pub mod animation;
 pub mod background;
 pub mod metrics;
