@@ -4,23 +4,15 @@
 use super::args::{load_scene, DeviceArgs, ModeArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::Args;
-use irt::app::{ViewOptions, ABOUT, KEYS, LONG_ABOUT};
+use irt::app::{keys, ViewOptions, ABOUT, LONG_ABOUT};
 use irt::render::{Mode, Settings};
 use std::path::PathBuf;
-
-fn keys_help() -> String {
-    let mut s = String::from("Keys and mouse:\n");
-    for (k, what) in KEYS {
-        s += &format!("  {k:<16}{what}\n");
-    }
-    s
-}
 
 #[derive(Args, Clone, Debug)]
 #[command(
     about = ABOUT,
     long_about = LONG_ABOUT,
-    after_long_help = keys_help(),
+    after_long_help = keys::help(),
     mut_arg("size", |a| a.help("Window size in pixels, WxH (default: the scene camera's, at least 320x240)"))
 )]
 pub struct ViewArgs {
