@@ -12,6 +12,7 @@ pub mod hud;
 pub mod input;
 pub mod keys;
 pub mod present;
+pub mod source;
 pub mod viewer;
 
 use crate::render::{Mode, Settings};
@@ -87,5 +88,16 @@ pub struct ViewOptions {
 
 /// `irt view`: runs the window on `scene` until it is closed (or `options.frames` are shown).
 pub fn run(options: ViewOptions, scene: Scene) -> Result<()> {
-    viewer::run(options, scene)
+    viewer::run(options, scene, None)
+}
+
+/// `irt view --mpi` on rank 0: the window, with the pixels traced by the job's workers
+/// ([`source::Distributed`]); closing it ends their work.
+pub fn run_distributed(
+    options: ViewOptions,
+    scene: Scene,
+    cluster: &crate::dist::cluster::Cluster,
+    deadlines: crate::dist::master::Deadlines,
+) -> Result<()> {
+    viewer::run(options, scene, Some((cluster, deadlines)))
 }

@@ -4,14 +4,16 @@
 //! → present ([`super::present`]); the next redraw follows at once unless the picture converged
 //! and nothing moves (then the loop waits for events). Keys are [`super::keys`]' table.
 
-use super::blit::Shown;
 use super::camera::{camera_toml, scene_bounds, CameraController};
 use super::edit::{self, screenshot_name, Picker, Playback, Selection};
 use super::hud::{EditView, HudRequest, HudView, Stats, SCALES, SHADOW_CHOICES};
 use super::input::{ButtonIntent, Input};
 use super::keys::{self, Action};
 use super::present::Presenter;
+use super::source::{Distributed, Local, Source};
 use super::ViewOptions;
+use crate::dist::cluster::Cluster;
+use crate::dist::master::Deadlines;
 use crate::gpu::GpuContext;
 use crate::render::metrics::AgeTracker;
 use crate::render::{Cancel, HostLoop, UpdateReport, FRAME_BUDGET};
@@ -31,7 +33,9 @@ use winit::window::WindowId;
 const MOVING_GRACE: Duration = Duration::from_millis(200);
 /// Presents that may follow egui's repaint requests after an input event.
 const EGUI_FOLLOWUPS: u32 = 10;
-pub fn run(args: ViewOptions, scene: Scene) -> Result<()> {
+/// The window on `scene` until it is closed; with `cluster`, rank 0 of an MPI job whose workers
+/// trace (the job's deadlines for them).
+pub fn run(args: ViewOptions, scene: Scene, cluster: Option<(&Cluster, Deadlines)>) -> Result<()> {
     let wayland = wayland_reachable();
     // Before the event loop and the device: Mesa's Wayland probe stays quiet (gpu::instance).
     crate::gpu::instance::ensure_runtime_dir();
@@ -47,11 +51,16 @@ pub fn run(args: ViewOptions, scene: Scene) -> Result<()> {
             "cannot open a window: {e} (is DISPLAY or WAYLAND_DISPLAY set? `irt render` works without one)"
         )
     })?;
-    let mut app = App { args, scene: Some(scene), viewer: None, error: None };
-    event_loop.run_app(&mut app).map_err(|e| anyhow!("the window's event loop failed: {e}"))?;
-    if let Some(v) = &app.viewer {
+    let mut app = App { args, scene: Some(scene), cluster, viewer: None, error: None };
+    let ran = event_loop.run_app(&mut app).map_err(|e| anyhow!("the window's event loop failed: {e}"));
+    if let Some(v) = app.viewer.take() {
         v.ctx.save_pipeline_cache();
+        if app.error.is_none() && ran.is_ok() {
+            // Closed as asked: the workers are told the job is over.
+            v.source.finish();
+        }
     }
+    ran?;
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
@@ -73,14 +82,15 @@ fn wayland_reachable() -> bool {
     var("XDG_RUNTIME_DIR").is_some_and(|dir| std::path::Path::new(&dir).join(path).exists())
 }
 
-struct App {
+struct App<'a> {
+    cluster: Option<(&'a Cluster, Deadlines)>,
     args: ViewOptions,
     scene: Option<Scene>,
-    viewer: Option<Viewer>,
+    viewer: Option<Viewer<'a>>,
     error: Option<anyhow::Error>,
 }
 
-impl App {
+impl App<'_> {
     fn fail(&mut self, event_loop: &ActiveEventLoop, e: anyhow::Error) {
         if self.error.is_none() {
             self.error = Some(e);
@@ -89,13 +99,13 @@ impl App {
     }
 }
 
-impl ApplicationHandler for App {
+impl ApplicationHandler for App<'_> {
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {
         if self.viewer.is_some() {
             return;
         }
         let Some(scene) = self.scene.take() else { return };
-        match Viewer::new(event_loop, &self.args, scene) {
+        match Viewer::new(event_loop, &self.args, scene, self.cluster) {
             Ok(v) => {
                 v.out.window.request_redraw();
                 self.viewer = Some(v);
@@ -126,12 +136,15 @@ impl ApplicationHandler for App {
     }
 }
 
-struct Viewer {
+struct Viewer<'a> {
     args: ViewOptions,
     /// The window, its surface, the blit and the HUD.
     out: Presenter,
     ctx: GpuContext,
-    session: Session,
+    /// What traces: a session on this device, or the MPI master.
+    source: Box<dyn Source + 'a>,
+    /// Who traces, in words (the HUD).
+    device: String,
     hud_visible: bool,
     controller: CameraController,
     input: Input,
@@ -180,8 +193,13 @@ fn same_view(a: &Camera, b: &Camera) -> bool {
 
 mod edits;
 
-impl Viewer {
-    fn new(event_loop: &ActiveEventLoop, args: &ViewOptions, scene: Scene) -> Result<Self> {
+impl<'a> Viewer<'a> {
+    fn new(
+        event_loop: &ActiveEventLoop,
+        args: &ViewOptions,
+        scene: Scene,
+        cluster: Option<(&'a Cluster, Deadlines)>,
+    ) -> Result<Self> {
         let (out, ctx) = Presenter::new(event_loop, args)?;
         let scale = args.scale;
         let win = if out.minimised { args.size } else { out.window_size() };
@@ -198,15 +216,23 @@ impl Viewer {
             Mode::Frameless { present_every, .. } => present_every,
             _ => 0,
         };
-        let mut session = Session::new_interactive(&ctx, &traced, settings).map_err(|e| anyhow!(e))?;
+        let mut source: Box<dyn Source + 'a> = match cluster {
+            Some((cluster, deadlines)) => {
+                Box::new(Distributed::start(cluster, &traced, settings, deadlines)?)
+            }
+            None => {
+                Box::new(Local(Session::new_interactive(&ctx, &traced, settings).map_err(|e| anyhow!(e))?))
+            }
+        };
         let playback = scene.is_animated().then(|| Playback::new(scene.duration(), args.time, args.paused));
         let mut last_update = None;
         if let Some(p) = playback {
-            last_update = Some(("time", session.set_time(&ctx, p.time).map_err(|e| anyhow!(e))?));
+            last_update = Some(("time", source.set_time(&ctx, p.time)?));
         }
         let controller = CameraController::new(&scene.camera, scene_bounds(&scene));
         let now = Instant::now();
-        let ages = AgeTracker::new(session.pass_len(), 0.0);
+        let ages = AgeTracker::new(source.pass_len(), 0.0);
+        let device = source.device(&ctx);
         let mut v = Viewer {
             args: args.clone(),
             out,
@@ -235,7 +261,8 @@ impl Viewer {
             last_update,
             playback,
             last_play: now,
-            session,
+            source,
+            device,
             ctx,
         };
         eprintln!(
@@ -264,11 +291,11 @@ impl Viewer {
     /// Says, until it is adopted, that a BVH is being built behind the grid: at the start, and
     /// again when a settings change that rebuilds the session starts a new one.
     fn announce_bvh(&mut self) {
-        let pending = self.session.bvh_pending();
+        let pending = self.source.bvh_pending();
         if pending && !self.bvh_announced {
             self.say(format!(
                 "{} primitives: the grid is traced while the BVH builds",
-                self.session.scene().primitive_count()
+                self.source.scene().primitive_count()
             ));
             // Until it is adopted: `say`'s message would be gone after a few seconds.
             self.status_until = None;
@@ -308,10 +335,8 @@ impl Viewer {
             }
             WindowEvent::RedrawRequested if self.redraw(event_loop)? => self.out.window.request_redraw(),
             WindowEvent::ModifiersChanged(m) => self.input.mods = m.state(),
-            WindowEvent::CursorMoved { position, .. } => {
-                if self.input.cursor_moved(position) {
-                    self.out.window.request_redraw();
-                }
+            WindowEvent::CursorMoved { position, .. } if self.input.cursor_moved(position) => {
+                self.out.window.request_redraw();
             }
             WindowEvent::CursorLeft { .. } => self.input.cursor = None,
             WindowEvent::MouseInput { state, button, .. } => {
@@ -321,17 +346,17 @@ impl Viewer {
                     return Ok(());
                 }
                 let light = match self.selection {
-                    Some(Selection::Light(i)) if i < self.session.scene().lights.len() => Some((
+                    Some(Selection::Light(i)) if i < self.source.scene().lights.len() => Some((
                         i,
-                        self.session.base_scene().lights[i].position,
-                        self.session.scene().lights[i].position,
+                        self.source.base_scene().lights[i].position,
+                        self.source.scene().lights[i].position,
                     )),
                     _ => None,
                 };
                 match self.input.mouse_button(button, down, light) {
                     ButtonIntent::Pick(at) => self.pick(at),
                     ButtonIntent::LightDropped(i) => {
-                        if let Some(p) = self.session.base_scene().lights.get(i).map(|l| l.position) {
+                        if let Some(p) = self.source.base_scene().lights.get(i).map(|l| l.position) {
                             self.report_edit(format!("light {i} at ({}, {}, {})", p.x, p.y, p.z));
                         }
                     }
@@ -437,7 +462,7 @@ impl Viewer {
 
     /// The settings to change: the pending ones, else the session's.
     fn next_settings(&self) -> Settings {
-        self.pending.clone().unwrap_or_else(|| self.session.settings().clone())
+        self.pending.clone().unwrap_or_else(|| self.source.settings().clone())
     }
 
     fn toggle_mode(&mut self) {
@@ -454,7 +479,7 @@ impl Viewer {
 
     fn change_depth(&mut self, delta: i32) {
         let mut s = self.next_settings();
-        let now = s.max_depth.unwrap_or(self.session.scene().trace.max_depth) as i32;
+        let now = s.max_depth.unwrap_or(self.source.scene().trace.max_depth) as i32;
         s.max_depth = Some((now + delta).clamp(1, MAX_TRACE_DEPTH as i32) as u32);
         self.pending = Some(s);
     }
@@ -469,7 +494,7 @@ impl Viewer {
     fn screenshot(&mut self) -> Result<()> {
         let path =
             self.args.screenshot.clone().unwrap_or_else(|| PathBuf::from(screenshot_name(SystemTime::now())));
-        let image = self.session.read_image(&self.ctx);
+        let image = self.source.read_image(&self.ctx)?;
         self.check_gpu()?;
         match image.save_png(&path) {
             Ok(()) => {
@@ -502,11 +527,11 @@ impl Viewer {
 
         // Settings.
         if let Some(s) = self.pending.take() {
-            if let Err(e) = self.session.apply(&self.ctx, s) {
+            if let Err(e) = self.source.apply(&self.ctx, s) {
                 self.say(format!("could not apply: {e}"));
             }
             self.check_gpu()?;
-            let present_every = match self.session.settings().mode {
+            let present_every = match self.source.settings().mode {
                 Mode::Frameless { present_every, .. } => present_every,
                 _ => 0,
             };
@@ -516,17 +541,17 @@ impl Viewer {
         }
 
         // A large scene's BVH, built on another thread while the grid was traced.
-        match self.session.adopt_bvh(&self.ctx) {
-            Ok(Some(_)) => {
+        match self.source.adopt_bvh(&self.ctx) {
+            Ok(true) => {
                 self.say("the BVH is built: it is traced from now on");
                 self.host.restart();
                 self.dirty = true;
             }
-            Ok(None) => {}
+            Ok(false) => {}
             Err(e) => self.say(format!("could not use the BVH built in the background: {e}")),
         }
         self.announce_bvh();
-        if self.session.bvh_pending() && self.out.retry_at.is_none() {
+        if self.source.bvh_pending() && self.out.retry_at.is_none() {
             // Look again shortly, even with nothing left to trace.
             self.out.retry_at = Some(now + Duration::from_millis(100));
         }
@@ -534,12 +559,12 @@ impl Viewer {
         // Edits: the light being dragged follows the cursor (conventional: between frames, so
         // that a drag cannot restart every frame and freeze the picture).
         let [ww, wh] = self.window_size();
-        let conventional = matches!(self.session.settings().mode, Mode::Conventional { .. } | Mode::Bands);
+        let conventional = matches!(self.source.settings().mode, Mode::Conventional { .. } | Mode::Bands);
         let between_frames = !conventional || !self.host.in_frame();
         if let Some(d) = self.input.light_drag.filter(|_| between_frames) {
-            let off = edit::view_offset(self.session.camera(), [ww, wh], d.posed, d.offset.0, d.offset.1);
+            let off = edit::view_offset(self.source.camera(), [ww, wh], d.posed, d.offset.0, d.offset.1);
             let to = d.start + off;
-            if self.session.base_scene().lights.get(d.light).is_some_and(|l| l.position != to) {
+            if self.source.base_scene().lights.get(d.light).is_some_and(|l| l.position != to) {
                 self.edit("light moved", |s| s.lights[d.light].position = to);
             }
         }
@@ -560,7 +585,7 @@ impl Viewer {
 
         // Camera: taken now, or held while the conventional frame in flight finishes.
         let camera = self.controller.camera(ww, wh);
-        let changed = !same_view(&camera, self.session.camera());
+        let changed = !same_view(&camera, self.source.camera());
         if changed || self.input.active() {
             self.last_move = Some(now);
         }
@@ -570,15 +595,15 @@ impl Viewer {
         let div = if self.lowres_moving && moving { (self.scale * 2).min(8) } else { self.scale };
         self.effective_scale = div;
         let [rw, rh] = render_size([ww, wh], div);
-        if [rw, rh] != self.session.size() {
-            self.session.set_size(&self.ctx, rw, rh).map_err(|e| anyhow!(e))?;
+        if [rw, rh] != self.source.size() {
+            self.source.set_size(&self.ctx, rw, rh)?;
             self.host.restart();
         }
-        if self.ages.pass_len() != self.session.pass_len() {
-            self.ages = AgeTracker::new(self.session.pass_len(), self.clock());
+        if self.ages.pass_len() != self.source.pass_len() {
+            self.ages = AgeTracker::new(self.source.pass_len(), self.clock());
         }
         if changed && self.host.take_input(conventional, changed) {
-            self.session.set_camera(&self.ctx, &camera);
+            self.source.set_camera(&self.ctx, &camera)?;
             self.host.restart();
         }
 
@@ -586,7 +611,7 @@ impl Viewer {
         let mut present;
         let mut idle;
         loop {
-            let r = self.session.step(&self.ctx);
+            let r = self.source.step(&self.ctx)?;
             idle = r.idle;
             if !r.idle {
                 self.record(&r);
@@ -637,26 +662,24 @@ impl Viewer {
     }
 
     /// Blit + HUD + present; times itself.
-
-    /// Blit + HUD + present; times itself.
     fn present(&mut self) -> Result<()> {
         let t0 = Instant::now();
         let window = self.window_size();
-        let settings = self.session.settings();
+        let settings = self.source.settings();
         let hud = self.hud_visible.then(|| HudView {
-            adapter: &self.ctx.info.name,
+            adapter: &self.device,
             cpu_device: self.ctx.info.device_type == wgpu::DeviceType::Cpu,
             mode: settings.mode,
-            shadows: self.session.scene().trace.shadows,
-            max_depth: self.session.scene().trace.max_depth,
-            render: self.session.size(),
+            shadows: self.source.scene().trace.shadows,
+            max_depth: self.source.scene().trace.max_depth,
+            render: self.source.size(),
             window,
             scale: self.scale,
             effective_scale: self.effective_scale,
             lowres_moving: self.lowres_moving,
-            samples: self.session.samples(),
+            samples: self.source.samples(),
             max_samples: settings.max_samples,
-            converged: self.session.converged(),
+            converged: self.source.converged(),
             age: match settings.mode {
                 Mode::Frameless { .. } => Some(self.ages.stats((t0 - self.start).as_secs_f64())),
                 Mode::Conventional { .. } | Mode::Bands => None,
@@ -666,14 +689,14 @@ impl Viewer {
             now: t0,
             stats: &self.stats,
             edit: EditView {
-                base: self.session.base_scene(),
+                base: self.source.base_scene(),
                 selection: self.selection,
                 last_update: self.last_update,
                 playback: self.playback,
             },
         });
-        let shown = Shown::Device(self.session.frame_buffer());
-        let Some(done) = self.out.present(&self.ctx, shown, self.session.size(), hud.as_ref())? else {
+        let shown = self.source.shown();
+        let Some(done) = self.out.present(&self.ctx, shown, self.source.size(), hud.as_ref())? else {
             return Ok(());
         };
         let now = Instant::now();

@@ -11,11 +11,11 @@ use std::path::PathBuf;
 use std::time::{Instant, SystemTime};
 use winit::dpi::PhysicalPosition;
 
-impl Viewer {
+impl Viewer<'_> {
     /// Selects what shows at window position `at` (a light near it, else the object hit).
     pub(super) fn pick(&mut self, at: PhysicalPosition<f64>) {
         let t = Instant::now();
-        let sel = self.picker.pick(self.session.scene(), [at.x, at.y], self.window_size());
+        let sel = self.picker.pick(self.source.scene(), [at.x, at.y], self.window_size());
         let took = t.elapsed();
         self.select(sel);
         log::info!("pick at ({}, {}): {:.2} ms", at.x, at.y, took.as_secs_f64() * 1e3);
@@ -23,7 +23,7 @@ impl Viewer {
 
     pub(super) fn select(&mut self, sel: Option<Selection>) {
         self.selection = sel;
-        let text = sel.map_or("nothing".into(), |s| s.describe(self.session.base_scene()));
+        let text = sel.map_or("nothing".into(), |s| s.describe(self.source.base_scene()));
         let mut out = std::io::stdout().lock();
         let _ = writeln!(out, "selected: {text}");
         let _ = out.flush();
@@ -43,12 +43,12 @@ impl Viewer {
     /// step; refinement restarts). A scene the session refuses leaves everything as it was and
     /// says why in the HUD.
     pub(super) fn edit(&mut self, what: &'static str, f: impl FnOnce(&mut Scene)) -> bool {
-        let mut s = self.session.base_scene().clone();
+        let mut s = self.source.base_scene().clone();
         f(&mut s);
-        if s == *self.session.base_scene() {
+        if s == *self.source.base_scene() {
             return false;
         }
-        let ok = match self.session.set_scene(&self.ctx, &s) {
+        let ok = match self.source.set_scene(&self.ctx, &s) {
             Ok(r) => {
                 self.last_update = Some((what, r));
                 true
@@ -66,7 +66,7 @@ impl Viewer {
 
     pub(super) fn selected_light(&mut self, key: &str) -> Option<usize> {
         match self.selection {
-            Some(Selection::Light(i)) if i < self.session.scene().lights.len() => Some(i),
+            Some(Selection::Light(i)) if i < self.source.scene().lights.len() => Some(i),
             _ => {
                 self.say(format!("{key}: select a light first (click near it, L, or the HUD's list)"));
                 None
@@ -77,9 +77,9 @@ impl Viewer {
     /// PgUp / PgDn: the selected light a tenth of its distance farther / nearer.
     pub(super) fn light_depth(&mut self, steps: f64) {
         let Some(i) = self.selected_light("PgUp/PgDn") else { return };
-        let off = edit::depth_offset(self.session.camera(), self.session.scene().lights[i].position, steps);
+        let off = edit::depth_offset(self.source.camera(), self.source.scene().lights[i].position, steps);
         if self.edit("light moved", |s| s.lights[i].position += off) {
-            let p = self.session.base_scene().lights[i].position;
+            let p = self.source.base_scene().lights[i].position;
             self.report_edit(format!("light {i} at ({}, {}, {})", p.x, p.y, p.z));
         }
     }
@@ -90,8 +90,8 @@ impl Viewer {
             self.say("K: select an object first (click it)");
             return;
         };
-        let Some(m) = edit::object_material(self.session.base_scene(), p) else { return };
-        let kind = edit::next_kind(&self.session.base_scene().materials[m as usize].kind);
+        let Some(m) = edit::object_material(self.source.base_scene(), p) else { return };
+        let kind = edit::next_kind(&self.source.base_scene().materials[m as usize].kind);
         let name = edit::kind_name(&kind);
         if self.edit("material", |s| s.materials[m as usize].kind = kind) {
             self.report_edit(format!("material {m} is now {name}"));
@@ -100,7 +100,7 @@ impl Viewer {
 
     /// L: selects the light after the selected one (the first if none is).
     pub(super) fn next_light(&mut self) {
-        let n = self.session.scene().lights.len();
+        let n = self.source.scene().lights.len();
         if n == 0 {
             self.say("the scene has no lights");
             return;
@@ -118,9 +118,9 @@ impl Viewer {
         let path =
             self.args.save.clone().unwrap_or_else(|| PathBuf::from(scene_file_name(SystemTime::now())));
         let [w, h] = self.window_size();
-        let mut scene = self.session.base_scene().clone();
+        let mut scene = self.source.base_scene().clone();
         scene.camera = self.controller.camera(w.max(1), h.max(1));
-        scene.trace = self.session.scene().trace.clone();
+        scene.trace = self.source.scene().trace.clone();
         match write_scene(&scene, &path) {
             Ok(()) => {
                 println!("scene: {}", path.display());
@@ -156,7 +156,7 @@ impl Viewer {
 
     /// Shows scene time `t` from the next step.
     pub(super) fn set_time(&mut self, t: f64) {
-        match self.session.set_time(&self.ctx, t) {
+        match self.source.set_time(&self.ctx, t) {
             Ok(r) => self.last_update = Some(("time", r)),
             Err(e) => self.say(format!("time {t}: {e}")),
         }
@@ -181,7 +181,7 @@ impl Viewer {
             self.pending = Some(s);
         }
         if let Some(d) = r.max_depth {
-            let now = self.session.scene().trace.max_depth as i32;
+            let now = self.source.scene().trace.max_depth as i32;
             self.change_depth(d as i32 - now);
         }
         if let Some(sc) = r.scale {
