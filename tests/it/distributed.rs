@@ -11,6 +11,9 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use crate::viewer::{decode, differing_pixels, headless, serial, window_id, TempDir, Xvfb};
+use irt::render::{Mode, Settings};
+
 const IRT: &str = env!("CARGO_BIN_EXE_irt");
 
 fn dir() -> PathBuf {
@@ -42,7 +45,11 @@ struct Job {
 
 impl Job {
     fn start(contexts: &[Ranks]) -> Job {
-        let mut cmd = Command::new("mpirun");
+        Job::start_in(Command::new("mpirun"), contexts)
+    }
+
+    /// The job from `cmd` (mpirun with an environment of its own: a display).
+    fn start_in(mut cmd: Command, contexts: &[Ranks]) -> Job {
         cmd.arg("--oversubscribe");
         for (i, c) in contexts.iter().enumerate() {
             if i > 0 {
@@ -317,4 +324,83 @@ fn a_worker_without_its_device_says_so_before_the_first_frame() {
 fn one_rank_is_told_how_to_launch() {
     let mut job = Job::start(&[ranks(1, &["render", "--mpi", "--out", "/nonexistent/x.png"])]);
     assert_fails_loudly(&mut job, Duration::from_secs(60), &["mpirun -n 3 irt render --mpi", "at least 2"]);
+}
+
+/// Presses P in the window of `x` until the screenshot `shot` is there and the same as the one
+/// before it a second earlier, within `limit` (the picture converged: --max-samples 1); it.
+fn settled(x: &Xvfb, job: &mut Job, shot: &Path, limit: Duration) -> Vec<u8> {
+    let deadline = Instant::now() + limit;
+    let mut last: Option<Vec<u8>> = None;
+    loop {
+        let _ = std::fs::remove_file(shot);
+        x.xdotool(&["key", "p"], Duration::from_secs(10));
+        while !shot.exists() {
+            assert!(job.child.try_wait().unwrap().is_none(), "the job ended:\n{}", job.stderr());
+            assert!(Instant::now() < deadline, "no screenshot within {limit:?}:\n{}", job.stderr());
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let (_, _, img) = decode(shot);
+        if img.iter().any(|&c| c > 0) && last.as_ref() == Some(&img) {
+            return img;
+        }
+        last = Some(img);
+        assert!(Instant::now() < deadline, "the picture did not settle within {limit:?}");
+        std::thread::sleep(Duration::from_millis(1000));
+    }
+}
+
+/// `mpirun -n 3 irt view --mpi` under Xvfb, as a user meets it: rank 0's window shows what the
+/// two workers traced — the settled picture is the single-process one bit for bit, in both
+/// modes — a drag changes it, and Escape ends every rank with status 0 and nothing left behind.
+#[test]
+fn the_window_across_ranks_shows_the_workers_picture_and_escape_ends_the_job() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("mpi-view");
+    let shot = dir.join("shot.png");
+    let cases = [
+        ("conventional", Settings { mode: Mode::conventional(), max_samples: 1, ..Settings::default() }),
+        ("frameless", Settings { mode: Mode::frameless(), max_samples: 1, ..Settings::default() }),
+    ];
+    for (mode, settings) in cases {
+        let args = [
+            "view",
+            "--mpi",
+            "--size",
+            "160x120",
+            "--mode",
+            mode,
+            "--max-samples",
+            "1",
+            "--no-hud",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ];
+        let mut job = Job::start_in(x.command("mpirun"), &[ranks(3, &args)]);
+        let wid = window_id(&x);
+        x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+        let before = settled(&x, &mut job, &shot, Duration::from_secs(120));
+        let want = headless(settings, 160, 120, 1);
+        let diff = differing_pixels(&before, &want);
+        assert_eq!(diff, 0, "{mode}: {diff} pixels differ from the single-process picture");
+        if mode == "conventional" {
+            x.xdotool(&["mousemove", "--window", &wid, "80", "60"], Duration::from_secs(10));
+            x.xdotool(&["mousedown", "1"], Duration::from_secs(10));
+            for dx in [10, 20, 30, 40] {
+                let to = (80 + dx).to_string();
+                x.xdotool(&["mousemove", "--window", &wid, &to, "62"], Duration::from_secs(10));
+                std::thread::sleep(Duration::from_millis(30));
+            }
+            x.xdotool(&["mouseup", "1"], Duration::from_secs(10));
+            let after = settled(&x, &mut job, &shot, Duration::from_secs(120));
+            let diff = differing_pixels(&before, &after);
+            assert!(diff > 160 * 120 / 20, "{mode}: only {diff} pixels changed after a drag");
+        }
+        x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+        let status = job.wait(Duration::from_secs(30));
+        let err = job.stderr();
+        assert!(status.is_some_and(|s| s.success()), "{mode}: Escape gave {status:?}:\n{err}");
+        assert!(!err.contains("panicked"), "{mode}: {err}");
+        assert!(job.left_behind().is_empty(), "{mode}: processes left: {:?}", job.left_behind());
+    }
 }
