@@ -372,6 +372,28 @@ fn mouse_drag_and_keys_change_the_picture_and_escape_exits() {
     v.exits_cleanly(Duration::from_secs(20));
 }
 
+/// (b2) The keys as the README lists them: holding `q` flies down — the picture changes and the
+/// viewer keeps running (`q` used to quit) — and `Esc` quits with status 0.
+#[test]
+fn holding_q_flies_down_and_escape_quits() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("q");
+    let shot = dir.join("q.png");
+    let (mut v, _wid) = focused_viewer(&x, &shot, &[]);
+    let before = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
+    x.xdotool(&["keydown", "q"], Duration::from_secs(10));
+    std::thread::sleep(Duration::from_millis(400));
+    x.xdotool(&["keyup", "q"], Duration::from_secs(10));
+    assert!(v.alive(), "`q` quit the viewer");
+    let after = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
+    let diff = differing_pixels(&before, &after);
+    assert!(diff > before.len() / 3 / 20, "only {diff} pixels changed while `q` was held");
+    assert!(v.alive());
+    x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+    v.exits_cleanly(Duration::from_secs(20));
+}
+
 /// (c) The window resized to 1×1 and back neither crashes nor hangs, the render follows the
 /// window's size, and Escape still exits 0.
 #[test]
