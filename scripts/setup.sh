@@ -133,6 +133,11 @@ if ! command -v Xvfb >/dev/null || ! command -v xdotool >/dev/null; then
     echo "setup: installing Xvfb and xdotool for the window tests"
     install_pkgs xvfb xdotool xauth
 fi
+# ImageMagick's `import` captures a window as the X server holds it (tests/it/distributed.rs).
+if ! command -v import >/dev/null; then
+    echo "setup: installing ImageMagick for the window captures"
+    install_pkgs imagemagick
+fi
 
 # The Embree 3 peer of `irt bench --peer embree` (cargo feature `embree`), only when asked for.
 if [ "$WITH_EMBREE" = 1 ]; then

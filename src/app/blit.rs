@@ -62,7 +62,17 @@ struct BlitUniform {
     _pad: [u32; 3],
 }
 
+/// The picture to show: a device's frame buffer, or the same layout in host memory (the MPI
+/// master's frame buffer, assembled from the workers' pixels), which the blit uploads.
+#[derive(Clone, Copy)]
+pub enum Shown<'a> {
+    Device(&'a wgpu::Buffer),
+    Host(&'a [u8]),
+}
+
 pub struct Blit {
+    /// Where host pictures are uploaded to (grown as needed).
+    upload: Option<wgpu::Buffer>,
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
@@ -128,6 +138,7 @@ impl Blit {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
         Blit {
+            upload: None,
             pipeline,
             layout,
             uniform,
@@ -142,16 +153,33 @@ impl Blit {
         self.encode_srgb
     }
 
-    /// Records the blit of `frame` (`render` pixels) onto a target of `window` pixels.
+    /// Records the blit of `shown` (`render` pixels) onto a target of `window` pixels.
     pub fn draw(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         pass: &mut wgpu::RenderPass<'_>,
-        frame: &wgpu::Buffer,
+        shown: Shown<'_>,
         render: [u32; 2],
         window: [u32; 2],
     ) {
+        let frame = match shown {
+            Shown::Device(b) => b,
+            Shown::Host(bytes) => {
+                let size = (bytes.len() as u64).max(16);
+                if self.upload.as_ref().is_none_or(|b| b.size() < size) {
+                    self.upload = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("blit upload"),
+                        size,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    }));
+                }
+                let upload = self.upload.as_ref().expect("made above");
+                queue.write_buffer(upload, 0, bytes);
+                upload
+            }
+        };
         let u = BlitUniform {
             render: [render[0].max(1), render[1].max(1)],
             window: [window[0].max(1), window[1].max(1)],

@@ -6,6 +6,8 @@
 use crate::reference::{Geometry, Primitive, Reference};
 use crate::scene::{Camera, MaterialKind, Scene, TraceSettings};
 use glam::DVec3;
+use std::path::Path;
+use std::time::SystemTime;
 
 /// A click within this many window pixels of a light's projection selects the light.
 pub const LIGHT_PICK_RADIUS: f64 = 12.0;
@@ -290,6 +292,54 @@ impl Playback {
     }
 }
 
+/// `irt-YYYYmmdd-HHMMSS.png` for now (UTC).
+pub fn screenshot_name(t: SystemTime) -> String {
+    format!("irt-{}.png", utc_stamp(t))
+}
+
+/// `irt-scene-YYYYmmdd-HHMMSS.toml` for now (UTC): where T writes the scene without --save.
+pub fn scene_file_name(t: SystemTime) -> String {
+    format!("irt-scene-{}.toml", utc_stamp(t))
+}
+
+/// Writes `scene` as the native TOML (`io::toml_write`, what `irt convert` writes) to `path`,
+/// atomically, its textures beside it first (the TOML never names a file not yet there).
+pub fn write_scene(scene: &Scene, path: &Path) -> Result<(), String> {
+    let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+    let files = crate::io::toml_write::to_files(scene, &stem)?;
+    if files.toml.len() as u64 > crate::io::MAX_SCENE_FILE_BYTES {
+        return Err(format!(
+            "the TOML would be {} bytes, above the {}-byte limit irt loads: not written",
+            files.toml.len(),
+            crate::io::MAX_SCENE_FILE_BYTES
+        ));
+    }
+    let dir = path.parent().unwrap_or(Path::new(""));
+    for (name, png) in &files.textures {
+        let p = dir.join(name);
+        crate::image::write_atomic(&p, png).map_err(|e| format!("writing {}: {e}", p.display()))?;
+    }
+    crate::image::write_atomic(path, files.toml.as_bytes())
+        .map_err(|e| format!("writing {}: {e}", path.display()))
+}
+
+/// `YYYYmmdd-HHMMSS` (UTC).
+fn utc_stamp(t: SystemTime) -> String {
+    let secs = t.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + (month <= 2) as i64;
+    format!("{year:04}{month:02}{day:02}-{:02}{:02}{:02}", rem / 3600, rem / 60 % 60, rem % 60)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -434,5 +484,13 @@ mod tests {
         }
         assert_eq!(p.speed, MAX_SPEED);
         assert!(!Playback::new(1.0, 0.3, true).playing);
+    }
+
+    #[test]
+    fn screenshot_names_are_utc_timestamps() {
+        let t = SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(951_782_400 + 3 * 3600 + 4 * 60 + 5);
+        assert_eq!(screenshot_name(t), "irt-20000229-030405.png");
+        assert_eq!(screenshot_name(SystemTime::UNIX_EPOCH), "irt-19700101-000000.png");
+        assert_eq!(scene_file_name(t), "irt-scene-20000229-030405.toml");
     }
 }

@@ -2,7 +2,7 @@
 //! drawing returns what the user asked for ([`HudRequest`]); the viewer applies it.
 
 use super::edit::{self, Playback, Selection, KINDS};
-use super::KEYS;
+use super::keys;
 use crate::render::metrics::AgeStats;
 use crate::render::UpdateReport;
 use crate::render::{Mode, PixelOrder};
@@ -478,9 +478,9 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
             }
             egui::CollapsingHeader::new("keys").default_open(false).show(ui, |ui| {
                 egui::Grid::new("keys").num_columns(2).spacing([12.0, 0.0]).show(ui, |ui| {
-                    for (k, what) in KEYS {
-                        ui.monospace(*k);
-                        ui.label(*what);
+                    for b in keys::TABLE {
+                        ui.monospace(keys::plain(b.shown));
+                        ui.label(keys::plain(b.words));
                         ui.end_row();
                     }
                 });

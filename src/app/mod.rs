@@ -1,47 +1,24 @@
 //! `irt view`: the interactive window. A thin layer over [`crate::render::Session`]: a winit
-//! window with a wgpu surface on the same device, the session's frame buffer blitted to it
-//! ([`blit`]), a camera controller ([`camera`], pure math), an egui HUD ([`hud`]) and the loop
-//! ([`viewer`]). `--frames N --screenshot FILE` is its headless-like twin for scripts and tests.
+//! window with a wgpu surface on the same device ([`present`]), the session's frame buffer
+//! blitted to it ([`blit`]), a camera controller ([`camera`], pure math), mouse and keys
+//! ([`input`], one table of keys: [`keys`]), an egui HUD ([`hud`]) and the loop ([`viewer`],
+//! whose policy is [`crate::render::host_loop`]). `--frames N --screenshot FILE` is its headless-like twin for scripts and tests.
 //! It runs with plain [`ViewOptions`]; `irt view`'s arguments are read in src/cli/view.rs.
 
 pub mod blit;
 pub mod camera;
 pub mod edit;
 pub mod hud;
+pub mod input;
+pub mod keys;
+pub mod present;
+pub mod source;
 pub mod viewer;
 
 use crate::render::{Mode, Settings};
 use crate::scene::Scene;
 use anyhow::Result;
 use std::path::PathBuf;
-
-/// Every key and mouse binding, as the HUD and `irt view --help` show it.
-pub const KEYS: &[(&str, &str)] = &[
-    ("left drag", "orbit around the focus point"),
-    ("right drag", "look around (fly); Q/E move down/up while held"),
-    ("W A S D", "fly forward / left / back / right"),
-    ("E", "fly up"),
-    ("wheel", "fly speed x1.25 per notch"),
-    ("Shift / Ctrl", "move x4 faster / x0.25 finer"),
-    ("F", "frame the scene (fit its bounding sphere)"),
-    ("R", "reset to the scene's camera"),
-    ("C", "print the camera as a TOML [camera] table on stdout"),
-    ("M", "switch conventional / frameless"),
-    ("1 2 3 4", "shadows hard / bundle:4 / bundle:16 / shell"),
-    ("+ / -", "max ray depth up / down"),
-    ("[ / ]", "resolution scale down / up (1, 1/2, 1/4)"),
-    ("H", "HUD on / off"),
-    ("P", "screenshot PNG (--screenshot FILE, else irt-YYYYmmdd-HHMMSS.png, UTC)"),
-    ("left click", "select the object or light under the cursor (the HUD edits it)"),
-    ("Shift+left drag", "move the selected light in the view plane (also: middle drag)"),
-    ("PgUp / PgDn", "move the selected light farther / nearer"),
-    ("L", "select the next light"),
-    ("K", "selected object's material: next kind (diffuse, metal, dielectric, polished)"),
-    ("T", "write the scene as TOML (--save FILE, else irt-scene-YYYYmmdd-HHMMSS.toml, UTC)"),
-    ("Space", "play / pause (animated scenes)"),
-    (", / .", "playback speed /2 / x2"),
-    ("Esc, Q", "quit (Q quits unless the right button is held)"),
-];
 
 /// `irt view`'s one-line help.
 pub const ABOUT: &str =
@@ -111,5 +88,16 @@ pub struct ViewOptions {
 
 /// `irt view`: runs the window on `scene` until it is closed (or `options.frames` are shown).
 pub fn run(options: ViewOptions, scene: Scene) -> Result<()> {
-    viewer::run(options, scene)
+    viewer::run(options, scene, None)
+}
+
+/// `irt view --mpi` on rank 0: the window, with the pixels traced by the job's workers
+/// ([`source::Distributed`]); closing it ends their work.
+pub fn run_distributed(
+    options: ViewOptions,
+    scene: Scene,
+    cluster: &crate::dist::cluster::Cluster,
+    deadlines: crate::dist::master::Deadlines,
+) -> Result<()> {
+    viewer::run(options, scene, Some((cluster, deadlines)))
 }

@@ -4,23 +4,17 @@
 use super::args::{load_scene, DeviceArgs, ModeArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::Args;
-use irt::app::{ViewOptions, ABOUT, KEYS, LONG_ABOUT};
+use irt::app::{keys, ViewOptions, ABOUT, LONG_ABOUT};
+use irt::dist::cluster::Cluster;
+use irt::dist::master::Deadlines;
 use irt::render::{Mode, Settings};
 use std::path::PathBuf;
-
-fn keys_help() -> String {
-    let mut s = String::from("Keys and mouse:\n");
-    for (k, what) in KEYS {
-        s += &format!("  {k:<16}{what}\n");
-    }
-    s
-}
 
 #[derive(Args, Clone, Debug)]
 #[command(
     about = ABOUT,
     long_about = LONG_ABOUT,
-    after_long_help = keys_help(),
+    after_long_help = keys::help(),
     mut_arg("size", |a| a.help("Window size in pixels, WxH (default: the scene camera's, at least 320x240)"))
 )]
 pub struct ViewArgs {
@@ -62,6 +56,9 @@ pub struct ViewArgs {
     pub mode: ModeArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
+    /// `mpirun -n N irt view --mpi`: rank 0 opens the window, ranks 1..N-1 trace.
+    #[command(flatten)]
+    pub mpi: super::mpi::MpiArgs,
 }
 
 /// `1`, `1/2` or `1/4` (also `0.5`, `0.25`) as the divisor 1, 2 or 4.
@@ -76,6 +73,21 @@ pub fn parse_scale(s: &str) -> Result<u32> {
 
 /// `irt view`: runs the window until it is closed (or `--frames` are shown).
 pub fn run(args: ViewArgs) -> Result<()> {
+    if !args.mpi.mpi {
+        return window(args, None);
+    }
+    // Under mpirun every rank runs this command: the workers trace until rank 0 ends the job.
+    let Some(cluster) = super::mpi::join(irt::gpu::device::Backend::Wgpu, &args.device)? else {
+        return Ok(());
+    };
+    // Rank 0: whatever fails here (no display, a bad scene, a dead worker) ends every rank.
+    let deadlines = args.mpi.deadlines().unwrap_or_else(|e| cluster.abort(&format!("{e:#}")));
+    window(args, Some((&cluster, deadlines))).unwrap_or_else(|e| cluster.abort(&format!("error: {e:#}")));
+    Ok(())
+}
+
+/// The window, on this process's device or (`cluster`) with the job's workers tracing.
+fn window(args: ViewArgs, cluster: Option<(&Cluster, Deadlines)>) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let frameless = args.mode.frameless(args.present_every);
     let conventional = args.mode.conventional();
@@ -106,7 +118,10 @@ pub fn run(args: ViewArgs) -> Result<()> {
         frameless,
         conventional,
     };
-    irt::app::run(options, scene)
+    match cluster {
+        Some((cluster, deadlines)) => irt::app::run_distributed(options, scene, cluster, deadlines),
+        None => irt::app::run(options, scene),
+    }
 }
 
 #[cfg(test)]

@@ -256,6 +256,53 @@ impl<'a> Master<'a> {
         self.restart()
     }
 
+    /// A new scene (a live edit in the window; its camera is ignored): sent to every worker,
+    /// which sets it up anew and says so, then a new state, so that work traced on the old
+    /// scene is dropped. Pixels that arrive meanwhile are taken as usual. There is no smaller
+    /// message for an edit: the scene is what the workers hold.
+    pub fn set_scene(&mut self, scene: &Scene, deadline: Duration) -> Result<(), MasterError> {
+        let files = crate::io::toml_write::to_files(scene, "scene")?;
+        let hash = SceneMsg::digest(&files.toml, &files.textures);
+        let msg = SceneMsg { toml: files.toml, textures: files.textures, hash }.encode();
+        self.state.version += 1;
+        for w in &self.workers {
+            self.cluster.send(w.rank, Tag::Scene, &msg);
+            self.cluster.send(w.rank, Tag::State, &self.state.encode());
+        }
+        let mut ready = 0;
+        let start = Instant::now();
+        while ready < self.workers.len() {
+            let left = deadline.saturating_sub(start.elapsed());
+            let Some((rank, tag, bytes)) = self.cluster.receive_within(left) else {
+                let rank = self.workers.first().map_or(-1, |w| w.rank);
+                let seconds = start.elapsed().as_secs_f64();
+                return Err(MasterError::Silent {
+                    rank,
+                    seconds,
+                    doing: "setting an edited scene up".into(),
+                });
+            };
+            if tag == Tag::Pixels.code() {
+                let px = Pixels::decode(&bytes)?;
+                self.take(rank, px, &mut StepReport::default())?;
+            } else if tag == Tag::Ready.code() {
+                let r = Ready::decode(&bytes)?;
+                if let Some(why) = r.error {
+                    return Err(MasterError::Scene { rank, why });
+                }
+                if r.hash != hash {
+                    let why = format!("it holds scene {:016x}, rank 0 sent {hash:016x}", r.hash);
+                    return Err(MasterError::Scene { rank, why });
+                }
+                ready += 1;
+            } else {
+                return Err(MasterError::Protocol { rank, what: "out-of-turn" });
+            }
+        }
+        // Pieces handed out before the edit are still on their way; their work restarts.
+        self.restart()
+    }
+
     /// Refinement starts again with the current state (the frame buffer keeps its pixels: the
     /// first new sample of each replaces it).
     fn restart(&mut self) -> Result<(), MasterError> {
@@ -436,8 +483,18 @@ impl<'a> Master<'a> {
         }
     }
 
-    /// Every worker is told the job is over.
-    pub fn finish(self) {
+    /// Every worker is told the job is over, once the pieces still out are back (the window
+    /// may close mid-frame): a worker sending a large result waits for rank 0 to take it, and
+    /// would never read the bye. A worker silent past the work deadline is not waited for.
+    pub fn finish(mut self) {
+        let start = Instant::now();
+        while self.workers.iter().any(|w| !w.out.is_empty()) && start.elapsed() < self.deadline {
+            if let Some((rank, tag, bytes)) = self.cluster.receive_within(Duration::from_millis(50)) {
+                if let (true, Ok(px)) = (tag == Tag::Pixels.code(), Pixels::decode(&bytes)) {
+                    let _ = self.take(rank, px, &mut StepReport::default());
+                }
+            }
+        }
         for w in &self.workers {
             self.cluster.send(w.rank, Tag::Bye, &[]);
         }

@@ -18,6 +18,8 @@
 pub mod adapt;
 pub mod animation;
 pub mod background;
+pub mod camera_path;
+pub mod host_loop;
 pub mod metrics;
 pub mod modes;
 pub mod order;
@@ -29,6 +31,7 @@ pub mod session;
 pub mod updates;
 
 pub use background::Adoption;
+pub use host_loop::{Cancel, HostLoop, FRAME_BUDGET};
 pub use modes::SliceSpan;
 pub use order::PixelOrder;
 pub use picture::{LoopMeter, Picture};

@@ -112,6 +112,26 @@ fn help_is_true() {
     assert!(help(&["stability", "--help"]).contains("[default: 160x120]"));
 }
 
+/// The README's key list is the window's key table (src/app/keys.rs) rendered; the window's
+/// `--help` lists the same rows.
+#[test]
+fn readme_keys_are_the_key_table() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let block =
+        irt::app::keys::readme_block(&readme).expect("README.md has the keys block between its markers");
+    let expected = irt::app::keys::markdown();
+    assert!(
+        block == expected,
+        "README.md's keys block differs from src/app/keys.rs; replace it with:\n{expected}"
+    );
+    let out = irt(&["view", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    for b in irt::app::keys::TABLE {
+        assert!(help.contains(&irt::app::keys::plain(b.words)), "--help lacks {:?}: {help}", b.words);
+    }
+    assert!(!help.contains("Esc, Q") && help.contains("Esc"), "{help}");
+}
+
 /// The measurement commands refuse a scene flag they would otherwise ignore.
 #[test]
 fn measurements_refuse_flags_they_would_ignore() {

@@ -11,6 +11,9 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use crate::viewer::{decode, differing_pixels, headless, serial, window_id, TempDir, Xvfb};
+use irt::render::{Mode, Settings};
+
 const IRT: &str = env!("CARGO_BIN_EXE_irt");
 
 fn dir() -> PathBuf {
@@ -42,7 +45,11 @@ struct Job {
 
 impl Job {
     fn start(contexts: &[Ranks]) -> Job {
-        let mut cmd = Command::new("mpirun");
+        Job::start_in(Command::new("mpirun"), contexts)
+    }
+
+    /// The job from `cmd` (mpirun with an environment of its own: a display).
+    fn start_in(mut cmd: Command, contexts: &[Ranks]) -> Job {
         cmd.arg("--oversubscribe");
         for (i, c) in contexts.iter().enumerate() {
             if i > 0 {
@@ -329,4 +336,155 @@ fn a_scene_rank_0_cannot_load_ends_every_rank() {
     let mut job =
         Job::start(&[ranks(3, &["render", "--mpi", "--frames", "0..2", "--out", out.to_str().unwrap()])]);
     assert_fails_loudly(&mut job, Duration::from_secs(60), &["irt rank 0: error", "job array"]);
+}
+
+/// Presses P in the window of `x` until the screenshot `shot` is there and the same as the one
+/// before it a second earlier, within `limit` (the picture converged: --max-samples 1); it.
+fn settled(x: &Xvfb, job: &mut Job, shot: &Path, limit: Duration) -> Vec<u8> {
+    let deadline = Instant::now() + limit;
+    let mut last: Option<Vec<u8>> = None;
+    loop {
+        let _ = std::fs::remove_file(shot);
+        x.xdotool(&["key", "p"], Duration::from_secs(10));
+        while !shot.exists() {
+            assert!(job.child.try_wait().unwrap().is_none(), "the job ended:\n{}", job.stderr());
+            assert!(Instant::now() < deadline, "no screenshot within {limit:?}:\n{}", job.stderr());
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let (_, _, img) = decode(shot);
+        if img.iter().any(|&c| c > 0) && last.as_ref() == Some(&img) {
+            return img;
+        }
+        last = Some(img);
+        assert!(Instant::now() < deadline, "the picture did not settle within {limit:?}");
+        std::thread::sleep(Duration::from_millis(1000));
+    }
+}
+
+/// The window `wid` as the X server holds it (ImageMagick's `import`), RGB.
+fn capture(x: &Xvfb, wid: &str, path: &Path) -> Vec<u8> {
+    let status = x
+        .command("import")
+        .args(["-window", wid, path.to_str().unwrap()])
+        .status()
+        .expect("ImageMagick's import runs (scripts/setup.sh installs it)");
+    assert!(status.success(), "import -window {wid}: {status}");
+    decode(path).2
+}
+
+/// A pixel of `scene` over a sphere and that sphere's material, as the viewer picks.
+fn sphere_pixel(scene: &irt::scene::Scene) -> (u32, u32, usize) {
+    use irt::app::edit::{Picker, Selection};
+    use irt::reference::Primitive;
+    let [w, h] = [scene.camera.width, scene.camera.height];
+    let mut picker = Picker::default();
+    (0..h)
+        .step_by(4)
+        .flat_map(|y| (0..w).step_by(4).map(move |x| (x, y)))
+        .find_map(|(x, y)| match picker.pick(scene, [x as f64, y as f64], [w, h]) {
+            Some(Selection::Object(Primitive::Sphere(i))) => Some((x, y, scene.spheres[i].material as usize)),
+            _ => None,
+        })
+        .expect("the default scene shows a sphere")
+}
+
+/// `scene` traced in one process, one pass, as sRGB bytes.
+fn headless_of(scene: &irt::scene::Scene, settings: Settings) -> Vec<u8> {
+    let ctx = crate::common::gpu();
+    let mut s = irt::render::Session::new(&ctx, scene, settings).unwrap();
+    s.complete_pass(&ctx);
+    s.read_image(&ctx).to_srgb8()
+}
+
+/// `mpirun -n 3 irt view --mpi` under Xvfb, as a user meets it: rank 0's window shows what the
+/// two workers traced — the settled picture is the single-process one bit for bit, in both
+/// modes, and it is what the window shows — a live edit reaches the workers (the picture becomes
+/// the edited scene's, bit for bit), a drag changes it, and Escape ends every rank with status 0
+/// and nothing left behind.
+#[test]
+fn the_window_across_ranks_shows_the_workers_picture_and_escape_ends_the_job() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("mpi-view");
+    let shot = dir.join("shot.png");
+    let cases = [
+        ("conventional", Settings { mode: Mode::conventional(), max_samples: 1, ..Settings::default() }),
+        ("frameless", Settings { mode: Mode::frameless(), max_samples: 1, ..Settings::default() }),
+    ];
+    for (mode, settings) in cases {
+        let args = [
+            "view",
+            "--mpi",
+            "--size",
+            "160x120",
+            "--mode",
+            mode,
+            "--max-samples",
+            "1",
+            "--no-hud",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ];
+        let mut job = Job::start_in(x.command("mpirun"), &[ranks(3, &args)]);
+        let wid = window_id(&x);
+        x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+        let before = settled(&x, &mut job, &shot, Duration::from_secs(120));
+        let want = headless(settings.clone(), 160, 120, 1);
+        let diff = differing_pixels(&before, &want);
+        assert_eq!(diff, 0, "{mode}: {diff} pixels differ from the single-process picture");
+        // What the window shows is that picture (the master's host frame, uploaded for the
+        // blit): within the rounding of the surface's sRGB encoding.
+        let on_screen = capture(&x, &wid, &dir.join("screen.png"));
+        let off = before.iter().zip(&on_screen).map(|(a, b)| a.abs_diff(*b)).max();
+        assert!(
+            on_screen.len() == before.len() && off <= Some(2),
+            "{mode}: the window shows another picture ({off:?})"
+        );
+        if mode == "conventional" {
+            // A live edit: the workers set the edited scene up, and show it as one process would.
+            let scene = irt::scene::Scene {
+                camera: irt::scene::Camera { width: 160, height: 120, ..irt::scene::default_scene().camera },
+                ..irt::scene::default_scene()
+            };
+            let (px, py, m) = sphere_pixel(&scene);
+            x.xdotool(
+                &["mousemove", "--window", &wid, &px.to_string(), &py.to_string()],
+                Duration::from_secs(10),
+            );
+            x.xdotool(&["click", "1"], Duration::from_secs(10));
+            x.xdotool(&["key", "k"], Duration::from_secs(10));
+            let mut edited = scene.clone();
+            edited.materials[m].kind = irt::app::edit::next_kind(&scene.materials[m].kind);
+            let want = headless_of(&edited, settings.clone());
+            let deadline = Instant::now() + Duration::from_secs(120);
+            loop {
+                let got = settled(&x, &mut job, &shot, Duration::from_secs(120));
+                if got == want {
+                    break;
+                }
+                assert!(
+                    Instant::now() < deadline,
+                    "the edit of material {m} never showed as one process shows it"
+                );
+            }
+
+            x.xdotool(&["mousemove", "--window", &wid, "80", "60"], Duration::from_secs(10));
+            x.xdotool(&["mousedown", "1"], Duration::from_secs(10));
+            for dx in [10, 20, 30, 40] {
+                let to = (80 + dx).to_string();
+                x.xdotool(&["mousemove", "--window", &wid, &to, "62"], Duration::from_secs(10));
+                std::thread::sleep(Duration::from_millis(30));
+            }
+            x.xdotool(&["mouseup", "1"], Duration::from_secs(10));
+            let after = settled(&x, &mut job, &shot, Duration::from_secs(120));
+            let diff = differing_pixels(&want, &after);
+            assert!(diff > 160 * 120 / 20, "{mode}: only {diff} pixels changed after a drag");
+        }
+        x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+        let status = job.wait(Duration::from_secs(30));
+        let err = job.stderr();
+        assert!(status.is_some_and(|s| s.success()), "{mode}: Escape gave {status:?}:\n{err}");
+        assert!(!err.contains("panicked"), "{mode}: {err}");
+        assert!(job.left_behind().is_empty(), "{mode}: processes left: {:?}", job.left_behind());
+    }
 }

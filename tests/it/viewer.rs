@@ -17,22 +17,22 @@ use std::time::{Duration, Instant};
 /// One test at a time: each has its own X server and a viewer using both cores.
 static SERIAL: Mutex<()> = Mutex::new(());
 
-fn serial() -> std::sync::MutexGuard<'static, ()> {
+pub(crate) fn serial() -> std::sync::MutexGuard<'static, ()> {
     SERIAL.lock().unwrap_or_else(|p| p.into_inner())
 }
 
 /// A directory removed when dropped.
-struct TempDir(PathBuf);
+pub(crate) struct TempDir(PathBuf);
 
 impl TempDir {
-    fn new(name: &str) -> TempDir {
+    pub(crate) fn new(name: &str) -> TempDir {
         let dir =
             PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("viewer-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         TempDir(dir)
     }
-    fn join(&self, p: &str) -> PathBuf {
+    pub(crate) fn join(&self, p: &str) -> PathBuf {
         self.0.join(p)
     }
 }
@@ -56,7 +56,7 @@ impl Drop for Kid {
 /// An Xvfb server on a display of its own (Xvfb picks a free one and reports it when ready),
 /// and an XDG_RUNTIME_DIR (mode 0700) for its clients. Stopped with SIGTERM so that it removes its
 /// lock file and socket.
-struct Xvfb {
+pub(crate) struct Xvfb {
     server: Option<Child>,
     display: String,
     runtime: TempDir,
@@ -79,7 +79,7 @@ impl Drop for Xvfb {
 }
 
 impl Xvfb {
-    fn start() -> Xvfb {
+    pub(crate) fn start() -> Xvfb {
         let child = Command::new("Xvfb")
             .args(["-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
             .stdin(Stdio::null())
@@ -107,7 +107,7 @@ impl Xvfb {
         x
     }
 
-    fn command(&self, program: &str) -> Command {
+    pub(crate) fn command(&self, program: &str) -> Command {
         let mut c = Command::new(program);
         c.env("DISPLAY", &self.display)
             .env("XDG_RUNTIME_DIR", &self.runtime.0)
@@ -117,7 +117,7 @@ impl Xvfb {
     }
 
     /// Runs xdotool with `args`, at most `limit`; its stdout.
-    fn xdotool(&self, args: &[&str], limit: Duration) -> String {
+    pub(crate) fn xdotool(&self, args: &[&str], limit: Duration) -> String {
         let mut child = Kid(self
             .command("xdotool")
             .args(args)
@@ -246,18 +246,18 @@ fn focused_viewer(x: &Xvfb, shot: &Path, extra: &[&str]) -> (Viewer, String) {
     (v, wid)
 }
 
-fn window_id(x: &Xvfb) -> String {
+pub(crate) fn window_id(x: &Xvfb) -> String {
     let out = x.xdotool(&["search", "--sync", "--onlyvisible", "--name", "^irt"], Duration::from_secs(60));
     out.lines().next().expect("a window id").trim().to_string()
 }
 
-fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
+pub(crate) fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
     let img = image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8();
     (img.width(), img.height(), img.into_raw())
 }
 
 /// The default scene at `w`×`h`, traced headless by the library for `passes` pictures.
-fn headless(settings: Settings, w: u32, h: u32, passes: u32) -> Vec<u8> {
+pub(crate) fn headless(settings: Settings, w: u32, h: u32, passes: u32) -> Vec<u8> {
     let ctx = common::gpu();
     let mut scene = irt::scene::default_scene();
     scene.camera.width = w;
@@ -269,7 +269,7 @@ fn headless(settings: Settings, w: u32, h: u32, passes: u32) -> Vec<u8> {
     s.read_image(&ctx).to_srgb8()
 }
 
-fn differing_pixels(a: &[u8], b: &[u8]) -> usize {
+pub(crate) fn differing_pixels(a: &[u8], b: &[u8]) -> usize {
     a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p != q).count()
 }
 
@@ -367,6 +367,28 @@ fn mouse_drag_and_keys_change_the_picture_and_escape_exits() {
     let after = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
     let diff = differing_pixels(&before, &after);
     assert!(diff > before.len() / 3 / 20, "only {diff} pixels changed after the drag and `w`");
+    assert!(v.alive());
+    x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+    v.exits_cleanly(Duration::from_secs(20));
+}
+
+/// (b2) The keys as the README lists them: holding `q` flies down — the picture changes and the
+/// viewer keeps running (`q` used to quit) — and `Esc` quits with status 0.
+#[test]
+fn holding_q_flies_down_and_escape_quits() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("q");
+    let shot = dir.join("q.png");
+    let (mut v, _wid) = focused_viewer(&x, &shot, &[]);
+    let before = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
+    x.xdotool(&["keydown", "q"], Duration::from_secs(10));
+    std::thread::sleep(Duration::from_millis(400));
+    x.xdotool(&["keyup", "q"], Duration::from_secs(10));
+    assert!(v.alive(), "`q` quit the viewer");
+    let after = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
+    let diff = differing_pixels(&before, &after);
+    assert!(diff > before.len() / 3 / 20, "only {diff} pixels changed while `q` was held");
     assert!(v.alive());
     x.xdotool(&["key", "Escape"], Duration::from_secs(10));
     v.exits_cleanly(Duration::from_secs(20));
