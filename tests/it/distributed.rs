@@ -476,3 +476,18 @@ fn the_window_across_ranks_shows_the_workers_picture_and_escape_ends_the_job() {
         assert!(job.left_behind().is_empty(), "{mode}: processes left: {:?}", job.left_behind());
     }
 }
+
+/// Without a display rank 0 says so in words (no path inside winit's sources) and the whole job
+/// ends non-zero at once: no worker is left waiting for a window that never opens.
+#[test]
+fn view_without_a_display_ends_the_job_in_words() {
+    let mut cmd = Command::new("mpirun");
+    cmd.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY").env_remove("WAYLAND_SOCKET");
+    let mut job = Job::start_in(cmd, &[ranks(3, &["view", "--mpi", "--size", "160x120"])]);
+    let status = job.wait(Duration::from_secs(60));
+    let err = job.stderr();
+    assert!(status.is_some_and(|s| !s.success()), "{status:?}\n{err}");
+    assert!(err.contains("irt rank 0: error: cannot open a window: neither"), "{err}");
+    assert!(!err.contains(".cargo") && !err.contains(".rs:"), "a source path in the message:\n{err}");
+    assert!(job.left_behind().is_empty(), "processes left: {:?}", job.left_behind());
+}
