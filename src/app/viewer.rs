@@ -48,7 +48,8 @@ pub fn run(args: ViewOptions, scene: Scene, cluster: Option<(&Cluster, Deadlines
     }
     let event_loop = builder.build().map_err(|e| {
         anyhow!(
-            "cannot open a window: {e} (is DISPLAY or WAYLAND_DISPLAY set? `irt render` works without one)"
+            "cannot open a window: {} (is DISPLAY or WAYLAND_DISPLAY set? `irt render` works without one)",
+            os_words(&e.to_string())
         )
     })?;
     let mut app = App { args, scene: Some(scene), cluster, viewer: None, error: None };
@@ -64,6 +65,15 @@ pub fn run(args: ViewOptions, scene: Scene, cluster: Option<(&Cluster, Deadlines
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
+    }
+}
+
+/// winit's message without the place in winit's source where it was raised (`os error at
+/// …/winit-0.30.13/src/…/mod.rs:765: …`): a path on the build machine says nothing to a user.
+fn os_words(message: &str) -> String {
+    match message.strip_prefix("os error at ").and_then(|rest| rest.split_once(": ")) {
+        Some((_, words)) => words.to_string(),
+        None => message.to_string(),
     }
 }
 
@@ -720,6 +730,15 @@ impl<'a> Viewer<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn window_errors_name_no_source_path() {
+        let winit =
+            "os error at /root/.cargo/registry/src/x/winit-0.30.13/src/platform_impl/linux/mod.rs:765: \
+                     neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.";
+        assert_eq!(os_words(winit), "neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.");
+        assert_eq!(os_words("the event loop is gone"), "the event loop is gone");
+    }
 
     #[test]
     fn render_sizes_round_up_and_never_vanish() {

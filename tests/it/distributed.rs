@@ -488,3 +488,50 @@ fn the_window_across_ranks_shows_the_workers_picture_and_escape_ends_the_job() {
         assert!(job.left_behind().is_empty(), "{mode}: processes left: {:?}", job.left_behind());
     }
 }
+
+/// Without a display rank 0 says so in words (no path inside winit's sources) and the whole job
+/// ends non-zero at once: no worker is left waiting for a window that never opens.
+#[test]
+fn view_without_a_display_ends_the_job_in_words() {
+    let mut cmd = Command::new("mpirun");
+    cmd.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY").env_remove("WAYLAND_SOCKET");
+    let mut job = Job::start_in(cmd, &[ranks(3, &["view", "--mpi", "--size", "160x120"])]);
+    let status = job.wait(Duration::from_secs(60));
+    let err = job.stderr();
+    assert!(status.is_some_and(|s| !s.success()), "{status:?}\n{err}");
+    assert!(err.contains("irt rank 0: error: cannot open a window: neither"), "{err}");
+    assert!(!err.contains(".cargo") && !err.contains(".rs:"), "a source path in the message:\n{err}");
+    assert!(job.left_behind().is_empty(), "processes left: {:?}", job.left_behind());
+}
+
+/// A worker that stops answering while the window refines (frameless, never converging) is
+/// named by rank 0 after --deadline, and the whole job ends non-zero: the window's loop is the
+/// master's loop.
+#[test]
+fn a_stopped_worker_ends_the_window_job_with_its_rank_named() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let args = [
+        "view",
+        "--mpi",
+        "--size",
+        "160x120",
+        "--mode",
+        "frameless",
+        "--max-samples",
+        "0",
+        "--no-hud",
+        "--deadline",
+        "3",
+    ];
+    let mut job = Job::start_in(x.command("mpirun"), &[ranks(3, &args)]);
+    assert!(
+        job.wait_for_line("tracing", Duration::from_secs(120)),
+        "the job never started:\n{}",
+        job.stderr()
+    );
+    window_id(&x);
+    let pid = job.rank_pid(2).expect("rank 2 runs");
+    signal(pid, "-STOP");
+    assert_fails_loudly(&mut job, Duration::from_secs(30), &["rank 2 said nothing for", "tracing positions"]);
+}
