@@ -427,7 +427,7 @@ fn the_window_across_ranks_shows_the_workers_picture_and_escape_ends_the_job() {
         ];
         let mut job = Job::start_in(x.command("mpirun"), &[ranks(3, &args)]);
         let wid = window_id(&x);
-        x.xdotool(&["windowfocus", "--sync", &wid], Duration::from_secs(10));
+        crate::viewer::focus(&x, &wid);
         let before = settled(&x, &mut job, &shot, Duration::from_secs(120));
         let want = headless(settings.clone(), 160, 120, 1);
         let diff = differing_pixels(&before, &want);
