@@ -97,13 +97,17 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     let table = header + &irt::lab::tradeoff::markdown_table(&rows);
     print!("{table}");
     irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
+    irt::lab::tradeoff::write_images(&rows, &truth, &args.out_dir)?;
     irt::lab::tradeoff::plot_svg(
         &rows,
         &format!("shadow modes on {name}: error vs time"),
         &args.out_dir.join("plot.svg"),
     )
     .map_err(anyhow::Error::msg)?;
-    eprintln!("wrote {}/table.md, plot.svg, ground-truth.png", args.out_dir.display());
+    eprintln!(
+        "wrote {}/table.md, plot.svg, ground-truth.png, MODE.png, MODE-error.png",
+        args.out_dir.display()
+    );
     Ok(())
 }
 

@@ -22,6 +22,8 @@ pub struct Row {
     pub rmse: f64,
     pub max: f64,
     pub ssim: f64,
+    /// The mode's picture (the first frame).
+    pub image: Image,
 }
 
 /// The modes compared: hard, every shell variant, bundles of 4 to 256 (rotated) and one fixed.
@@ -90,9 +92,22 @@ pub fn measure_all<D: Device>(
                 rmse: diff.rmse,
                 max: diff.max,
                 ssim: ssim(&image, truth),
+                image,
             }
         })
         .collect())
+}
+
+/// Writes each row's picture as `<mode>.png` and where it differs from `truth` as
+/// `<mode>-error.png` (the display-space error ×8 in red over a dimmed truth), into `dir`: where
+/// a mode's error comes from, beside hard shadows'.
+pub fn write_images(rows: &[Row], truth: &Image, dir: &Path) -> std::io::Result<()> {
+    for r in rows {
+        let name = r.mode.to_string().replace(':', "-");
+        r.image.save_png(&dir.join(format!("{name}.png")))?;
+        crate::metrics::diff_image(&r.image, truth, 8.0).save_png(&dir.join(format!("{name}-error.png")))?;
+    }
+    Ok(())
 }
 
 /// The rows as a Markdown table, with each mode's time relative to hard shadows.
