@@ -9,8 +9,8 @@ use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_amb
 use super::shadows::{basis, bundle_point, cone_shell, mesh_shell, sphere_shell, stratified_disc};
 use super::texture::{cone_uv, material_at, sphere_uv};
 use crate::scene::{
-    bundle_samples, light_shells, CameraBasis, Combine, Light, LightShells, MaterialKind, Scene, ShadowMode,
-    ShellShape, Triangle,
+    bundle_samples, light_shells, scene_shells, CameraBasis, Combine, Light, LightShells, MaterialKind,
+    Scene, ShadowMode, ShellShape, Triangle,
 };
 use glam::{DVec2, DVec3};
 use std::cell::Cell;
@@ -164,9 +164,7 @@ impl<'a> Reference<'a> {
                 _ => Vec::new(),
             },
             shells: match scene.trace.shadows {
-                ShadowMode::Shell { .. } => {
-                    scene.lights.iter().map(|l| light_shells(scene, l.position, l.radius)).collect()
-                }
+                ShadowMode::Shell { .. } => scene_shells(scene),
                 _ => Vec::new(),
             },
         }

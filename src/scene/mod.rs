@@ -17,8 +17,8 @@ pub use motion::{
 };
 pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
 pub use shells::{
-    light_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape, SHELL_CELL_RES,
-    SHELL_DIRECT_TRIANGLES,
+    light_shells, scene_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape,
+    SHELL_CELL_GAIN, SHELL_CELL_LOAD, SHELL_CELL_RES_MAX, SHELL_CELL_RES_MIN, SHELL_DIRECT_TRIANGLES,
 };
 pub use texture::{Filter, Texture, Wrap, MAX_TEXTURES, MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS};
 

@@ -462,33 +462,38 @@ fn the_default_shell_mode_beats_hard_shadows_on_the_tradeoff_scenes() {
     }
 }
 
-/// The light buffer's cell of a direction, GPU against `scene::shell_cell`: the same cell except
-/// where f32 rounding puts a direction within 1e-5 of a cell boundary on the other side (the
-/// host lists objects with 1e-3 rad of slack for that).
+/// The light buffer's cell of a direction, GPU against `scene::shell_cell`, at every resolution a
+/// light may get: the same cell except where f32 rounding puts a direction within 1e-5 of a cell
+/// boundary on the other side (the host lists objects with 1e-3 rad of slack for that).
 #[test]
 fn shell_cells_match_the_host() {
     let ctx = gpu();
     let s = scene(1.0, ShadowMode::Hard);
     let gs = crate::common::upload(&ctx, &s, &irt::accel::Grid::build(&s));
     let mut rng = Rng::new(23);
-    let dirs: Vec<DVec3> = (0..4000).map(|_| f32_round(rng.unit() * rng.range(0.5, 20.0))).collect();
-    let inputs: Vec<[f32; 4]> = dirs.iter().map(|&d| v4(d, 0.0)).collect();
-    let out = run_kernel(&ctx, &gs, "k_shell_cell", &inputs, dirs.len() as u32, 1);
-    let mut differ = 0;
-    for (k, &d) in dirs.iter().enumerate() {
-        let (got, want) = (out[k][0].to_bits(), shell_cell(d));
-        if got != want {
-            // Allowed only on a boundary: nudging the direction by 1e-5 of its length reaches it.
-            let near = (0..3).any(|a| {
-                [-1.0, 1.0].iter().any(|&e| {
-                    let mut v = d;
-                    v[a] += e * 1e-5 * d.length();
-                    shell_cell(v) == got
-                })
-            });
-            assert!(near, "direction {d}: GPU cell {got}, host {want}");
-            differ += 1;
+    let mut res = SHELL_CELL_RES_MIN;
+    while res <= SHELL_CELL_RES_MAX {
+        let dirs: Vec<DVec3> = (0..4000).map(|_| f32_round(rng.unit() * rng.range(0.5, 20.0))).collect();
+        let inputs: Vec<[f32; 4]> = dirs.iter().map(|&d| v4(d, res as f64)).collect();
+        let out = run_kernel(&ctx, &gs, "k_shell_cell", &inputs, dirs.len() as u32, 1);
+        let mut differ = 0;
+        for (k, &d) in dirs.iter().enumerate() {
+            let (got, want) = (out[k][0].to_bits(), shell_cell(d, res));
+            if got != want {
+                // Allowed only on a boundary: nudging the direction by 1e-5 of its length reaches it.
+                let near = (0..3).any(|a| {
+                    [-1.0, 1.0].iter().any(|&e| {
+                        let mut v = d;
+                        v[a] += e * 1e-5 * d.length();
+                        shell_cell(v, res) == got
+                    })
+                });
+                assert!(near, "res {res}: direction {d}: GPU cell {got}, host {want}");
+                differ += 1;
+            }
         }
+        // Boundaries are denser at higher resolutions: 4 in 4000 at 16, scaled with it.
+        assert!(differ <= 4 * res / SHELL_CELL_RES_MIN, "res {res}: {differ} directions in another cell");
+        res *= 2;
     }
-    assert!(differ <= 4, "{differ} directions in another cell");
 }
