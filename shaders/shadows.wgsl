@@ -221,7 +221,8 @@ fn shell_combine(s: f32, sigma: f32, product: bool) -> f32 {
 // A cell lists its spheres, then its cones, then its meshes, each with the run of its contour
 // edges that segments in the cell can come near, and each kind has a loop of its own: lavapipe
 // runs the whole body of a loop at every iteration (LAVAPIPE.md), so one loop would pay for the
-// mesh code at every sphere.
+// mesh code at every sphere. Once `s` is 0 no object can raise it (min or product of σ ∈ [0, 1]):
+// the loops stop there, all lanes' alike (a group's loop ends with its last lane).
 fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) -> f32 {
     let to = c - o;
     let dist = length(to);
@@ -271,14 +272,14 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         }
     }
     if HAS_SPHERES {
-        for (var j = cell.x; j < cell.y; j++) {
+        for (var j = cell.x; j < cell.y && s > 0.0; j++) {
             loop_tick(LOOP_CANDIDATES);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * shell_listed(list, j));
             s = shell_combine(s, sphere_shell(f, o, l, dist, light_r, bound.xyz, bound.w).x, product);
         }
     }
     if HAS_CONES {
-        for (var j = cell.y; j < cell.z; j++) {
+        for (var j = cell.y; j < cell.z && s > 0.0; j++) {
             loop_tick(LOOP_CANDIDATES);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * shell_listed(list, j));
             let cn = load_cone(prim_index(rec.x));
@@ -286,7 +287,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         }
     }
     if HAS_TRIANGLES {
-        for (var j = cell.z; j < cell.w; j += 3u) {
+        for (var j = cell.z; j < cell.w && s > 0.0; j += 3u) {
             loop_tick(LOOP_CANDIDATES);
             let k = shell_listed(list, j);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
