@@ -155,12 +155,14 @@ pub struct SceneArgs {
     /// Image height in pixels (overrides the scene's camera).
     #[arg(long, allow_negative_numbers = true)]
     pub height: Option<u32>,
-    /// Shadow mode (overrides the scene's [trace] shadows): hard, bundle:K (K rays to a
-    /// precomputed point set on the light, rotated per pixel; bundle:K:fixed unrotated), or shell
-    /// (one ray through translucent shells; shell:FALLOFF:COMBINE with FALLOFF disc (default),
-    /// smoothstep or linear and COMBINE min (default) or product). See docs/shadows.md.
+    /// Shadow mode (overrides the scene's [trace] shadows): soft (picks shell or bundle:2 for
+    /// the scene by what a shell ray would visit, and says which; docs/tradeoff.md), hard,
+    /// bundle:K (K rays to a precomputed point set on the light, rotated per pixel; bundle:K:fixed
+    /// unrotated), or shell (one ray through translucent shells; shell:FALLOFF:COMBINE with
+    /// FALLOFF disc (default), smoothstep or linear and COMBINE min (default) or product). See
+    /// docs/shadows.md.
     #[arg(long, value_name = "MODE")]
-    pub shadows: Option<irt::scene::ShadowMode>,
+    pub shadows: Option<irt::scene::ShadowSetting>,
     /// Radius of every light (overrides the scene; 0 is a point light, soft modes need > 0).
     #[arg(long, value_name = "R")]
     pub light_radius: Option<f64>,
@@ -199,11 +201,15 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
     if let Some(h) = args.height {
         scene.camera.height = h;
     }
-    if let Some(m) = args.shadows {
-        scene.trace.shadows = m;
-    }
     if let Some(r) = args.light_radius {
         scene.lights.iter_mut().for_each(|l| l.radius = r);
+    }
+    if let Some(m) = args.shadows {
+        let (mode, soft) = m.resolve(&scene);
+        scene.trace.shadows = mode;
+        if let Some(c) = soft {
+            eprintln!("shadows: {c}");
+        }
     }
     irt::io::check_renderable(&scene, &args.name_or("default scene")).map_err(anyhow::Error::msg)?;
     Ok(scene)

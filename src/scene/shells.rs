@@ -128,7 +128,7 @@ fn cell_cone(face: u32, n: u32, iu: u32, iv: u32) -> (DVec3, f64) {
 /// Spheres `(centre, radius)` covering the segment `a b` thickened by `radius`: at most 16, each
 /// at most about twice `radius` long, so a long thin cylinder or edge is listed only in the
 /// cells along it, not in every cell its bounding sphere reaches.
-fn capsule(a: DVec3, b: DVec3, radius: f64) -> Vec<(DVec3, f64)> {
+pub(super) fn capsule(a: DVec3, b: DVec3, radius: f64) -> Vec<(DVec3, f64)> {
     let len = a.distance(b);
     let m = if radius > 0.0 { (len / (2.0 * radius)).ceil().clamp(1.0, 16.0) as u32 } else { 16 };
     (0..m).map(|i| (a.lerp(b, (i as f64 + 0.5) / m as f64), len / (2.0 * m as f64) + radius)).collect()
@@ -137,7 +137,7 @@ fn capsule(a: DVec3, b: DVec3, radius: f64) -> Vec<(DVec3, f64)> {
 /// Calls `found` with every cell of a `res`-per-side buffer around `light` whose cone of
 /// directions comes within the angle one of `pieces` subtends (plus 10⁻³ rad for f32 rounding of
 /// the direction on the GPU), found by descending from whole faces through quarters.
-fn cover(light: DVec3, pieces: &[(DVec3, f64)], res: u32, found: &mut impl FnMut(u32)) {
+pub(super) fn cover(light: DVec3, pieces: &[(DVec3, f64)], res: u32, found: &mut impl FnMut(u32)) {
     let caps: Vec<Option<(DVec3, f64)>> = pieces
         .iter()
         .map(|&(q, r)| {
@@ -174,15 +174,16 @@ fn cover(light: DVec3, pieces: &[(DVec3, f64)], res: u32, found: &mut impl FnMut
     }
 }
 
-/// Every primitive of a scene, to ask whether a point is hidden from the light's centre.
-struct Occluders<'a> {
+/// Every primitive of a scene, to ask whether a point is hidden from the light's centre (and,
+/// for `--shadows soft`, what a hard shadow ray costs, [`shell_cost`]).
+pub(super) struct Occluders<'a> {
     scene: &'a Scene,
     triangles: Vec<[DVec3; 3]>,
     bvh: Bvh,
 }
 
 impl<'a> Occluders<'a> {
-    fn new(scene: &'a Scene) -> Self {
+    pub(super) fn new(scene: &'a Scene) -> Self {
         let triangles: Vec<[DVec3; 3]> = scene.triangles().map(|t| t.p).collect();
         let spheres = scene.spheres.iter().map(|s| (s.center - s.radius, s.center + s.radius));
         let tris = triangles.iter().map(|p| (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])));
@@ -191,16 +192,24 @@ impl<'a> Occluders<'a> {
         Occluders { scene, triangles, bvh }
     }
 
-    /// Whether anything lies on the segment `o + t d`, `0 < t < t_max` (`d` unit).
-    fn blocked(&self, o: DVec3, d: DVec3, t_max: f64) -> bool {
+    /// The nearest hit on `o + t d`, `0 < t < t_max` (`d` unit) when `any` is false, the first
+    /// found when it is; and the BVH nodes plus primitives the walk visited.
+    pub(super) fn walk(&self, o: DVec3, d: DVec3, t_max: f64, any: bool) -> (Option<f64>, usize) {
         let (ns, nt) = (self.scene.spheres.len(), self.triangles.len());
-        let mut hit = false;
+        let best = std::cell::Cell::new(t_max);
+        let mut found = None;
+        let visits = std::cell::Cell::new(0usize);
         self.bvh.traverse(
             o,
             d,
-            || t_max,
+            || {
+                visits.set(visits.get() + 1);
+                best.get()
+            },
             |id| {
+                visits.set(visits.get() + 1);
                 let id = id as usize;
+                let t_max = best.get();
                 let t = if id < ns {
                     let s = &self.scene.spheres[id];
                     intersect_sphere(o, d, s.center, s.radius, 0.0, t_max)
@@ -211,11 +220,20 @@ impl<'a> Occluders<'a> {
                     let c = &self.scene.cones[id - ns - nt];
                     intersect_cone(o, d, c.base, c.base_radius, c.apex, c.apex_radius, 0.0, t_max)
                 };
-                hit = t.is_some_and(|t| t < t_max);
-                hit
+                if let Some(t) = t.filter(|&t| t < t_max) {
+                    best.set(t);
+                    found = Some(t);
+                    return any;
+                }
+                false
             },
         );
-        hit
+        (found, visits.get())
+    }
+
+    /// Whether anything lies on the segment `o + t d`, `0 < t < t_max` (`d` unit).
+    fn blocked(&self, o: DVec3, d: DVec3, t_max: f64) -> bool {
+        self.walk(o, d, t_max, true).0.is_some()
     }
 }
 
