@@ -184,9 +184,10 @@ fn ray_visibility(o: vec3f, q: vec3f, gap: f32) -> f32 {
     return 0.0;
 }
 
-// The light-buffer cell of direction `d` from the light's centre (`scene::shell_cell`): face by
-// the largest axis (+x, -x, +y, -y, +z, -z), then row-major on the face.
-fn shell_cell(d: vec3f) -> u32 {
+// The light-buffer cell of direction `d` from the light's centre in a buffer of `n` cells per
+// face side (`scene::shell_cell`): face by the largest axis (+x, -x, +y, -y, +z, -z), then
+// row-major on the face.
+fn shell_cell(d: vec3f, n: u32) -> u32 {
     let a = abs(d);
     var face = 4u + select(1u, 0u, d.z > 0.0);
     var uv = d.xy / a.z;
@@ -197,7 +198,6 @@ fn shell_cell(d: vec3f) -> u32 {
         face = 2u + select(1u, 0u, d.y > 0.0);
         uv = d.xz / a.y;
     }
-    let n = SHELL_CELL_RES;
     let i = vec2u(clamp(vec2i((uv * 0.5 + 0.5) * f32(n)), vec2i(0), vec2i(i32(n) - 1)));
     return face * n * n + i.y * n + i.x;
 }
@@ -218,9 +218,11 @@ fn shell_combine(s: f32, sigma: f32, product: bool) -> f32 {
 // no test: their shells know from the distance alone); every shell object of this light
 // (`section`: its first texel, see layout.rs) listed in the light-buffer cell of the ray's
 // direction gives σ and `s` combines them, each object once (objects not listed there give 1).
-// A cell lists its spheres, then its cones, then its meshes, and each kind has a loop of its
-// own: lavapipe runs the whole body of a loop at every iteration (LAVAPIPE.md), so one loop
-// would pay for the mesh code at every sphere.
+// A cell lists its spheres, then its cones, then its meshes, each with the run of its contour
+// edges that segments in the cell can come near, and each kind has a loop of its own: lavapipe
+// runs the whole body of a loop at every iteration (LAVAPIPE.md), so one loop would pay for the
+// mesh code at every sphere. Once `s` is 0 no object can raise it (min or product of σ ∈ [0, 1]):
+// the loops stop there, all lanes' alike (a group's loop ends with its last lane).
 fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) -> f32 {
     let to = c - o;
     let dist = length(to);
@@ -234,8 +236,8 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     var s = 1.0;
     let head = texel(section);
     let list = head.z;
-    // [first, count, first cone, first mesh] in the cell's list.
-    let cell = texel(head.y + shell_cell(-l));
+    // [first, first cone, first mesh, end] in the cell's list.
+    let cell = texel(head.y + shell_cell(-l, head.w));
     let objects = section + 1u;
     // Only meshes of more than SHELL_DIRECT_TRIANGLES triangles use the walk's answer; the
     // variant compiles it out where there are none (`Variant::shell_walk`). A hit on one lies
@@ -245,9 +247,9 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     if HAS_TRIANGLES && SHELL_WALK {
         var lo = dist;
         var hi = 0.0;
-        for (var j = cell.w; j < cell.y; j++) {
+        for (var j = cell.z; j < cell.w; j += 3u) {
             loop_tick(LOOP_CANDIDATES);
-            let k = shell_listed(list, cell.x + j);
+            let k = shell_listed(list, j);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
             let tc = dot(bound.xyz - o, l);
@@ -270,24 +272,24 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         }
     }
     if HAS_SPHERES {
-        for (var j = 0u; j < cell.z; j++) {
+        for (var j = cell.x; j < cell.y && s > 0.0; j++) {
             loop_tick(LOOP_CANDIDATES);
-            let bound = ftexel(objects + SHELL_OBJECT_TEXELS * shell_listed(list, cell.x + j));
+            let bound = ftexel(objects + SHELL_OBJECT_TEXELS * shell_listed(list, j));
             s = shell_combine(s, sphere_shell(f, o, l, dist, light_r, bound.xyz, bound.w).x, product);
         }
     }
     if HAS_CONES {
-        for (var j = cell.z; j < cell.w; j++) {
+        for (var j = cell.y; j < cell.z && s > 0.0; j++) {
             loop_tick(LOOP_CANDIDATES);
-            let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * shell_listed(list, cell.x + j));
+            let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * shell_listed(list, j));
             let cn = load_cone(prim_index(rec.x));
             s = shell_combine(s, cone_shell(f, o, l, dist, light_r, cn.base, cn.r0, cn.axis, cn.r1).x, product);
         }
     }
     if HAS_TRIANGLES {
-        for (var j = cell.w; j < cell.y; j++) {
+        for (var j = cell.z; j < cell.w && s > 0.0; j += 3u) {
             loop_tick(LOOP_CANDIDATES);
-            let k = shell_listed(list, cell.x + j);
+            let k = shell_listed(list, j);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
             // Its shell lies within its bounding sphere grown by the light's radius (and a
@@ -305,7 +307,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
             }
             var sigma = 1.0;
             if inside || near {
-                sigma = mesh_shell(f, o, l, dist, light_r, inside, rec.z, rec.w);
+                sigma = mesh_shell(f, o, l, dist, light_r, inside, shell_listed(list, j + 1u), shell_listed(list, j + 2u));
             }
             s = shell_combine(s, sigma, product);
         }

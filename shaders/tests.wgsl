@@ -206,11 +206,11 @@ fn t_surface_uv(i: u32) {
     out_buf[i] = select(vec4f(1.0, surface_at(h, r[0], r[1]).uv, 0.0), vec4f(0.0), h.prim == NO_HIT);
 }
 
-// in: (d, _) -> (shell_cell(d) as f32 bits, 0, 0, 0)
+// in: (d, cells per face side) -> (shell_cell(d, n) as f32 bits, 0, 0, 0)
 @compute @workgroup_size(64, 1, 1)
 fn k_shell_cell(@builtin(global_invocation_id) g: vec3u) { if g.x < launch.rect.z { t_shell_cell(g.x); } }
 fn t_shell_cell(i: u32) {
-    out_buf[i] = vec4f(bitcast<f32>(shell_cell(test_in[i].xyz)), 0.0, 0.0, 0.0);
+    out_buf[i] = vec4f(bitcast<f32>(shell_cell(test_in[i].xyz, u32(test_in[i].w))), 0.0, 0.0, 0.0);
 }
 
 // in: (node index, 0, 0, 0) -> (lo, link bits), (hi, 0): a compact BVH node of the uploaded

@@ -18,7 +18,7 @@ use clap::{Args, ValueEnum};
 use irt::accel::AccelChoice;
 use irt::gpu::device::Backend;
 use irt::render::{Mode, PixelOrder, Schedule, Settings, DEFAULT_SLICE};
-use irt::scene::{Scene, ShadowMode, MAX_TRACE_DEPTH};
+use irt::scene::{Scene, MAX_TRACE_DEPTH};
 use std::path::{Path, PathBuf};
 
 /// What `irt` reads as a scene: every extension of [`irt::io::FORMATS`] (a test keeps them equal).
@@ -34,12 +34,14 @@ pub struct SceneArgs {
     /// Image size in pixels, WxH (default: the scene camera's).
     #[arg(long, value_name = "WxH", value_parser = parse_size, allow_hyphen_values = true)]
     pub size: Option<[u32; 2]>,
-    /// Shadow mode (overrides the scene's [trace] shadows): hard, bundle:K (K rays to a
-    /// precomputed point set on the light, rotated per pixel; bundle:K:fixed unrotated), or shell
-    /// (one ray through translucent shells; shell:FALLOFF:COMBINE with FALLOFF disc (default),
-    /// smoothstep or linear and COMBINE min (default) or product). See docs/shadows.md.
+    /// Shadow mode (overrides the scene's [trace] shadows): soft (picks shell, a bundle or hard
+    /// for the scene by a quick CPU pilot of each one's error and cost, and says which;
+    /// docs/tradeoff.md), hard, bundle:K (K rays to a precomputed point set on the light, rotated
+    /// per pixel; bundle:K:fixed unrotated), or shell (one ray through translucent shells;
+    /// shell:FALLOFF:COMBINE with FALLOFF disc (default), smoothstep or linear and COMBINE min
+    /// (default) or product). See docs/shadows.md.
     #[arg(long, value_name = "MODE")]
-    pub shadows: Option<ShadowMode>,
+    pub shadows: Option<irt::scene::ShadowSetting>,
     /// Radius of every light (overrides the scene; 0 is a point light, soft modes need > 0).
     #[arg(long, value_name = "R")]
     pub light_radius: Option<f64>,
@@ -95,13 +97,17 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
         scene.camera.width = w;
         scene.camera.height = h;
     }
-    let overrides = Settings {
-        shadows: args.shadows,
-        light_radius: args.light_radius,
-        max_depth: args.max_depth,
-        ..Settings::default()
-    };
+    let overrides =
+        Settings { light_radius: args.light_radius, max_depth: args.max_depth, ..Settings::default() };
     overrides.apply_to(&mut scene);
+    // After the size and the lights' radius: `soft` weighs the modes on the scene as it is traced.
+    if let Some(setting) = args.shadows {
+        let (mode, choice) = setting.resolve(&scene);
+        scene.trace.shadows = mode;
+        if let Some(c) = choice {
+            eprintln!("shadows: {c}");
+        }
+    }
     irt::io::check_renderable(&scene, &args.name_or("default scene")).map_err(anyhow::Error::msg)?;
     Ok(scene)
 }

@@ -29,9 +29,10 @@ pub struct TradeoffArgs {
     #[arg(long, default_value_t = 5)]
     pub frames: u32,
     /// Only these modes, comma-separated (e.g. `hard,shell`), for quick timing; every mode of
-    /// docs/tradeoff.md when omitted. `hard` is added first if missing (the `× hard` column).
+    /// docs/tradeoff.md when omitted. `hard` is added first if missing (the `× hard` column);
+    /// `soft` is the mode `--shadows soft` picks for the scene, its row labelled with the pick.
     #[arg(long, value_delimiter = ',', value_name = "MODE,...")]
-    pub modes: Vec<irt::scene::ShadowMode>,
+    pub modes: Vec<irt::scene::ShadowSetting>,
     #[command(flatten)]
     pub scene: SceneArgs,
     #[command(flatten)]
@@ -69,10 +70,23 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     };
     eprintln!("ground truth took {:.1} s", t.elapsed().as_secs_f64());
     truth.save_png(&args.out_dir.join("ground-truth.png"))?;
-    let mut modes = if args.modes.is_empty() { irt::lab::tradeoff::modes() } else { args.modes.clone() };
-    if !modes.contains(&irt::scene::ShadowMode::Hard) {
-        modes.insert(0, irt::scene::ShadowMode::Hard);
+    // Each mode and, for `soft`, its row's label.
+    let mut modes: Vec<(irt::scene::ShadowMode, Option<String>)> = if args.modes.is_empty() {
+        irt::lab::tradeoff::modes().into_iter().map(|m| (m, None)).collect()
+    } else {
+        args.modes
+            .iter()
+            .map(|m| {
+                let (mode, soft) = m.resolve(&scene);
+                (mode, soft.map(|_| format!("soft → {mode}")))
+            })
+            .collect()
+    };
+    if !modes.iter().any(|(m, label)| *m == irt::scene::ShadowMode::Hard && label.is_none()) {
+        modes.insert(0, (irt::scene::ShadowMode::Hard, None));
     }
+    let labels: Vec<Option<String>> = modes.iter().map(|(_, l)| l.clone()).collect();
+    let modes: Vec<irt::scene::ShadowMode> = modes.into_iter().map(|(m, _)| m).collect();
     // The machine is shared: its load (1-minute average at the start of the timing and at the
     // end) says how far the absolute times can be trusted; the ratios hold either way.
     let load = || {
@@ -90,6 +104,11 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
             args.frames,
         )?,
     };
+    let rows: Vec<irt::lab::tradeoff::Row> = rows
+        .into_iter()
+        .zip(labels)
+        .map(|(r, l)| irt::lab::tradeoff::Row { label: l.unwrap_or(r.label.clone()), ..r })
+        .collect();
     let header = format!(
         "Scene: {name}, {w}x{h}, light radius {}; device: {}; ground truth {}² stratified rays (f64 CPU); {}, load {} → {}; {} interleaved rounds; command: `irt tradeoff{}`\n\n",
         scene.lights.iter().map(|l| l.radius.to_string()).collect::<Vec<_>>().join(", "),
@@ -104,13 +123,17 @@ pub fn run(args: TradeoffArgs) -> Result<()> {
     let table = header + &irt::lab::tradeoff::markdown_table(&rows);
     print!("{table}");
     irt::image::write_atomic(&args.out_dir.join("table.md"), table.as_bytes())?;
+    irt::lab::tradeoff::write_images(&rows, &truth, &args.out_dir)?;
     irt::lab::tradeoff::plot_svg(
         &rows,
         &format!("shadow modes on {name}: error vs time"),
         &args.out_dir.join("plot.svg"),
     )
     .map_err(anyhow::Error::msg)?;
-    eprintln!("wrote {}/table.md, plot.svg, ground-truth.png", args.out_dir.display());
+    eprintln!(
+        "wrote {}/table.md, plot.svg, ground-truth.png, MODE.png, MODE-error.png",
+        args.out_dir.display()
+    );
     Ok(())
 }
 

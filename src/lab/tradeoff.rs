@@ -14,6 +14,8 @@ use std::time::{Duration, Instant};
 #[derive(Clone, Debug)]
 pub struct Row {
     pub mode: ShadowMode,
+    /// How the table names it: the mode, or what `soft` picked (`soft → shell:disc:min`).
+    pub label: String,
     /// Median frame time (specialised pipeline, warm; modes interleaved, see [`measure_all`]).
     pub frame: Duration,
     pub mrays: f64,
@@ -22,6 +24,8 @@ pub struct Row {
     pub rmse: f64,
     pub max: f64,
     pub ssim: f64,
+    /// The mode's picture (the first frame).
+    pub image: Image,
 }
 
 /// The modes compared: hard, every shell variant, bundles of 4 to 256 (rotated) and one fixed.
@@ -86,20 +90,34 @@ pub fn measure_all<D: Device>(
             let diff = compare(&image, truth);
             Row {
                 mode,
+                label: mode.to_string(),
                 frame,
                 mrays: rays.total() as f64 / frame.as_secs_f64() / 1e6,
                 shadow_rays_per_pixel: rays.shadow as f64 / pixels,
                 rmse: diff.rmse,
                 max: diff.max,
                 ssim: ssim(&image, truth),
+                image,
             }
         })
         .collect())
 }
 
+/// Writes each row's picture as `<mode>.png` and where it differs from `truth` as
+/// `<mode>-error.png` (the display-space error ×8 in red over a dimmed truth), into `dir`: where
+/// a mode's error comes from, beside hard shadows'.
+pub fn write_images(rows: &[Row], truth: &Image, dir: &Path) -> std::io::Result<()> {
+    for r in rows {
+        let name = r.label.replace(" → ", "-").replace(':', "-");
+        r.image.save_png(&dir.join(format!("{name}.png")))?;
+        crate::metrics::diff_image(&r.image, truth, 8.0).save_png(&dir.join(format!("{name}-error.png")))?;
+    }
+    Ok(())
+}
+
 /// The rows as a Markdown table, with each mode's time relative to hard shadows.
 pub fn markdown_table(rows: &[Row]) -> String {
-    let hard = rows.iter().find(|r| r.mode == ShadowMode::Hard).map(|r| r.frame.as_secs_f64());
+    let hard = rows.iter().find(|r| r.label == "hard").map(|r| r.frame.as_secs_f64());
     let mut s = String::from(
         "| mode | frame ms | × hard | Mrays/s | shadow rays/pixel | RMSE | max error | SSIM |\n\
          |---|---|---|---|---|---|---|---|\n",
@@ -108,7 +126,7 @@ pub fn markdown_table(rows: &[Row]) -> String {
         let rel = hard.map_or("–".into(), |h| format!("{:.2}", r.frame.as_secs_f64() / h));
         s += &format!(
             "| {} | {:.1} | {rel} | {:.2} | {:.2} | {:.5} | {:.3} | {:.4} |\n",
-            r.mode,
+            r.label,
             r.frame.as_secs_f64() * 1e3,
             r.mrays,
             r.shadow_rays_per_pixel,
@@ -140,7 +158,7 @@ pub fn plot_svg(rows: &[Row], title: &str, path: &Path) -> Result<(), super::plo
             .draw_series(rows.iter().zip(ms.iter().zip(&rmse)).map(|(r, (&x, &y))| {
                 EmptyElement::at((x, y))
                     + Circle::new((0, 0), 4, colour(&r.mode).filled())
-                    + Text::new(r.mode.to_string(), (6, -12), ("sans-serif", 12))
+                    + Text::new(r.label.clone(), (6, -12), ("sans-serif", 12))
             }))
             .map_err(|e| e.to_string())?;
         Ok(())

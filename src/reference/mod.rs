@@ -4,7 +4,7 @@
 //! primitive, recursion instead of a ray stack. The public functions carry the same names as
 //! their WGSL twins so readback tests can compare them one pair at a time.
 
-mod bvh;
+pub(crate) mod bvh;
 mod geometry;
 mod shading;
 pub mod shadows;

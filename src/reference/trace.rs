@@ -9,8 +9,8 @@ use super::shading::{ambient_intensity, reflect, reflectance, refract, shade_amb
 use super::shadows::{basis, bundle_point, cone_shell, mesh_shell, sphere_shell, stratified_disc};
 use super::texture::{cone_uv, material_at, sphere_uv};
 use crate::scene::{
-    bundle_samples, light_shells, CameraBasis, Combine, Light, LightShells, MaterialKind, Scene, ShadowMode,
-    ShellShape, Triangle,
+    bundle_samples, light_shells, scene_shells, CameraBasis, Combine, Light, LightShells, MaterialKind,
+    Scene, ShadowMode, ShellShape, Triangle,
 };
 use glam::{DVec2, DVec3};
 use std::cell::Cell;
@@ -149,7 +149,22 @@ impl<'a> Reference<'a> {
         Self::prepare(scene, scene.triangles().collect())
     }
 
+    /// [`Reference::new`] for a scene in shell mode whose shells (`scene::scene_shells`) are
+    /// already built.
+    pub fn with_shells(scene: &'a Scene, shells: Vec<LightShells>) -> Self {
+        let mut hard = scene.clone();
+        hard.trace.shadows = ShadowMode::Hard;
+        let geometry = Reference::new(&hard).into_geometry();
+        let mut r = Self::prepare_with(scene, geometry.triangles, Some(shells));
+        r.bvh = geometry.bvh;
+        r
+    }
+
     fn prepare(scene: &'a Scene, triangles: Vec<Triangle>) -> Self {
+        Self::prepare_with(scene, triangles, None)
+    }
+
+    fn prepare_with(scene: &'a Scene, triangles: Vec<Triangle>, shells: Option<Vec<LightShells>>) -> Self {
         assert!(!scene.is_animated(), "trace an animated scene at a time: Reference::new(&scene.at(t))");
         Reference {
             scene,
@@ -163,10 +178,9 @@ impl<'a> Reference<'a> {
                 ShadowMode::Bundle { samples, .. } => bundle_samples(samples),
                 _ => Vec::new(),
             },
-            shells: match scene.trace.shadows {
-                ShadowMode::Shell { .. } => {
-                    scene.lights.iter().map(|l| light_shells(scene, l.position, l.radius)).collect()
-                }
+            shells: match (scene.trace.shadows, shells) {
+                (ShadowMode::Shell { .. }, Some(shells)) => shells,
+                (ShadowMode::Shell { .. }, None) => scene_shells(scene),
                 _ => Vec::new(),
             },
         }

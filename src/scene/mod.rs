@@ -8,6 +8,7 @@ mod builtin;
 mod motion;
 mod shadows;
 mod shells;
+mod soft;
 mod texture;
 
 pub use builtin::default_scene;
@@ -17,9 +18,10 @@ pub use motion::{
 };
 pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
 pub use shells::{
-    light_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape, SHELL_CELL_RES,
-    SHELL_DIRECT_TRIANGLES,
+    light_shells, scene_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape,
+    SHELL_CELL_GAIN, SHELL_CELL_LOAD, SHELL_CELL_RES_MAX, SHELL_CELL_RES_MIN, SHELL_DIRECT_TRIANGLES,
 };
+pub use soft::{choose_soft, pilot, Estimate, ShadowSetting, SoftChoice, SOFT_COST_BUDGET};
 pub use texture::{Filter, Texture, Wrap, MAX_TEXTURES, MAX_TEXTURE_PIXELS, MAX_TOTAL_TEXTURE_PIXELS};
 
 /// Largest image side we accept; larger is refused before anything is allocated.

@@ -7,8 +7,8 @@ use super::Scene;
 use glam::DVec3;
 use std::collections::HashMap;
 
-/// A position welded by its exact value.
-type Key = [u64; 3];
+use crate::reference::bvh::Bvh;
+use crate::reference::{cone_bounds, intersect_cone, intersect_sphere, intersect_triangle};
 
 /// What a shell object is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,18 +35,39 @@ pub struct ShellObject {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LightShells {
     pub objects: Vec<ShellObject>,
-    /// Contour edges of every mesh seen from the light's centre, as segments.
+    /// Contour edges of every mesh seen from the light's centre, as segments, in mesh order;
+    /// those hidden from the light's centre by the scene are left out ([`light_shells`]).
     pub edges: Vec<[DVec3; 2]>,
+    /// Cells per side of each face of the light buffer's cube ([`shell_cell`]): a power of two
+    /// from [`SHELL_CELL_RES_MIN`] to [`SHELL_CELL_RES_MAX`], chosen per light.
+    pub res: u32,
     /// A light buffer (Haines & Greenberg 1986): the directions from the light's centre cut into
-    /// the cells of a cube ([`shell_cell`], `SHELL_CELL_RES`² per face), each listing the objects
-    /// (indices into `objects`) whose shell a shadow segment in that direction can reach. An
-    /// object left out of a cell gives σ = 1 exactly to every segment in it, so skipping it
-    /// changes no result: the list is only a way to visit fewer objects.
+    /// the cells of a cube (`res`² per face), each listing the objects (indices into `objects`)
+    /// whose shell a shadow segment in that direction can reach. An object left out of a cell
+    /// gives σ = 1 exactly to every segment in it, so skipping it changes no result: the list is
+    /// only a way to visit fewer objects.
     pub cells: Vec<Vec<u32>>,
+    /// Per cell, the contour edges (indices into `edges`, in order, so grouped by mesh) that a
+    /// shadow segment in that direction can pass within the light's radius of. An edge farther
+    /// than that from the segment is never a mesh's nearest within the shell's width `b < r`,
+    /// where σ is 0 or 1 whichever edge is nearest, so leaving it out changes no result either.
+    pub cell_edges: Vec<Vec<u32>>,
 }
 
-/// Cells per side of each face of the light buffer's cube.
-pub const SHELL_CELL_RES: u32 = 16;
+/// Fewest and most cells per side of a light buffer's face ([`light_shells`] picks per light).
+pub const SHELL_CELL_RES_MIN: u32 = 16;
+pub const SHELL_CELL_RES_MAX: u32 = 128;
+
+/// The light buffer's resolution is raised (doubled) while the mean list a listed entry shares
+/// its cell with (Σ n² / Σ n over the cells' objects and edges) is longer than this, and each
+/// doubling shortens it by at least [`SHELL_CELL_GAIN`]: a shadow ray visits the list of its
+/// cell, and rays gather where the occluders are (docs/shadows.md, "What a shell ray costs").
+pub const SHELL_CELL_LOAD: f64 = 4.0;
+/// See [`SHELL_CELL_LOAD`]: a doubling that shortens the lists by less (occluders larger than
+/// the cells, listed in all of them anyway) is not worth four times the cells.
+pub const SHELL_CELL_GAIN: f64 = 0.75;
+/// Most list entries (objects and edges, over all cells) of one light's buffer.
+const SHELL_CELL_ENTRIES: usize = 1 << 22;
 
 /// A mesh of at most this many triangles is tested triangle by triangle in the GPU's shell
 /// object loop to tell whether a shadow ray is inside it; a larger one by a grid walk of the part
@@ -63,29 +84,33 @@ pub fn shells_walk_grid(scene: &Scene) -> bool {
     scene.meshes.iter().any(|m| m.indices.len() > SHELL_DIRECT_TRIANGLES as usize)
 }
 
-/// The light-buffer cell of direction `d` (from the light's centre, not necessarily unit):
-/// face by the largest axis (+x, −x, +y, −y, +z, −z), then row-major on the face. The shader's
-/// `shell_cell` is the same formula.
-pub fn shell_cell(d: DVec3) -> u32 {
+/// The face of direction `d` (by its largest axis: +x, −x, +y, −y, +z, −z) and its coordinates
+/// on that face, in [−1, 1].
+fn face_of(d: DVec3) -> (u32, f64, f64) {
     let a = d.abs();
-    let (face, u, v) = if a.x >= a.y && a.x >= a.z {
+    if a.x >= a.y && a.x >= a.z {
         (if d.x > 0.0 { 0 } else { 1 }, d.y / a.x, d.z / a.x)
     } else if a.y >= a.z {
         (if d.y > 0.0 { 2 } else { 3 }, d.x / a.y, d.z / a.y)
     } else {
         (if d.z > 0.0 { 4 } else { 5 }, d.x / a.z, d.y / a.z)
-    };
-    let n = SHELL_CELL_RES;
-    let at = |w: f64| (((w * 0.5 + 0.5) * n as f64) as i64).clamp(0, n as i64 - 1) as u32;
-    face * n * n + at(v) * n + at(u)
+    }
 }
 
-/// Centre direction (unit) and angular radius (the largest angle to a corner) of cell `c`.
-fn cell_cone(c: u32) -> (DVec3, f64) {
-    let n = SHELL_CELL_RES;
-    let (face, iv, iu) = (c / (n * n), c / n % n, c % n);
+/// The light-buffer cell of direction `d` (from the light's centre, not necessarily unit) in a
+/// buffer of `res` cells per face side: face by the largest axis (+x, −x, +y, −y, +z, −z), then
+/// row-major on the face. The shader's `shell_cell` is the same formula.
+pub fn shell_cell(d: DVec3, res: u32) -> u32 {
+    let (face, u, v) = face_of(d);
+    let at = |w: f64| (((w * 0.5 + 0.5) * res as f64) as i64).clamp(0, res as i64 - 1) as u32;
+    face * res * res + at(v) * res + at(u)
+}
+
+/// Centre direction (unit) and angular radius (the largest angle to a corner) of the cell
+/// `(iu, iv)` of face `face` cut into `n` × `n` cells.
+fn cell_cone(face: u32, n: u32, iu: u32, iv: u32) -> (DVec3, f64) {
     let dir = |u: f64, v: f64| -> DVec3 {
-        let w = [-1.0, 1.0][(face % 2 == 0) as usize];
+        let w = [-1.0, 1.0][face.is_multiple_of(2) as usize];
         match face / 2 {
             0 => DVec3::new(w, u, v),
             1 => DVec3::new(u, w, v),
@@ -100,61 +125,252 @@ fn cell_cone(c: u32) -> (DVec3, f64) {
     (centre, beta)
 }
 
+/// Spheres `(centre, radius)` covering the segment `a b` thickened by `radius`: at most 16, each
+/// at most about twice `radius` long, so a long thin cylinder or edge is listed only in the
+/// cells along it, not in every cell its bounding sphere reaches.
+pub(super) fn capsule(a: DVec3, b: DVec3, radius: f64) -> Vec<(DVec3, f64)> {
+    let len = a.distance(b);
+    let m = if radius > 0.0 { (len / (2.0 * radius)).ceil().clamp(1.0, 16.0) as u32 } else { 16 };
+    (0..m).map(|i| (a.lerp(b, (i as f64 + 0.5) / m as f64), len / (2.0 * m as f64) + radius)).collect()
+}
+
+/// Calls `found` with every cell of a `res`-per-side buffer around `light` whose cone of
+/// directions comes within the angle one of `pieces` subtends (plus 10⁻³ rad for f32 rounding of
+/// the direction on the GPU), found by descending from whole faces through quarters.
+pub(super) fn cover(light: DVec3, pieces: &[(DVec3, f64)], res: u32, found: &mut impl FnMut(u32)) {
+    let caps: Vec<Option<(DVec3, f64)>> = pieces
+        .iter()
+        .map(|&(q, r)| {
+            let to = q - light;
+            let dist = to.length();
+            (dist > r).then(|| (to / dist, (r / dist).asin()))
+        })
+        .collect();
+    if caps.iter().any(Option::is_none) {
+        (0..6 * res * res).for_each(found);
+        return;
+    }
+    fn visit(
+        caps: &[Option<(DVec3, f64)>],
+        cell: (u32, u32, u32, u32),
+        res: u32,
+        found: &mut impl FnMut(u32),
+    ) {
+        let (face, n, iu, iv) = cell;
+        let (centre, beta) = cell_cone(face, n, iu, iv);
+        if !caps.iter().flatten().any(|&(w, alpha)| w.angle_between(centre) <= alpha + beta + 1e-3) {
+            return;
+        }
+        if n == res {
+            found(face * res * res + iv * res + iu);
+            return;
+        }
+        for (du, dv) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            visit(caps, (face, 2 * n, 2 * iu + du, 2 * iv + dv), res, found);
+        }
+    }
+    for face in 0..6 {
+        visit(&caps, (face, 1, 0, 0), res, found);
+    }
+}
+
+/// Every primitive of a scene, to ask whether a point is hidden from the light's centre (and,
+/// for `--shadows soft`, what a hard shadow ray costs, [`shell_cost`]).
+pub(super) struct Occluders<'a> {
+    scene: &'a Scene,
+    triangles: Vec<[DVec3; 3]>,
+    bvh: Bvh,
+}
+
+impl<'a> Occluders<'a> {
+    pub(super) fn new(scene: &'a Scene) -> Self {
+        let triangles: Vec<[DVec3; 3]> = scene.triangles().map(|t| t.p).collect();
+        let spheres = scene.spheres.iter().map(|s| (s.center - s.radius, s.center + s.radius));
+        let tris = triangles.iter().map(|p| (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])));
+        let cones = scene.cones.iter().map(|c| cone_bounds(c.base, c.base_radius, c.apex, c.apex_radius));
+        let bvh = Bvh::build(&spheres.chain(tris).chain(cones).collect::<Vec<_>>());
+        Occluders { scene, triangles, bvh }
+    }
+
+    /// The nearest hit on `o + t d`, `0 < t < t_max` (`d` unit) when `any` is false, the first
+    /// found when it is; and the BVH nodes plus primitives the walk visited.
+    pub(super) fn walk(&self, o: DVec3, d: DVec3, t_max: f64, any: bool) -> (Option<f64>, usize) {
+        let (ns, nt) = (self.scene.spheres.len(), self.triangles.len());
+        let best = std::cell::Cell::new(t_max);
+        let mut found = None;
+        let visits = std::cell::Cell::new(0usize);
+        self.bvh.traverse(
+            o,
+            d,
+            || {
+                visits.set(visits.get() + 1);
+                best.get()
+            },
+            |id| {
+                visits.set(visits.get() + 1);
+                let id = id as usize;
+                let t_max = best.get();
+                let t = if id < ns {
+                    let s = &self.scene.spheres[id];
+                    intersect_sphere(o, d, s.center, s.radius, 0.0, t_max)
+                } else if id < ns + nt {
+                    let [a, b, c] = self.triangles[id - ns];
+                    intersect_triangle(o, d, a, b, c, 0.0, t_max).map(|h| h.0)
+                } else {
+                    let c = &self.scene.cones[id - ns - nt];
+                    intersect_cone(o, d, c.base, c.base_radius, c.apex, c.apex_radius, 0.0, t_max)
+                };
+                if let Some(t) = t.filter(|&t| t < t_max) {
+                    best.set(t);
+                    found = Some(t);
+                    return any;
+                }
+                false
+            },
+        );
+        (found, visits.get())
+    }
+
+    /// Whether anything lies on the segment `o + t d`, `0 < t < t_max` (`d` unit).
+    fn blocked(&self, o: DVec3, d: DVec3, t_max: f64) -> bool {
+        self.walk(o, d, t_max, true).0.is_some()
+    }
+}
+
+/// Each position's representative: the first position within `1e-6` of the mesh's extent of it.
+/// A tessellated surface whose patches were written separately (SPD's teapot) repeats a seam's
+/// vertices with different last digits; welded only by exact value, every seam was a contour
+/// edge, a line of light across the inside of the mesh's shadow (docs/shadows.md).
+fn weld(positions: &[DVec3]) -> Vec<u32> {
+    let (lo, hi) =
+        positions.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let tol = 1e-6 * (hi - lo).max_element();
+    if tol.is_nan() || tol <= 0.0 {
+        return (0..positions.len() as u32).collect();
+    }
+    let key = |p: DVec3| ((p - lo) / tol).floor().as_i64vec3();
+    let mut grid: HashMap<glam::I64Vec3, Vec<u32>> = HashMap::new();
+    let mut rep = Vec::with_capacity(positions.len());
+    for (i, &p) in positions.iter().enumerate() {
+        let k = key(p);
+        let mut found = None;
+        'search: for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    for &j in grid.get(&(k + glam::I64Vec3::new(dx, dy, dz))).into_iter().flatten() {
+                        if positions[j as usize].distance(p) <= tol {
+                            found = Some(j);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        let r = found.unwrap_or(i as u32);
+        if found.is_none() {
+            grid.entry(k).or_default().push(i as u32);
+        }
+        rep.push(r);
+    }
+    rep
+}
+
+/// The contour edges of mesh `m` seen from `light`: an edge (by its welded end points) is one
+/// when it borders one triangle only, or two (or more) that do not all face the same way from
+/// `light`.
+fn contour_edges(m: &crate::scene::Mesh, light: DVec3) -> Vec<[DVec3; 2]> {
+    let rep = weld(&m.positions);
+    // Edge (welded end points, in order) -> the facing of each triangle using it.
+    let mut edges: HashMap<(u32, u32), Vec<bool>> = HashMap::new();
+    let mut order = vec![];
+    for t in &m.indices {
+        let p = t.map(|i| m.positions[i as usize]);
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        if n == DVec3::ZERO {
+            continue;
+        }
+        let facing = n.dot(light - p[0]) > 0.0;
+        let w = t.map(|i| rep[i as usize]);
+        for k in 0..3 {
+            let (a, b) = (w[k], w[(k + 1) % 3]);
+            if a == b {
+                continue;
+            }
+            let id = (a.min(b), a.max(b));
+            edges
+                .entry(id)
+                .or_insert_with(|| {
+                    order.push(id);
+                    vec![]
+                })
+                .push(facing);
+        }
+    }
+    order
+        .into_iter()
+        .filter(|id| {
+            let f = &edges[id];
+            f.len() == 1 || f.iter().any(|&x| x != f[0])
+        })
+        .map(|(a, b)| [m.positions[a as usize], m.positions[b as usize]])
+        .collect()
+}
+
+/// Whether the light's centre sees none of edge `e`: the segments from it to three points along
+/// the edge are all blocked short of the edge. Such an edge lies inside the shadow of what hides
+/// it, where its shell would light a line inside the umbra (a lid's rim under the lid, a fold
+/// behind the body): it is no edge of the shadow.
+fn hidden(occluders: &Occluders, light: DVec3, e: [DVec3; 2]) -> bool {
+    [1.0 / 6.0, 0.5, 5.0 / 6.0].iter().all(|&s| {
+        let to = e[0].lerp(e[1], s) - light;
+        let dist = to.length();
+        dist > 0.0 && occluders.blocked(light, to / dist, dist * (1.0 - 1e-6))
+    })
+}
+
+/// [`light_shells`] for every light of `scene`, sharing the work that does not depend on the
+/// light.
+pub fn scene_shells(scene: &Scene) -> Vec<LightShells> {
+    let occluders = Occluders::new(scene);
+    scene.lights.iter().map(|l| shells_for(scene, &occluders, l.position, l.radius)).collect()
+}
+
 /// Builds the shell objects of `scene` for a light centred at `light`: spheres, then cones, then
-/// meshes (each with its contour edges). A mesh edge is a contour edge when it borders one
-/// triangle only, or two (or more) that do not all face the same way from `light`; positions
-/// are welded by their exact value, so quads written as separate triangles still share edges.
+/// meshes (each with its contour edges, [`contour_edges`], less those the light's centre cannot
+/// see, [`hidden`]). Every position is welded within 10⁻⁶ of its mesh's extent.
 ///
 /// `light_radius` bounds every shell's width (`b = r t / D < r`): the light buffer lists an
-/// object in every cell within the angle its bounding sphere grown by it subtends, plus the
-/// cell's own angular radius and 10⁻³ rad for f32 rounding of the direction on the GPU.
+/// object in every cell within the angle its bounding sphere (a cone's or an edge's capsule)
+/// grown by it subtends, plus the cell's own angular radius and 10⁻³ rad for f32 rounding of the
+/// direction on the GPU. Its resolution is the coarsest at which the lists are short
+/// ([`SHELL_CELL_LOAD`]) or stop shortening ([`SHELL_CELL_GAIN`]).
 pub fn light_shells(scene: &Scene, light: DVec3, light_radius: f64) -> LightShells {
+    shells_for(scene, &Occluders::new(scene), light, light_radius)
+}
+
+fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: f64) -> LightShells {
     let mut out = LightShells::default();
+    let mut pieces: Vec<Vec<(DVec3, f64)>> = vec![];
     for (i, s) in scene.spheres.iter().enumerate() {
         out.objects.push(ShellObject {
             center: s.center,
             radius: s.radius,
             shape: ShellShape::Sphere(i as u32),
         });
+        pieces.push(vec![(s.center, s.radius + light_radius)]);
     }
     for (i, c) in scene.cones.iter().enumerate() {
         let center = (c.base + c.apex) / 2.0;
-        let radius = (c.apex - c.base).length() / 2.0 + c.base_radius.max(c.apex_radius);
+        let widest = c.base_radius.max(c.apex_radius);
+        let radius = (c.apex - c.base).length() / 2.0 + widest;
         out.objects.push(ShellObject { center, radius, shape: ShellShape::Cone(i as u32) });
+        pieces.push(capsule(c.base, c.apex, widest + light_radius));
     }
     let mut first = 0u32;
     for m in &scene.meshes {
         let end = first + m.indices.len() as u32;
         let edge_first = out.edges.len() as u32;
-        let key = |v: DVec3| -> Key { [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()] };
-        // Edge (by its two welded end points, in order) -> its end points as first seen and the
-        // facing of each triangle using it.
-        let mut edges: HashMap<(Key, Key), (DVec3, DVec3, Vec<bool>)> = HashMap::new();
-        let mut order = vec![];
-        for t in &m.indices {
-            let p = t.map(|i| m.positions[i as usize]);
-            let n = (p[1] - p[0]).cross(p[2] - p[0]);
-            if n == DVec3::ZERO {
-                continue;
-            }
-            let facing = n.dot(light - p[0]) > 0.0;
-            for k in 0..3 {
-                let (a, b) = (p[k], p[(k + 1) % 3]);
-                let (ka, kb) = (key(a), key(b));
-                let id = if ka <= kb { (ka, kb) } else { (kb, ka) };
-                let e = edges.entry(id).or_insert_with(|| {
-                    order.push(id);
-                    (a, b, vec![])
-                });
-                e.2.push(facing);
-            }
-        }
-        for id in order {
-            let (a, b, facings) = &edges[&id];
-            if facings.len() == 1 || facings.iter().any(|&f| f != facings[0]) {
-                out.edges.push([*a, *b]);
-            }
-        }
+        out.edges.extend(contour_edges(m, light).into_iter().filter(|&e| !hidden(occluders, light, e)));
         let (lo, hi) = m
             .positions
             .iter()
@@ -164,23 +380,37 @@ pub fn light_shells(scene: &Scene, light: DVec3, light_radius: f64) -> LightShel
         let shape = ShellShape::Mesh { triangles: [first, end], edges: [edge_first, out.edges.len() as u32] };
         if end > first {
             out.objects.push(ShellObject { center, radius, shape });
+            pieces.push(vec![(center, radius + light_radius)]);
         }
         first = end;
     }
-    let cones: Vec<(DVec3, f64)> = (0..6 * SHELL_CELL_RES * SHELL_CELL_RES).map(cell_cone).collect();
-    out.cells = vec![vec![]; cones.len()];
-    for (k, o) in out.objects.iter().enumerate() {
-        let to = o.center - light;
-        let reach = o.radius + light_radius;
-        let everywhere = to.length() <= reach;
-        let (omega, alpha) =
-            if everywhere { (DVec3::Z, 0.0) } else { (to.normalize(), (reach / to.length()).asin()) };
-        for (cell, &(centre, beta)) in out.cells.iter_mut().zip(&cones) {
-            if everywhere || omega.angle_between(centre) <= alpha + beta + 1e-3 {
-                cell.push(k as u32);
-            }
+    let edge_pieces: Vec<Vec<(DVec3, f64)>> =
+        out.edges.iter().map(|e| capsule(e[0], e[1], light_radius)).collect();
+    let build = |res: u32| -> (Vec<Vec<u32>>, Vec<Vec<u32>>, f64, usize) {
+        let cells = 6 * res as usize * res as usize;
+        let mut lists = (vec![vec![]; cells], vec![vec![]; cells]);
+        for (k, p) in pieces.iter().enumerate() {
+            cover(light, p, res, &mut |c| lists.0[c as usize].push(k as u32));
         }
+        for (k, p) in edge_pieces.iter().enumerate() {
+            cover(light, p, res, &mut |c| lists.1[c as usize].push(k as u32));
+        }
+        let n = |c: usize| (lists.0[c].len() + lists.1[c].len()) as f64;
+        let entries: f64 = (0..cells).map(n).sum();
+        let load = (0..cells).map(|c| n(c) * n(c)).sum::<f64>() / entries.max(1.0);
+        (lists.0, lists.1, load, entries as usize)
+    };
+    let mut res = SHELL_CELL_RES_MIN;
+    let mut best = build(res);
+    while best.2 > SHELL_CELL_LOAD && res < SHELL_CELL_RES_MAX {
+        let finer = build(2 * res);
+        if finer.2 > SHELL_CELL_GAIN * best.2 || finer.3 > SHELL_CELL_ENTRIES {
+            break;
+        }
+        (res, best) = (2 * res, finer);
     }
+    out.res = res;
+    (out.cells, out.cell_edges) = (best.0, best.1);
     out
 }
 
@@ -228,26 +458,111 @@ mod tests {
         s.spheres = vec![Sphere { center: DVec3::new(3.0, -4.0, 5.0), radius: 0.3, material: 0 }];
         let (light, r) = (DVec3::new(0.5, 0.2, -0.1), 0.4);
         let sh = light_shells(&s, light, r);
+        // One object: the lists are as short as they get at the coarsest resolution.
+        assert_eq!(sh.res, SHELL_CELL_RES_MIN);
         let listed = sh.cells.iter().filter(|c| !c.is_empty()).count();
         // Its grown cap (5.4°) plus a cell's radius (up to ~5°) covers about 15 of the 1536
         // cells (measured: 15); everywhere would be a broken buffer.
         assert!(listed <= 20, "a small far sphere in {listed} cells");
-        let mut checked = 0;
-        for i in 0..20_000 {
-            // Directions spread over the sphere (a Fibonacci lattice).
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / 20_000.0;
-            let phi = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
-            let d = DVec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
-            let c = shell_cell(d);
-            let (centre, beta) = cell_cone(c);
-            assert!(centre.angle_between(d) <= beta + 1e-12, "direction {d} outside its cell {c}");
+        for res in [SHELL_CELL_RES_MIN, 64] {
+            let mut cells = vec![false; 6 * res as usize * res as usize];
             let to = s.spheres[0].center - light;
-            let t = to.dot(d);
-            if t > 0.0 && (to - t * d).length() < 0.3 + r {
-                assert_eq!(sh.cells[c as usize], vec![0], "direction {d} near the sphere, cell {c}");
-                checked += 1;
+            cover(light, &[(s.spheres[0].center, 0.3 + r)], res, &mut |c| cells[c as usize] = true);
+            let mut checked = 0;
+            for i in 0..20_000 {
+                // Directions spread over the sphere (a Fibonacci lattice).
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / 20_000.0;
+                let phi = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+                let d = DVec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+                let c = shell_cell(d, res);
+                let (face, n) = (c / (res * res), res);
+                let (centre, beta) = cell_cone(face, n, c % n, c / n % n);
+                assert!(centre.angle_between(d) <= beta + 1e-12, "direction {d} outside its cell {c}");
+                let t = to.dot(d);
+                if t > 0.0 && (to - t * d).length() < 0.3 + r {
+                    assert!(
+                        cells[c as usize],
+                        "res {res}: direction {d} near the sphere, cell {c} not listed"
+                    );
+                    checked += 1;
+                }
+            }
+            assert!(checked > 20, "only {checked} directions near the sphere");
+            if res == SHELL_CELL_RES_MIN {
+                let want: Vec<bool> = sh.cells.iter().map(|c| c == &vec![0]).collect();
+                assert_eq!(cells, want, "cover() and light_shells() list the same cells");
             }
         }
-        assert!(checked > 20, "only {checked} directions near the sphere");
+    }
+
+    /// A long thin cylinder is listed along its length only (its capsule's pieces), far fewer
+    /// cells than its bounding sphere reaches; and every direction passing within its radius
+    /// plus the light's is listed.
+    #[test]
+    fn a_thin_cylinder_is_listed_along_its_axis() {
+        let (light, r) = (DVec3::new(0.0, 10.0, 0.0), 0.05);
+        let (a, b, rad) = (DVec3::new(-4.0, 0.0, -4.0), DVec3::new(4.0, 0.0, 4.0), 0.05);
+        let res = 64;
+        let count = |pieces: &[(DVec3, f64)]| {
+            let mut cells = vec![false; 6 * res * res];
+            cover(light, pieces, res as u32, &mut |c| cells[c as usize] = true);
+            cells
+        };
+        let along = count(&capsule(a, b, rad + r));
+        let sphere = count(&[((a + b) / 2.0, a.distance(b) / 2.0 + rad + r)]);
+        let (n_along, n_sphere) =
+            (along.iter().filter(|&&x| x).count(), sphere.iter().filter(|&&x| x).count());
+        assert!(n_along * 8 < n_sphere, "capsule in {n_along} cells, bounding sphere in {n_sphere}");
+        for i in 0..=1000 {
+            let q = a.lerp(b, i as f64 / 1000.0) + DVec3::new(0.07, 0.0, -0.02);
+            assert!(
+                along[shell_cell(q - light, res as u32) as usize],
+                "point {q} beside the axis not listed"
+            );
+        }
+    }
+
+    /// Positions repeated with different last digits (patches written separately) weld, so the
+    /// seam between two quads is no contour edge; an edge the light's centre cannot see (under a
+    /// lid) is left out.
+    #[test]
+    fn seams_weld_and_hidden_edges_are_left_out() {
+        let mut s = default_scene();
+        s.spheres.clear();
+        s.cones.clear();
+        let e = 1e-9;
+        // Two unit quads side by side at y = 0, the second's copy of the shared edge nudged.
+        let p = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(1.0 + e, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 1.0),
+            DVec3::new(1.0 - e, 0.0, 1.0),
+        ];
+        let indices = vec![[0, 2, 1], [0, 3, 2], [4, 6, 5], [4, 7, 6]];
+        s.meshes = vec![Mesh { positions: p, normals: None, uvs: None, indices, material: 0 }];
+        let light = DVec3::new(0.5, 5.0, 0.5);
+        let sh = light_shells(&s, light, 0.2);
+        assert_eq!(sh.edges.len(), 6, "the outline of the 2x1 rectangle: {:?}", sh.edges);
+        // A lid: a larger quad above; the rectangle's outline is hidden from the light now.
+        let lid = [
+            DVec3::new(-1.0, 1.0, -1.0),
+            DVec3::new(3.0, 1.0, -1.0),
+            DVec3::new(3.0, 1.0, 2.0),
+            DVec3::new(-1.0, 1.0, 2.0),
+        ];
+        s.meshes.push(Mesh {
+            positions: lid.to_vec(),
+            normals: None,
+            uvs: None,
+            indices: vec![[0, 2, 1], [0, 3, 2]],
+            material: 0,
+        });
+        let sh = light_shells(&s, light, 0.2);
+        assert_eq!(sh.edges.len(), 4, "only the lid's outline: {:?}", sh.edges);
+        assert!(sh.edges.iter().flatten().all(|v| v.y == 1.0));
     }
 }

@@ -5,7 +5,9 @@ use super::bvh::{bvh_leaves, bvh_nodes, quantise_node, BvhLattice};
 use super::*;
 use crate::accel::bvh::NodeKind;
 use crate::accel::{AccelRef, BvhWalk, PrimKind, PrimRef};
-use crate::scene::{bundle_samples, light_shells, Scene, ShadowMode, ShellShape, MAX_BUNDLE, MAX_LIGHTS};
+use crate::scene::{
+    bundle_samples, scene_shells, LightShells, Scene, ShadowMode, ShellShape, MAX_BUNDLE, MAX_LIGHTS,
+};
 use glam::DVec3;
 
 /// The point of a sphere's surface nearest `eye` (any point when the eye is at the centre), in
@@ -31,14 +33,16 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   `unpack4x8unorm`'s order), four per texel, each texture starting at its first pixel.
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
-/// - shell sections (shell mode only), one per light (`scene::light_shells`):
-///   `[objects, first cell texel, first list texel, 0]`,
-///   then per object `[bound centre.xyz, bound radius]`, `[prim, a, b, c]` where `prim` is the
+/// - shell sections (shell mode only), one per light (`scene::scene_shells`):
+///   `[objects, first cell texel, first list texel, cells per face side]`,
+///   then per object `[bound centre.xyz, bound radius]`, `[prim, a, 0, 0]` where `prim` is the
 ///   `PrimRef` of a sphere or cone (its record is the bound for spheres) or of a mesh's first
-///   triangle, with `a` its end triangle and `[b, c)` the texels of its contour edges; then the
-///   edges, `[a.xyz, 0]`, `[b.xyz, 0]`; then the light buffer's cells (`scene::shell_cell`),
-///   `[first, count, cones, meshes]` into the list (its spheres come first, its cones from
-///   `cones` on, its meshes from `meshes` on), and the list: object indices, four per texel.
+///   triangle, with `a` its end triangle; then the edge pool: for each cell and each mesh it
+///   lists, that mesh's contour edges listed in the cell, `[a.xyz, 0]`, `[b.xyz, 0]`; then the
+///   light buffer's cells (`scene::shell_cell`), `[first, cones, meshes, end]` into the list
+///   (its spheres from `first`, its cones from `cones` on, its meshes from `meshes` to `end`), and
+///   the list, four words per texel: sphere and cone object indices, and per mesh three words,
+///   its object index and the first and end texel of its run in the edge pool.
 ///
 /// With a BVH (`accel`), its nodes ([`BvhNode`], [`bvh_nodes`]) and references (four per texel)
 /// take the place of the cells, references and macro bits.
@@ -141,52 +145,10 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
     let bundle_base = push_bundle(&mut t, scene.trace.shadows);
     let mut shell_sections = vec![];
     if let ShadowMode::Shell { .. } = scene.trace.shadows {
-        for light in &scene.lights {
-            let sh = light_shells(scene, light.position, light.radius);
+        for sh in scene_shells(scene) {
             let section = t.len() as u32;
             shell_sections.push(section);
-            let edge_base = section + 1 + SHELL_OBJECT_TEXELS * sh.objects.len() as u32;
-            let cell_base = edge_base + SHELL_EDGE_TEXELS * sh.edges.len() as u32;
-            let list_base = cell_base + sh.cells.len() as u32;
-            let listed = sh.cells.iter().map(Vec::len).sum::<usize>();
-            t.reserve_exact((list_base - section) as usize + listed.div_ceil(4));
-            t.push([sh.objects.len() as u32, cell_base, list_base, 0]);
-            for o in &sh.objects {
-                t.push(f32_bits(o.center - origin, (o.radius as f32).to_bits()));
-                t.push(match o.shape {
-                    ShellShape::Sphere(i) => [PrimRef::new(PrimKind::Sphere, i).0, 0, 0, 0],
-                    ShellShape::Cone(i) => [PrimRef::new(PrimKind::Cone, i).0, 0, 0, 0],
-                    ShellShape::Mesh { triangles, edges } => [
-                        PrimRef::new(PrimKind::Triangle, triangles[0]).0,
-                        triangles[1],
-                        edge_base + SHELL_EDGE_TEXELS * edges[0],
-                        edge_base + SHELL_EDGE_TEXELS * edges[1],
-                    ],
-                });
-            }
-            for [a, b] in &sh.edges {
-                t.push(f32_bits(*a - origin, 0));
-                t.push(f32_bits(*b - origin, 0));
-            }
-            // A cell's list holds its spheres, then its cones, then its meshes (objects are in
-            // that order and every list in object order), each kind visited by a loop of its own.
-            let mut first = 0u32;
-            for cell in &sh.cells {
-                let before = |kind: fn(&ShellShape) -> bool| {
-                    cell.iter().filter(|&&k| kind(&sh.objects[k as usize].shape)).count() as u32
-                };
-                let cones_from = before(|s| matches!(s, ShellShape::Sphere(_)));
-                let meshes_from = cones_from + before(|s| matches!(s, ShellShape::Cone(_)));
-                debug_assert!(cell.windows(2).all(|w| w[0] < w[1]), "a cell's list in object order");
-                t.push([first, cell.len() as u32, cones_from, meshes_from]);
-                first += cell.len() as u32;
-            }
-            let list: Vec<u32> = sh.cells.concat();
-            for chunk in list.chunks(4) {
-                let mut texel = [0u32; 4];
-                texel[..chunk.len()].copy_from_slice(chunk);
-                t.push(texel);
-            }
+            push_shells(&mut t, &sh, origin);
         }
     }
     PackedScene {
@@ -196,6 +158,82 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         accel_base: [accel_base[0], accel_base[1], accel_base[2], bundle_base],
         shell_sections,
         bvh_lattice,
+    }
+}
+
+/// Appends one light's shell section (the layout in [`pack_scene`]'s comment) to `t`.
+fn push_shells(t: &mut Vec<[u32; 4]>, sh: &LightShells, origin: DVec3) {
+    let section = t.len() as u32;
+    let is_mesh = |k: u32| matches!(sh.objects[k as usize].shape, ShellShape::Mesh { .. });
+    // Each mesh listed in a cell: the part of its cell's edges that are the mesh's own
+    // (`cell_edges` are in edge order, so a mesh's are one run).
+    let mesh_edges = |cell: usize, k: u32| -> &[u32] {
+        let ShellShape::Mesh { edges: [e0, e1], .. } = sh.objects[k as usize].shape else { return &[] };
+        let list = &sh.cell_edges[cell];
+        &list[list.partition_point(|&e| e < e0)..list.partition_point(|&e| e < e1)]
+    };
+    // Only meshes listed in a cell take their edges there (an edge's capsule can reach a cell
+    // that its mesh's bounding sphere does not; no segment there comes within reach of it).
+    let pool: u32 = (0..sh.cells.len())
+        .map(|c| {
+            sh.cells[c].iter().filter(|&&k| is_mesh(k)).map(|&k| mesh_edges(c, k).len() as u32).sum::<u32>()
+        })
+        .sum();
+    let listed: usize =
+        sh.cells.iter().map(|c| c.len() + 2 * c.iter().filter(|&&k| is_mesh(k)).count()).sum();
+    let edge_base = section + 1 + SHELL_OBJECT_TEXELS * sh.objects.len() as u32;
+    let cell_base = edge_base + SHELL_EDGE_TEXELS * pool;
+    let list_base = cell_base + sh.cells.len() as u32;
+    t.reserve_exact((list_base - section) as usize + listed.div_ceil(4));
+    t.push([sh.objects.len() as u32, cell_base, list_base, sh.res]);
+    for o in &sh.objects {
+        t.push(f32_bits(o.center - origin, (o.radius as f32).to_bits()));
+        t.push(match o.shape {
+            ShellShape::Sphere(i) => [PrimRef::new(PrimKind::Sphere, i).0, 0, 0, 0],
+            ShellShape::Cone(i) => [PrimRef::new(PrimKind::Cone, i).0, 0, 0, 0],
+            ShellShape::Mesh { triangles, .. } => {
+                [PrimRef::new(PrimKind::Triangle, triangles[0]).0, triangles[1], 0, 0]
+            }
+        });
+    }
+    // The edge pool: each cell's edges of each mesh it lists, one run per (cell, mesh).
+    let mut runs = vec![];
+    let mut at = edge_base;
+    for (c, cell) in sh.cells.iter().enumerate() {
+        for &k in cell.iter().filter(|&&k| is_mesh(k)) {
+            let edges = mesh_edges(c, k);
+            for &e in edges {
+                let [a, b] = sh.edges[e as usize];
+                t.push(f32_bits(a - origin, 0));
+                t.push(f32_bits(b - origin, 0));
+            }
+            runs.push([k, at, at + SHELL_EDGE_TEXELS * edges.len() as u32]);
+            at += SHELL_EDGE_TEXELS * edges.len() as u32;
+        }
+    }
+    debug_assert_eq!(at, cell_base, "the edge pool ends where the cells begin");
+    // A cell's list holds its spheres, then its cones (object indices), then its meshes (each
+    // three words: object index, its edges' first and end texel), each kind visited by a loop
+    // of its own.
+    let mut list: Vec<u32> = Vec::with_capacity(listed);
+    let mut runs = runs.into_iter();
+    for cell in &sh.cells {
+        debug_assert!(cell.windows(2).all(|w| w[0] < w[1]), "a cell's list in object order");
+        let first = list.len() as u32;
+        let kind = |k: &u32| sh.objects[*k as usize].shape;
+        list.extend(cell.iter().filter(|k| matches!(kind(k), ShellShape::Sphere(_))));
+        let cones_from = list.len() as u32;
+        list.extend(cell.iter().filter(|k| matches!(kind(k), ShellShape::Cone(_))));
+        let meshes_from = list.len() as u32;
+        for _ in cell.iter().filter(|&&k| is_mesh(k)) {
+            list.extend(runs.next().expect("a run per listed mesh"));
+        }
+        t.push([first, cones_from, meshes_from, list.len() as u32]);
+    }
+    for chunk in list.chunks(4) {
+        let mut texel = [0u32; 4];
+        texel[..chunk.len()].copy_from_slice(chunk);
+        t.push(texel);
     }
 }
 

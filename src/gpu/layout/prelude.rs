@@ -20,7 +20,6 @@ pub fn wgsl_constants() -> String {
     s += &c("CONE_TEXELS", CONE_TEXELS);
     s += &c("SHELL_OBJECT_TEXELS", SHELL_OBJECT_TEXELS);
     s += &c("SHELL_EDGE_TEXELS", SHELL_EDGE_TEXELS);
-    s += &c("SHELL_CELL_RES", crate::scene::SHELL_CELL_RES);
     s += &c("SHELL_DIRECT_TRIANGLES", crate::scene::SHELL_DIRECT_TRIANGLES);
     s += &c("NO_NORMALS", NO_NORMALS);
     s += &c("UV_TEXELS", UV_TEXELS);
