@@ -241,6 +241,9 @@ mod tests {
         assert_eq!(sized.scene.size, Some([16, 8]));
         let s = sized.settings().unwrap();
         assert!(s.f64 && s.accel == irt::accel::AccelChoice::Grid, "{s:?}");
+        let m = parse("replay p.toml --mpi --deadline 5").unwrap();
+        assert!(m.mpi.mpi && m.mpi.deadline == 5.0);
+        assert!(parse("replay p.toml --deadline 5").is_err(), "--deadline needs --mpi");
     }
 
     /// The path is read (and a bad one reported by file, line and column) before any device
