@@ -160,6 +160,9 @@ fn distributed(cluster: &irt::dist::cluster::Cluster, args: &ReplayArgs) -> Resu
             "--error-every renders ideal frames on rank 0, which has no device with --mpi: drop one of them"
         );
     }
+    if let ClockArg::Given(c) = args.clock {
+        anyhow::bail!("--clock {c} with --mpi: the clock is the wall time of rank 0's turns (drop --clock)");
+    }
     let path = CameraPath::load(&args.path)?;
     let scene = first_camera(&load_scene(&args.scene)?, &path);
     let settings = args.settings()?;

@@ -1,4 +1,5 @@
-//! `irt replay PATH.toml [SCENE]`: a [`Session`] run over a scripted camera path on a [`Clock`],
+//! `irt replay PATH.toml [SCENE]`: a [`Source`] — a [`Session`], or the MPI master of
+//! `--mpi` (src/dist/replay.rs) — run over a scripted camera path on a [`Clock`],
 //! measured the way frameless rendering was judged (../PAPER §3; docs/interactive.md): pixel
 //! age and input-to-screen latency at every present, and optionally the *dynamic error*
 //! (Woolley et al. 2003, Dayal et al. 2005) — the RMS error of the displayed image against the
