@@ -5,10 +5,13 @@ use super::args::{load_scene, BackendArgs, DeviceArgs, ModeArgs, SceneArgs};
 use super::{open_device, open_vk_device};
 use anyhow::{anyhow, Result};
 use clap::Args;
+use irt::dist::master::Master;
+use irt::dist::replay::MasterSource;
 use irt::gpu::device::{Backend, Device};
 use irt::render::metrics::Clock;
 use irt::render::replay::{
-    calibrate, replay, samples_csv, summary, CameraPath, ReplayOptions, DEFAULT_DISPLAY_HZ,
+    calibrate, first_camera, replay, replay_on, samples_csv, summary, CameraPath, ReplayOptions, Source,
+    DEFAULT_DISPLAY_HZ,
 };
 use irt::render::Settings;
 use irt::scene::Scene;
@@ -71,6 +74,10 @@ pub struct ReplayArgs {
     pub backend: BackendArgs,
     #[command(flatten)]
     pub device: DeviceArgs,
+    /// With --mpi the clock is the wall time of rank 0's turns (the round trip to the workers is
+    /// part of what is measured), and --error-every is refused (rank 0 has no device).
+    #[command(flatten)]
+    pub mpi: super::mpi::MpiArgs,
 }
 
 impl ReplayArgs {
@@ -88,6 +95,16 @@ impl ReplayArgs {
 
 /// Runs `irt replay`: loads the path and scene, replays, prints what was measured.
 pub fn run(args: ReplayArgs) -> Result<()> {
+    if args.mpi.mpi {
+        // Under mpirun every rank runs this command: the workers trace until rank 0 ends the job.
+        let Some(cluster) = super::mpi::join(args.backend.backend, &args.device)? else { return Ok(()) };
+        let result = distributed(&cluster, &args);
+        if let Err(e) = &result {
+            // The workers wait for rank 0: an error here must end them too.
+            cluster.abort(&format!("error: {e:#}"));
+        }
+        return result;
+    }
     let path = CameraPath::load(&args.path)?;
     let scene = load_scene(&args.scene)?;
     let settings = args.settings()?;
@@ -126,7 +143,49 @@ fn run_on<D: Device>(
     let t = Instant::now();
     let report = replay(ctx, scene, settings, path, &opts)?;
     let scene_name = args.scene.name_or("default scene");
-    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), ctx));
+    let device = format!("{} ({})", ctx.adapter_name(), ctx.adapter_driver());
+    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), &device));
+    eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());
+    if let Some(csv) = &args.csv {
+        irt::image::write_atomic(csv, samples_csv(&report).as_bytes())?;
+        eprintln!("wrote {}", csv.display());
+    }
+    Ok(())
+}
+
+/// `irt replay --mpi` on rank 0: the replay's loop on the master, the workers tracing.
+fn distributed(cluster: &irt::dist::cluster::Cluster, args: &ReplayArgs) -> Result<()> {
+    if args.error_every > 0 {
+        anyhow::bail!(
+            "--error-every renders ideal frames on rank 0, which has no device with --mpi: drop one of them"
+        );
+    }
+    if let ClockArg::Given(c) = args.clock {
+        anyhow::bail!("--clock {c} with --mpi: the clock is the wall time of rank 0's turns (drop --clock)");
+    }
+    let path = CameraPath::load(&args.path)?;
+    let scene = first_camera(&load_scene(&args.scene)?, &path);
+    let settings = args.settings()?;
+    let mut master = Master::start(cluster, &scene, settings.clone(), args.mpi.deadlines()?)?;
+    let opts = ReplayOptions {
+        clock: Clock::Real,
+        display_hz: args.rate,
+        error_every: 0,
+        frames_dir: args.frames.clone(),
+        progress: true,
+    };
+    let t = Instant::now();
+    let mut source = MasterSource::new(&mut master);
+    let result = replay_on(&mut source, &scene, &settings.mode, &path, &opts);
+    let (failure, device) = (source.failure.take(), source.device());
+    if let Some(e) = failure {
+        // A silent or failed rank: named, and the whole job ends.
+        master.abort(&e);
+    }
+    let report = result?;
+    master.finish();
+    let scene_name = args.scene.name_or("default scene");
+    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), &device));
     eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());
     if let Some(csv) = &args.csv {
         irt::image::write_atomic(csv, samples_csv(&report).as_bytes())?;
@@ -185,6 +244,9 @@ mod tests {
         assert_eq!(sized.scene.size, Some([16, 8]));
         let s = sized.settings().unwrap();
         assert!(s.f64 && s.accel == irt::accel::AccelChoice::Grid, "{s:?}");
+        let m = parse("replay p.toml --mpi --deadline 5").unwrap();
+        assert!(m.mpi.mpi && m.mpi.deadline == 5.0);
+        assert!(parse("replay p.toml --deadline 5").is_err(), "--deadline needs --mpi");
     }
 
     /// The path is read (and a bad one reported by file, line and column) before any device

@@ -79,6 +79,20 @@ struct Frame {
     values: Vec<[f32; 3]>,
 }
 
+/// A piece that reached the frame buffer in a pump, for measuring pixel age and latency as one
+/// process does (src/render/replay.rs): which state it was traced with and how much of the
+/// screen it covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Applied {
+    /// The state version the workers traced it with ([`Master::version`]).
+    pub state: u64,
+    /// Frameless: positions of the pixel order (a pass is [`Master::pass_len`] of them);
+    /// conventional: the frame's pixels.
+    pub positions: u64,
+    /// A whole conventional frame (else a frameless slice).
+    pub frame: bool,
+}
+
 /// What the master hands out.
 enum Plan {
     Frames(Option<Frame>),
@@ -103,6 +117,8 @@ pub struct Master<'a> {
     samples: u32,
     /// The most shader loop iterations a returned pixel ran (lavapipe's limit).
     pub max_loop_iterations: u32,
+    /// What reached the frame buffer since [`Master::pump_applied`] last returned it.
+    applied: Vec<Applied>,
 }
 
 impl<'a> Master<'a> {
@@ -160,6 +176,7 @@ impl<'a> Master<'a> {
             next_apply: 0,
             samples: 0,
             max_loop_iterations: 0,
+            applied: Vec::new(),
         };
         m.restart()?;
         let kib = msg.len().div_ceil(1024);
@@ -187,6 +204,11 @@ impl<'a> Master<'a> {
         }
     }
 
+    /// Worker ranks.
+    pub fn workers(&self) -> usize {
+        self.workers.len()
+    }
+
     pub fn frame(&self) -> &HostFrame {
         &self.frame
     }
@@ -197,6 +219,22 @@ impl<'a> Master<'a> {
 
     pub fn camera(&self) -> &Camera {
         &self.state.camera
+    }
+
+    /// The version of the current state: 1 at the start, one more at each change.
+    pub fn version(&self) -> u64 {
+        self.state.version
+    }
+
+    /// Positions of a frameless pass of the pixel order (the dissolve's include values past the
+    /// image), or the pixels of a conventional frame: the screen [`Applied::positions`] fill.
+    pub fn pass_len(&self) -> u64 {
+        let pixels = self.state.camera.width as u64 * self.state.camera.height as u64;
+        match &self.plan {
+            Plan::Slices { table: Some(t), .. } => t.len() as u64,
+            Plan::Slices { table: None, .. } => Dissolve::new(pixels).period(),
+            Plan::Frames(_) => pixels,
+        }
     }
 
     /// Samples since the last change: conventional frames assembled, frameless visits handed
@@ -323,6 +361,13 @@ impl<'a> Master<'a> {
     /// back, and checks the deadline: one turn of the master's loop, never blocking longer than
     /// `wait` for a message.
     pub fn pump(&mut self, wait: Duration) -> Result<StepReport, MasterError> {
+        self.pump_applied(wait).map(|(report, _)| report)
+    }
+
+    /// [`Master::pump`], and the pieces that reached the frame buffer in it, in the order they
+    /// were applied.
+    pub fn pump_applied(&mut self, wait: Duration) -> Result<(StepReport, Vec<Applied>), MasterError> {
+        self.applied.clear();
         self.deal()?;
         let mut report = StepReport { camera_version: self.state.version, ..Default::default() };
         let t = Instant::now();
@@ -337,7 +382,7 @@ impl<'a> Master<'a> {
         report.trace_time = t.elapsed();
         report.idle = self.done();
         self.check_deadline()?;
-        Ok(report)
+        Ok((report, std::mem::take(&mut self.applied)))
     }
 
     fn check_deadline(&self) -> Result<(), MasterError> {
@@ -458,6 +503,8 @@ impl<'a> Master<'a> {
                     self.samples += 1;
                     report.pixels = f.values.len() as u64;
                     report.frame_done = true;
+                    let positions = f.values.len() as u64;
+                    self.applied.push(Applied { state: f.state, positions, frame: true });
                     *frame = None;
                 }
             }
@@ -476,6 +523,7 @@ impl<'a> Master<'a> {
                     }
                 }
                 report.eye_rays += px.values.len() as u64;
+                self.applied.push(Applied { state: work.state, positions: len, frame: false });
                 let pass = if table.is_some() { pixels } else { Dissolve::new(pixels).period() };
                 report.frame_done = (first + len) % pass == 0;
             }

@@ -11,5 +11,6 @@ pub mod cluster;
 pub mod fault;
 pub mod frame;
 pub mod master;
+pub mod replay;
 pub mod wire;
 pub mod worker;

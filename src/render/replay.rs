@@ -1,4 +1,5 @@
-//! `irt replay PATH.toml [SCENE]`: a [`Session`] run over a scripted camera path on a [`Clock`],
+//! `irt replay PATH.toml [SCENE]`: a [`Source`] — a [`Session`], or the MPI master of
+//! `--mpi` (src/dist/replay.rs) — run over a scripted camera path on a [`Clock`],
 //! measured the way frameless rendering was judged (../PAPER §3; docs/interactive.md): pixel
 //! age and input-to-screen latency at every present, and optionally the *dynamic error*
 //! (Woolley et al. 2003, Dayal et al. 2005) — the RMS error of the displayed image against the
@@ -24,7 +25,7 @@
 pub use super::camera_path::{CameraKey, CameraPath, MAX_PATH_FILE_BYTES};
 use super::host_loop::{Cancel, HostLoop};
 use super::metrics::{AgeStats, AgeTracker, Clock, LatencyStats, LatencyTracker, LATENCY_LEVELS};
-use super::{Mode, Session, Settings};
+use super::{Mode, Session, Settings, StepReport};
 use crate::gpu::device::Device;
 use crate::image::Image;
 use crate::scene::{Camera, Scene};
@@ -45,6 +46,9 @@ pub enum ReplayError {
     Unsettled(f64),
     #[error("{0}: {1}")]
     Io(String, std::io::Error),
+    /// The MPI job failed (src/dist/replay.rs: the master ends the job with it).
+    #[error("{0}")]
+    Distributed(String),
 }
 
 /// A device path's error as a replay's.
@@ -187,13 +191,119 @@ impl<D: Device> Ideal<D> {
     }
 }
 
-struct Replayer<'a, D: Device> {
+// ---- What a replay drives ------------------------------------------------------------------
+
+/// Pixels that reached the screen in a step, and the clock time of the camera they were traced
+/// with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Landed {
+    /// Frameless: `positions` of the pixel order (a pass is [`Source::pass_len`] of them).
+    Slice { t: f64, positions: u64 },
+    /// Conventional: a whole frame.
+    Frame { t: f64 },
+}
+
+/// What a replay runs: one [`Session`] on a device ([`LocalSource`]), or the master of MPI ranks
+/// (src/dist/replay.rs). The replay's loop, clock and measures are the same for both.
+pub trait Source {
+    /// Positions of a frameless pass, or the pixels of a conventional frame.
+    fn pass_len(&self) -> u64;
+    /// The whole picture of the first camera, on screen at t = 0.
+    fn warm_start(&mut self) -> Result<(), ReplayError>;
+    /// Takes `camera` and the objects of time `time` (None: a still scene), read at clock time
+    /// `t`; returns the host time spent moving objects.
+    fn take_state(&mut self, camera: &Camera, time: Option<f64>, t: f64) -> Result<Duration, ReplayError>;
+    /// One step of work; what reached the screen in it goes into `landed`.
+    fn step(&mut self, landed: &mut Vec<Landed>) -> Result<StepReport, ReplayError>;
+    /// The picture on screen.
+    fn image(&mut self) -> Result<Image, ReplayError>;
+    /// The ideal image of `camera` and the scene at time `t` (for the dynamic error).
+    fn ideal(&mut self, camera: &Camera, t: f64) -> Result<Image, ReplayError>;
+    /// The device that traces, in words.
+    fn device(&self) -> String;
+}
+
+/// A replay on one [`Session`] on `ctx`.
+pub struct LocalSource<'a, D: Device> {
     ctx: &'a D,
+    session: Session<D>,
+    ideal: Option<Ideal<D>>,
+    conventional: bool,
+    /// Clock time of the camera the session holds.
+    t_state: f64,
+}
+
+impl<'a, D: Device> LocalSource<'a, D> {
+    /// `scene` (with its first camera) on `ctx`; an ideal session too when errors are measured.
+    pub fn new(ctx: &'a D, scene: &Scene, settings: &Settings, ideal: bool) -> Result<Self, ReplayError> {
+        // Both sessions upload positions relative to the first camera's eye, so a frame of the
+        // same camera is the same bit for bit in each.
+        let session = Session::new(ctx, scene, settings.clone())?;
+        let ideal = if ideal { Some(Ideal::new(ctx, scene, settings)?) } else { None };
+        let conventional = matches!(settings.mode, Mode::Conventional { .. });
+        Ok(LocalSource { ctx, session, ideal, conventional, t_state: 0.0 })
+    }
+}
+
+impl<D: Device> Source for LocalSource<'_, D> {
+    fn pass_len(&self) -> u64 {
+        if self.conventional {
+            let [w, h] = self.session.size();
+            w as u64 * h as u64
+        } else {
+            self.session.pass_len()
+        }
+    }
+
+    fn warm_start(&mut self) -> Result<(), ReplayError> {
+        self.session.try_complete_pass(self.ctx).map_err(gpu_err)?;
+        Ok(())
+    }
+
+    fn take_state(&mut self, camera: &Camera, time: Option<f64>, t: f64) -> Result<Duration, ReplayError> {
+        self.t_state = t;
+        self.session.set_camera(self.ctx, camera);
+        match time {
+            Some(time) => Ok(self.session.set_time(self.ctx, time)?.total()),
+            None => Ok(Duration::ZERO),
+        }
+    }
+
+    fn step(&mut self, landed: &mut Vec<Landed>) -> Result<StepReport, ReplayError> {
+        let step = self.session.try_step(self.ctx).map_err(gpu_err)?;
+        if step.idle {
+            return Ok(step);
+        }
+        if self.conventional {
+            if step.frame_done {
+                landed.push(Landed::Frame { t: self.t_state });
+            }
+        } else {
+            let slice = step.slice.expect("frameless steps report their slice");
+            landed.push(Landed::Slice { t: self.t_state, positions: slice.len });
+        }
+        Ok(step)
+    }
+
+    fn image(&mut self) -> Result<Image, ReplayError> {
+        self.session.try_read_image(self.ctx).map_err(gpu_err)
+    }
+
+    fn ideal(&mut self, camera: &Camera, t: f64) -> Result<Image, ReplayError> {
+        let ideal = self.ideal.as_mut().expect("error_every > 0 made the ideal session");
+        Ok(ideal.image(self.ctx, camera, t)?.clone())
+    }
+
+    fn device(&self) -> String {
+        format!("{} ({})", self.ctx.adapter_name(), self.ctx.adapter_driver())
+    }
+}
+
+struct Replayer<'a, S: Source> {
+    source: &'a mut S,
     path: &'a CameraPath,
     opts: &'a ReplayOptions,
     size: [u32; 2],
-    session: Session<D>,
-    ideal: Option<Ideal<D>>,
     /// The scene's motions end here (0: a still scene).
     motion_end: f64,
     screen: AgeTracker,
@@ -210,7 +320,7 @@ struct Replayer<'a, D: Device> {
     frames_written: u64,
 }
 
-impl<D: Device> Replayer<'_, D> {
+impl<S: Source> Replayer<'_, S> {
     fn camera(&self, t: f64) -> Camera {
         self.path.camera_at(t, self.size[0], self.size[1])
     }
@@ -247,19 +357,25 @@ impl<D: Device> Replayer<'_, D> {
 
     fn error_of(&mut self, shown: &Image, t: f64) -> Result<f64, ReplayError> {
         let camera = self.camera(t);
-        let ideal = self.ideal.as_mut().expect("error_every > 0 made the ideal session");
-        Ok(crate::metrics::rmse(shown, ideal.image(self.ctx, &camera, t)?))
+        Ok(crate::metrics::rmse(shown, &self.source.ideal(&camera, t)?))
     }
 
     /// Takes the camera and (in an animated scene) the objects of time `t`; returns the host
     /// time spent moving them.
     fn take_state(&mut self, t: f64) -> Result<Duration, ReplayError> {
         let c = self.camera(t);
-        self.session.set_camera(self.ctx, &c);
-        if self.motion_end > 0.0 {
-            return Ok(self.session.set_time(self.ctx, t)?.total());
+        let time = (self.motion_end > 0.0).then_some(t);
+        self.source.take_state(&c, time, t)
+    }
+
+    /// What reached the screen in a step.
+    fn record(&mut self, landed: &[Landed]) {
+        for l in landed {
+            match *l {
+                Landed::Slice { t, positions } => self.screen.record_slice(t, positions),
+                Landed::Frame { t } => self.screen.record_frame(t),
+            }
         }
-        Ok(Duration::ZERO)
     }
 
     /// A new picture at `t`.
@@ -272,9 +388,8 @@ impl<D: Device> Replayer<'_, D> {
         }
         if let Some(dir) = &self.opts.frames_dir {
             let file = dir.join(format!("frame_{:04}.png", self.frames_written));
-            self.session
-                .try_read_image(self.ctx)
-                .map_err(gpu_err)?
+            self.source
+                .image()?
                 .save_png(&file)
                 .map_err(|e| ReplayError::Io(format!("writing {}", file.display()), e))?;
             self.frames_written += 1;
@@ -287,7 +402,7 @@ impl<D: Device> Replayer<'_, D> {
         self.present(t)?;
         if t <= self.end {
             let error = if self.error_due(t) {
-                let shown = self.session.try_read_image(self.ctx).map_err(gpu_err)?;
+                let shown = self.source.image()?;
                 Some(self.error_of(&shown, t)?)
             } else {
                 None
@@ -325,30 +440,49 @@ pub fn replay<D: Device>(
     path: &CameraPath,
     opts: &ReplayOptions,
 ) -> Result<ReplayReport, ReplayError> {
+    check_options(opts)?;
+    let scene = first_camera(scene, path);
+    let mut source = LocalSource::new(ctx, &scene, settings, opts.error_every > 0)?;
+    replay_on(&mut source, &scene, &settings.mode, path, opts)
+}
+
+/// The display rate is a rate.
+pub fn check_options(opts: &ReplayOptions) -> Result<(), ReplayError> {
     if !(opts.display_hz.is_finite() && opts.display_hz > 0.0) {
         return Err(ReplayError::DisplayRate(opts.display_hz));
     }
+    Ok(())
+}
+
+/// `scene` with the path's first camera (its own width and height).
+pub fn first_camera(scene: &Scene, path: &CameraPath) -> Scene {
     let mut scene = scene.clone();
+    scene.camera = path.camera_at(0.0, scene.camera.width, scene.camera.height);
+    scene
+}
+
+/// The replay's loop on `source`, which holds `scene` (posed at the path's first camera) in
+/// `mode`; see the module documentation.
+pub fn replay_on<S: Source>(
+    source: &mut S,
+    scene: &Scene,
+    mode: &Mode,
+    path: &CameraPath,
+    opts: &ReplayOptions,
+) -> Result<ReplayReport, ReplayError> {
+    check_options(opts)?;
     let size = [scene.camera.width, scene.camera.height];
-    // Both sessions upload positions relative to the first camera's eye, so a frame of the
-    // same camera is the same bit for bit in each.
-    scene.camera = path.camera_at(0.0, size[0], size[1]);
-    let session = Session::new(ctx, &scene, settings.clone())?;
-    let ideal = if opts.error_every > 0 { Some(Ideal::new(ctx, &scene, settings)?) } else { None };
     if let Some(dir) = &opts.frames_dir {
         std::fs::create_dir_all(dir)
             .map_err(|e| ReplayError::Io(format!("creating {}", dir.display()), e))?;
     }
-    let conventional = matches!(settings.mode, Mode::Conventional { .. });
-    let pixels = size[0] as u64 * size[1] as u64;
+    let conventional = matches!(mode, Mode::Conventional { .. });
     let mut r = Replayer {
-        ctx,
+        screen: AgeTracker::new(source.pass_len(), 0.0),
+        source,
         path,
         opts,
         size,
-        screen: AgeTracker::new(if conventional { pixels } else { session.pass_len() }, 0.0),
-        session,
-        ideal,
         motion_end: scene.duration(),
         latency: LatencyTracker::default(),
         // An animated scene plays to its end even if the camera rests sooner.
@@ -362,9 +496,9 @@ pub fn replay<D: Device>(
         frames_written: 0,
     };
     // Warm start: the first camera's picture is on screen at t = 0.
-    r.session.try_complete_pass(ctx).map_err(gpu_err)?;
-    if r.ideal.is_some() && conventional {
-        r.held = Some(r.session.try_read_image(ctx).map_err(gpu_err)?);
+    r.source.warm_start()?;
+    if opts.error_every > 0 && conventional {
+        r.held = Some(r.source.image()?);
     }
     let bar = if opts.progress {
         let bar = indicatif::ProgressBar::new((r.end * 1000.0).ceil() as u64);
@@ -388,18 +522,17 @@ pub fn replay<D: Device>(
     // (pixels, wall time) of each slice or frame, and the waves of the frame in flight.
     let mut units: Vec<(u64, Duration)> = Vec::new();
     let mut frame_wall = Duration::ZERO;
-    let mut frame_start = 0.0;
+    let mut landed = Vec::new();
     loop {
         if now > limit {
             return Err(ReplayError::Unsettled(limit));
         }
-        let t_camera = now;
         let mut update = Duration::ZERO;
         if host.take_input(conventional, true) {
             update = r.take_state(now)?;
-            frame_start = now;
         }
-        let step = r.session.try_step(ctx).map_err(gpu_err)?;
+        landed.clear();
+        let step = r.source.step(&mut landed)?;
         if step.idle {
             // Converged at rest: nothing to trace until the next refresh.
             host.stepped(now, conventional, &step);
@@ -434,16 +567,15 @@ pub fn replay<D: Device>(
                 r.refresh_conventional(host.next_refresh())?;
                 host.refreshed();
             }
+            r.record(&landed);
             if present {
-                r.screen.record_frame(frame_start);
                 r.present(now)?;
-                if r.ideal.is_some() {
-                    r.held = Some(r.session.try_read_image(ctx).map_err(gpu_err)?);
+                if opts.error_every > 0 {
+                    r.held = Some(r.source.image()?);
                 }
             }
         } else {
-            let slice = step.slice.expect("frameless steps report their slice");
-            r.screen.record_slice(t_camera, slice.len);
+            r.record(&landed);
             if present {
                 r.present_frameless(now)?;
                 host.presented(now);
@@ -514,11 +646,12 @@ fn ms(s: f64) -> String {
 }
 
 /// What `irt replay` prints.
-pub fn summary(r: &ReplayReport, mode: &Mode, what: &str, ctx: &impl Device) -> String {
+/// `device`: what traced, in words ([`Source::device`]).
+pub fn summary(r: &ReplayReport, mode: &Mode, what: &str, device: &str) -> String {
     let mut out = String::new();
     let [w, h] = r.size;
     let _ = writeln!(out, "replay     {what}, {w}x{h}, {mode}");
-    let _ = writeln!(out, "device     {} ({})", ctx.adapter_name(), ctx.adapter_driver());
+    let _ = writeln!(out, "device     {device}");
     let clock = match r.clock {
         Clock::Real => "real (measured dispatch time)".to_string(),
         Clock::Virtual { seconds_per_pixel } => {

@@ -49,7 +49,12 @@ impl Job {
     }
 
     /// The job from `cmd` (mpirun with an environment of its own: a display).
-    fn start_in(mut cmd: Command, contexts: &[Ranks]) -> Job {
+    fn start_in(cmd: Command, contexts: &[Ranks]) -> Job {
+        Job::start_to(cmd, contexts, Stdio::null())
+    }
+
+    /// The job from `cmd`, its standard output to `stdout`.
+    fn start_to(mut cmd: Command, contexts: &[Ranks], stdout: Stdio) -> Job {
         cmd.arg("--oversubscribe");
         for (i, c) in contexts.iter().enumerate() {
             if i > 0 {
@@ -66,7 +71,7 @@ impl Job {
         cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1").env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
         // Two workers on a 2-core machine: one lavapipe thread each.
         cmd.env("LP_NUM_THREADS", "1");
-        cmd.stdout(Stdio::null()).stderr(Stdio::piped()).process_group(0);
+        cmd.stdout(stdout).stderr(Stdio::piped()).process_group(0);
         let mut child = cmd.spawn().expect("mpirun runs (scripts/setup.sh installs Open MPI)");
         let (tx, rx) = mpsc::channel();
         let err = child.stderr.take().unwrap();
@@ -317,6 +322,48 @@ fn a_worker_without_its_device_says_so_before_the_first_frame() {
         Duration::from_secs(120),
         &["rank 1 could not open a device", "no-such-device"],
     );
+}
+
+/// `irt replay --mpi`: the path replayed with two workers tracing prints what a local replay
+/// prints, and every input reaches the whole screen within a sane latency.
+#[test]
+fn replay_across_ranks_measures_latency_and_pixel_age() {
+    let out = dir().join("replay.txt");
+    let file = std::fs::File::create(&out).unwrap();
+    let csv = dir().join("replay.csv");
+    let args =
+        ["replay", "scenes/paths/orbit.toml", "--mpi", "--size", "96x72", "--csv", csv.to_str().unwrap()];
+    let mut job = Job::start_to(Command::new("mpirun"), &[ranks(3, &args)], Stdio::from(file));
+    let status = job.wait(Duration::from_secs(60));
+    let stderr = job.stderr();
+    assert!(status.is_some_and(|s| s.success()), "{status:?}\n{stderr}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    for head in [
+        "replay     scenes/paths/orbit.toml",
+        "device     2 MPI workers on",
+        "clock      real",
+        "latency    (mean / max of",
+        "pixel age  at presents",
+        "pixel age  at refreshes",
+    ] {
+        assert!(text.contains(head), "no `{head}` in\n{text}");
+    }
+    // Every input of the 3 s path reached 100% of the screen (else the replay would not end),
+    // within a sane time: the worst "100%" latency is finite and under a second.
+    let latency = text.lines().find(|l| l.starts_with("latency")).unwrap();
+    let worst = latency.rsplit("100% ").next().unwrap();
+    let max_ms: f64 = worst.split(" / ").nth(1).unwrap().trim_end_matches(" ms").parse().unwrap();
+    assert!(max_ms.is_finite() && max_ms > 0.0 && max_ms < 1000.0, "{latency}");
+    let inputs: u32 = latency.split("of ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!(inputs > 100, "{latency}");
+    // Pixel ages at the presents are in the CSV, each finite and under a second.
+    let ages = std::fs::read_to_string(&csv).unwrap();
+    let presents: Vec<f64> = ages
+        .lines()
+        .filter(|l| l.starts_with("present,"))
+        .map(|l| l.split(',').nth(4).unwrap().parse().unwrap())
+        .collect();
+    assert!(presents.len() > 100 && presents.iter().all(|a| a.is_finite() && *a < 1.0), "{ages}");
 }
 
 #[test]
