@@ -226,7 +226,14 @@ impl Source for Distributed<'_> {
         Ok(())
     }
     fn step(&mut self, _: &GpuContext) -> Result<StepReport> {
-        Ok(self.master.pump(PUMP_WAIT)?)
+        let (mut report, applied) = self.master.pump_applied(PUMP_WAIT)?;
+        // The frameless positions that reached the frame buffer in this turn: the HUD's pixel age
+        // counts them as traced now (the replay times each by its state's camera).
+        let positions: u64 = applied.iter().filter(|a| !a.frame).map(|a| a.positions).sum();
+        if positions > 0 {
+            report.slice = Some(crate::render::SliceSpan { first: 0, len: positions });
+        }
+        Ok(report)
     }
     fn samples(&self) -> u32 {
         self.master.samples()
