@@ -142,15 +142,8 @@ fn run_on<D: Device>(
     };
     let t = Instant::now();
     let report = replay(ctx, scene, settings, path, &opts)?;
-    let scene_name = args.scene.name_or("default scene");
     let device = format!("{} ({})", ctx.adapter_name(), ctx.adapter_driver());
-    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), &device));
-    eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());
-    if let Some(csv) = &args.csv {
-        irt::image::write_atomic(csv, samples_csv(&report).as_bytes())?;
-        eprintln!("wrote {}", csv.display());
-    }
-    Ok(())
+    print_report(args, &report, settings, path, &device, t)
 }
 
 /// `irt replay --mpi` on rank 0: the replay's loop on the master, the workers tracing.
@@ -184,11 +177,23 @@ fn distributed(cluster: &irt::dist::cluster::Cluster, args: &ReplayArgs) -> Resu
     }
     let report = result?;
     master.finish();
+    print_report(args, &report, &settings, &path, &device, t)
+}
+
+/// The summary on stdout, the time taken, and the CSV when asked for.
+fn print_report(
+    args: &ReplayArgs,
+    report: &irt::render::replay::ReplayReport,
+    settings: &Settings,
+    path: &CameraPath,
+    device: &str,
+    t: Instant,
+) -> Result<()> {
     let scene_name = args.scene.name_or("default scene");
-    print!("{}", summary(&report, &settings.mode, &format!("{} on {scene_name}", path.origin), &device));
+    print!("{}", summary(report, &settings.mode, &format!("{} on {scene_name}", path.origin), device));
     eprintln!("(took {:.1} s)", t.elapsed().as_secs_f64());
     if let Some(csv) = &args.csv {
-        irt::image::write_atomic(csv, samples_csv(&report).as_bytes())?;
+        irt::image::write_atomic(csv, samples_csv(report).as_bytes())?;
         eprintln!("wrote {}", csv.display());
     }
     Ok(())
