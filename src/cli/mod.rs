@@ -32,7 +32,7 @@ use std::path::Path;
     about = "Interactive ray tracer on Vulkan compute (Parker et al., I3D 1999)",
     long_about = "irt traces scenes with WGSL compute shaders on any Vulkan device — by default \
 Mesa's lavapipe, which runs Vulkan on the CPU. Without a SCENE it draws the built-in default \
-scene.\n\nExamples:\n  irt view\n  irt view scenes/spd/balls_s2.nff --mode frameless\n  irt replay scenes/paths/orbit.toml --mode frameless\n  irt render --out default.png\n  irt render --out default.exr\n  irt render scenes/metal.toml --size 800x600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt render --shadows bundle:16 --out soft.png\n  irt tradeoff --out-dir tradeoff\n  irt bench\n  irt convert model.glb model.toml\n  irt spd balls --size 6 --out balls_s6.nff\n  irt info"
+scene.\n\nExamples:\n  irt view\n  irt view scenes/spd/balls_s2.nff --mode frameless\n  irt replay scenes/paths/orbit.toml --mode frameless\n  irt render --out default.png\n  irt render --out default.exr\n  irt render scenes/metal.toml --size 800x600 --out metal.png\n  irt render scenes/spd/balls_s4.nff --stats --spd-rules --out balls.png\n  irt render --shadows bundle:16 --out soft.png\n  irt render --shadows soft --light-radius 0.5 --out soft.png\n  mpirun -n 3 irt view scenes/spd/balls_s4.nff --mpi\n  irt render --tile 0/4 --out tiles/   (then: irt merge tiles/ --out picture.png)\n  irt tradeoff --out-dir tradeoff\n  irt bench\n  irt convert model.glb model.toml\n  irt spd balls --size 6 --out balls_s6.nff\n  irt info"
 )]
 pub struct Cli {
     #[command(subcommand)]
