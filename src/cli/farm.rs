@@ -61,14 +61,7 @@ fn trace<D: Device>(
     settings: irt::render::Settings,
     spec: TileSpec,
 ) -> Result<(farm::Tile, String)> {
-    let bar = indicatif::ProgressBar::new(0);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} tile {msg}: {pos}/{len} pixels [{bar:30}] {elapsed_precise}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
+    let bar = super::bar(0, "{spinner} tile {msg}: {pos}/{len} pixels [{bar:30}] {elapsed_precise}");
     bar.set_message(spec.to_string());
     let tile = farm::render_tile(ctx, scene, settings, spec, &mut |done, total| {
         bar.set_length(total);

@@ -96,20 +96,22 @@ pub fn open_vk_device(
 
 use irt::io::{report, LARGE_SCENE_PRIMITIVES};
 
+/// A progress bar of `len` steps drawn by `template` (indicatif's), in the commands' one style.
+pub fn bar(len: u64, template: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(template).expect("valid template").progress_chars("=> "),
+    );
+    bar
+}
+
 /// A bar for [`irt::render::Session::with_progress`]: the accelerator build's primitives, then the
 /// upload.
 pub fn setup_bar(primitives: usize) -> indicatif::ProgressBar {
     if primitives < LARGE_SCENE_PRIMITIVES {
         return indicatif::ProgressBar::hidden();
     }
-    let bar = indicatif::ProgressBar::new(primitives as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} {elapsed}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
+    let bar = bar(primitives as u64, "{spinner} {msg} [{bar:30}] {human_pos}/{human_len} {elapsed}");
     bar.set_message("building the accelerator");
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     bar

@@ -247,14 +247,8 @@ fn distributed(
 ) -> Result<()> {
     let deadlines = args.mpi.deadlines()?;
     let how = format!("{} over MPI", settings.mode);
-    let bar = indicatif::ProgressBar::new(0);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} tracing {pos}/{len} pixels on the workers [{bar:30}] {elapsed_precise}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
+    let bar =
+        super::bar(0, "{spinner} tracing {pos}/{len} pixels on the workers [{bar:30}] {elapsed_precise}");
     let t = Instant::now();
     let r = irt::dist::master::render(cluster, scene, settings, deadlines, &mut |done, total| {
         bar.set_length(total);
@@ -282,15 +276,7 @@ fn distributed(
 }
 
 fn tracing_bar(rows: u32) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(rows as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} tracing {pos}/{len} rows [{bar:30}] {elapsed_precise}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
-    bar
+    super::bar(rows as u64, "{spinner} tracing {pos}/{len} rows [{bar:30}] {elapsed_precise}")
 }
 
 fn print_stats(args: &RenderArgs, frame: &Picture) {

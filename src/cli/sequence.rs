@@ -62,13 +62,9 @@ impl Job<'_> {
         let first = pattern.path(frames.start);
         let mut session = Session::new(ctx, scene, settings).map_err(anyhow::Error::msg)?;
         session.incremental = !args.full_rebuild;
-        let bar = indicatif::ProgressBar::new(frames.len() as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} frame {pos}/{len} [{bar:30}] {elapsed_precise} eta {eta}",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
+        let bar = super::bar(
+            frames.len() as u64,
+            "{spinner} frame {pos}/{len} [{bar:30}] {elapsed_precise} eta {eta}",
         );
         let mut cost = Totals::default();
         let t0 = Instant::now();

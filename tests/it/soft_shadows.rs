@@ -425,6 +425,20 @@ fn meshes_large_and_small_match_the_reference_under_shells() {
     }
 }
 
+/// Scene `name` ("default", or a path from the crate's root) at 64x48 with every light of
+/// `radius`: what the per-scene error tests trace.
+fn small_scene(name: &str, radius: f64) -> irt::scene::Scene {
+    let mut s = if name == "default" {
+        default_scene()
+    } else {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name);
+        irt::io::load(&path).unwrap_or_else(|e| panic!("{e}"))
+    };
+    (s.camera.width, s.camera.height) = (64, 48);
+    s.lights.iter_mut().for_each(|l| l.radius = radius);
+    s
+}
+
 /// On each scene of docs/tradeoff.md, at a small size, the default shell mode is nearer the
 /// f64 ground truth than hard shadows are, by at least the factor of two. Measured at
 /// this size (64x48, 16² ground truth), RMSE hard → shell:disc:min: default 0.01641 → 0.00285
@@ -440,14 +454,7 @@ fn the_default_shell_mode_beats_hard_shadows_on_the_tradeoff_scenes() {
         ("scenes/mesh.toml", 0.5),
         ("scenes/spd/balls_s2.nff", 0.25),
     ] {
-        let mut s = if name == "default" {
-            default_scene()
-        } else {
-            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name);
-            irt::io::load(&path).unwrap_or_else(|e| panic!("{e}"))
-        };
-        (s.camera.width, s.camera.height) = (64, 48);
-        s.lights.iter_mut().for_each(|l| l.radius = radius);
+        let mut s = small_scene(name, radius);
         let truth = to_image(&Reference::new(&s).with_ground_truth(16).render().0);
         s.trace.shadows = ShadowMode::Hard;
         let hard = compare(&render_gpu(&ctx, &s), &truth).rmse;
@@ -528,14 +535,7 @@ fn the_soft_default_beats_hard_shadows_on_every_shipped_scene() {
     let ctx = gpu();
     let mut failed = vec![];
     for (name, radius) in SOFT_SCENES {
-        let mut s = if name == "default" {
-            default_scene()
-        } else {
-            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name);
-            irt::io::load(&path).unwrap_or_else(|e| panic!("{e}"))
-        };
-        (s.camera.width, s.camera.height) = (64, 48);
-        s.lights.iter_mut().for_each(|l| l.radius = radius);
+        let mut s = small_scene(name, radius);
         let truth = to_image(&Reference::new(&s).with_ground_truth(8).render().0);
         s.trace.shadows = ShadowMode::Hard;
         let hard = compare(&render_gpu(&ctx, &s), &truth).rmse;
