@@ -9,7 +9,7 @@ use super::cluster::{say, Cluster};
 use super::frame::HostFrame;
 use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
 use crate::render::modes::{chunk_pixels, frameless_sample, resolve_sample, Slices};
-use crate::render::order::Dissolve;
+use crate::render::order::{Dissolve, PixelOrder};
 use crate::render::pieces::split_settings;
 use crate::render::schedule::tile_grid;
 use crate::render::{Mode, RenderError, Schedule, Settings, StepReport};
@@ -347,6 +347,14 @@ impl<'a> Master<'a> {
         self.samples = 0;
         let [w, h] = [self.state.camera.width, self.state.camera.height];
         self.plan = match self.state.settings.mode {
+            Mode::Frameless { order: PixelOrder::Adaptive { .. }, .. } => {
+                // Its slices follow the samples as they come back, one slice after another:
+                // not yet dealt to ranks.
+                return Err(RenderError::Mode(
+                    "--order adaptive runs in one process; with --mpi use hilbert, random or dissolve",
+                )
+                .into());
+            }
             Mode::Frameless { order, .. } => {
                 let (slices, _) = Slices::new(order, [w, h]).map_err(RenderError::from)?;
                 let table = order.table(w, h);

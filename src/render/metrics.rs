@@ -92,19 +92,55 @@ impl AgeStats {
 /// slices are exactly what is on screen (each slice weighted by its positions; the dissolve's
 /// positions past the image are spread evenly over it, so they weigh every slice alike). A
 /// conventional frame replaces the whole screen at once.
+///
+/// An order that is not a fixed permutation (the adaptive one) revisits some pixels before
+/// others: its tracker ([`AgeTracker::per_pixel`]) keeps each pixel's camera time instead.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AgeTracker {
     pass_len: u64,
     /// (camera time, positions), oldest first; the oldest may be partly overwritten.
     slices: VecDeque<(f64, u64)>,
     total: u64,
+    pixels: Option<PixelTimes>,
+}
+
+/// Each pixel's camera time, as an index into `times` (ascending), and how many pixels hold
+/// each time.
+#[derive(Clone, Debug, PartialEq)]
+struct PixelTimes {
+    of: Vec<u32>,
+    times: Vec<f64>,
+    count: Vec<u64>,
 }
 
 impl AgeTracker {
     /// A screen of `pass_len` positions, all written with the camera of time `t0`.
     pub fn new(pass_len: u64, t0: f64) -> Self {
         let pass_len = pass_len.max(1);
-        AgeTracker { pass_len, slices: VecDeque::from([(t0, pass_len)]), total: pass_len }
+        AgeTracker { pass_len, slices: VecDeque::from([(t0, pass_len)]), total: pass_len, pixels: None }
+    }
+
+    /// A screen of `pixels` pixels followed pixel by pixel ([`AgeTracker::record_pixels`]), all
+    /// written with the camera of time `t0`.
+    pub fn per_pixel(pixels: u64, t0: f64) -> Self {
+        let times = PixelTimes { of: vec![0; pixels as usize], times: vec![t0], count: vec![pixels] };
+        AgeTracker { pixels: Some(times), ..AgeTracker::new(pixels, t0) }
+    }
+
+    /// Pixels (indices) traced with the camera of time `t` (not earlier than any recorded
+    /// before), on a [`AgeTracker::per_pixel`] screen.
+    pub fn record_pixels(&mut self, t: f64, pixels: &[u32]) {
+        let p = self.pixels.as_mut().expect("record_pixels is for a per-pixel screen");
+        if p.times.last() != Some(&t) {
+            p.times.push(t);
+            p.count.push(0);
+        }
+        let now = p.times.len() as u32 - 1;
+        for &i in pixels {
+            let old = std::mem::replace(&mut p.of[i as usize], now);
+            p.count[old as usize] -= 1;
+            p.count[now as usize] += 1;
+        }
     }
 
     pub fn pass_len(&self) -> u64 {
@@ -135,15 +171,23 @@ impl AgeTracker {
     /// A conventional frame whose tracing started (with its camera) at `t_start`, now whole on
     /// screen.
     pub fn record_frame(&mut self, t_start: f64) {
+        if let Some(p) = &mut self.pixels {
+            *p = PixelTimes { of: vec![0; p.of.len()], times: vec![t_start], count: vec![p.of.len() as u64] };
+        }
         self.slices.clear();
         self.slices.push_back((t_start, self.pass_len));
         self.total = self.pass_len;
     }
 
     /// (camera time, positions on screen), oldest first; the positions sum to `pass_len`.
-    fn on_screen(&self) -> impl Iterator<Item = (f64, u64)> + '_ {
+    fn on_screen(&self) -> Box<dyn Iterator<Item = (f64, u64)> + '_> {
+        if let Some(p) = &self.pixels {
+            return Box::new(p.times.iter().zip(&p.count).filter(|c| *c.1 > 0).map(|(&t, &n)| (t, n)));
+        }
         let hidden = self.total - self.pass_len;
-        self.slices.iter().enumerate().map(move |(i, &(t, n))| (t, if i == 0 { n - hidden } else { n }))
+        Box::new(
+            self.slices.iter().enumerate().map(move |(i, &(t, n))| (t, if i == 0 { n - hidden } else { n })),
+        )
     }
 
     /// The ages of the screen at time `now`.
@@ -359,6 +403,22 @@ mod tests {
         // A slice longer than the screen replaces it all.
         t.record_slice(4.0, 25);
         assert_eq!(t.stats(4.0), AgeStats::default());
+    }
+
+    /// Per pixel: a pixel traced twice counts once, at its newest time; pixels never traced
+    /// keep the start's.
+    #[test]
+    fn per_pixel_ages_follow_each_pixel() {
+        let mut a = AgeTracker::per_pixel(4, 0.0);
+        a.record_pixels(1.0, &[0, 1]);
+        a.record_pixels(2.0, &[1, 1]);
+        assert_eq!(a.positions_since(1.0), 2);
+        assert_eq!(a.positions_since(2.0), 1);
+        assert_eq!(a.fraction_since(0.0), 1.0);
+        let s = a.stats(3.0);
+        assert_eq!((s.mean, s.max), ((2.0 + 1.0 + 3.0 + 3.0) / 4.0, 3.0));
+        a.record_frame(2.5);
+        assert_eq!(a.positions_since(2.5), 4);
     }
 
     #[test]

@@ -16,6 +16,7 @@
 //! ([`background`]) live beside the session.
 
 pub mod adapt;
+pub mod adaptive;
 pub mod animation;
 pub mod background;
 pub mod camera_path;

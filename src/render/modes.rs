@@ -248,15 +248,18 @@ impl Slices {
     /// order's table, or the dissolve's jump matrices).
     pub fn new(order: PixelOrder, [w, h]: [u32; 2]) -> Result<(Slices, Vec<u32>), TooManyPixels> {
         let pixels = w as u64 * h as u64;
-        let (dissolve, work) = if order == PixelOrder::Dissolve {
-            if !Dissolve::fits(pixels) {
-                return Err(TooManyPixels { width: w, height: h });
+        let (dissolve, work) = match order {
+            PixelOrder::Dissolve => {
+                if !Dissolve::fits(pixels) {
+                    return Err(TooManyPixels { width: w, height: h });
+                }
+                let d = Dissolve::new(pixels);
+                let jumps = d.jumps();
+                (Some((d, 1)), jumps)
             }
-            let d = Dissolve::new(pixels);
-            let jumps = d.jumps();
-            (Some((d, 1)), jumps)
-        } else {
-            (None, order.table(w, h).expect("table orders have tables"))
+            // The host writes each slice's pixels (`render::adaptive`).
+            PixelOrder::Adaptive { .. } => (None, Vec::new()),
+            _ => (None, order.table(w, h).expect("table orders have tables")),
         };
         let slices = Slices { pass_len: order.pass_len(w, h), cursor: 0, since_change: 0, dissolve, pixels };
         Ok((slices, work))

@@ -2,6 +2,7 @@
 //! cut into slices of S pixels per dispatch. Either a host-built table (uploaded once) or an order
 //! computed in the shader (the dissolve, which needs no table).
 
+use super::adaptive::DEFAULT_REVISIT_PASSES;
 use crate::ParseError;
 use std::fmt;
 use std::str::FromStr;
@@ -22,6 +23,9 @@ pub enum PixelOrder {
     /// A maximal-length linear-feedback shift register over the pixel index bits (the
     /// "digital dissolve", Graphics Gems I), computed in the shader: no table.
     Dissolve,
+    /// Slices dealt where the picture changes (`render::adaptive`), every pixel revisited within
+    /// `revisit` passes' positions; the host writes each slice's pixels.
+    Adaptive { revisit: u32 },
 }
 
 /// The default chunk: 8×8 pixels. RTRT's 65 536 chunks (2×2 at 512²) put neighbouring SIMD
@@ -43,7 +47,7 @@ impl PixelOrder {
         [PixelOrder::Hilbert { chunk: DEFAULT_CHUNK, procs: 16 }, PixelOrder::Random, PixelOrder::Dissolve];
 
     /// The visiting order as a table of pixel indices (y·width + x), every pixel exactly once;
-    /// `None` for orders computed in the shader.
+    /// `None` for orders computed in the shader or dealt slice by slice (adaptive).
     pub fn table(self, width: u32, height: u32) -> Option<Vec<u32>> {
         let n = width as usize * height as usize;
         match self {
@@ -53,7 +57,7 @@ impl PixelOrder {
                 shuffle(&mut t, SEED);
                 Some(t)
             }
-            PixelOrder::Dissolve => None,
+            PixelOrder::Dissolve | PixelOrder::Adaptive { .. } => None,
         }
     }
 
@@ -74,6 +78,8 @@ impl fmt::Display for PixelOrder {
             PixelOrder::Hilbert { chunk, procs } => write!(f, "hilbert:{chunk}:{procs}"),
             PixelOrder::Random => write!(f, "random"),
             PixelOrder::Dissolve => write!(f, "dissolve"),
+            PixelOrder::Adaptive { revisit: DEFAULT_REVISIT_PASSES } => write!(f, "adaptive"),
+            PixelOrder::Adaptive { revisit } => write!(f, "adaptive:{revisit}"),
         }
     }
 }
@@ -86,12 +92,18 @@ impl FromStr for PixelOrder {
             ParseError::unknown(
                 "pixel order",
                 s,
-                "hilbert[:CHUNK|auto[:PROCS]], random or dissolve (CHUNK a power of 4)",
+                "hilbert[:CHUNK|auto[:PROCS]], random, dissolve or adaptive[:PASSES] (CHUNK a power \
+                 of 4; PASSES ≥ 1, the revisit bound)",
             )
         };
         match parts.as_slice() {
             ["random"] => Ok(PixelOrder::Random),
             ["dissolve"] => Ok(PixelOrder::Dissolve),
+            ["adaptive"] => Ok(PixelOrder::Adaptive { revisit: DEFAULT_REVISIT_PASSES }),
+            ["adaptive", p] => match p.parse::<u32>() {
+                Ok(revisit) if revisit >= 1 => Ok(PixelOrder::Adaptive { revisit }),
+                _ => Err(bad()),
+            },
             ["hilbert", rest @ ..] if rest.len() <= 2 => {
                 let chunk = match rest.first() {
                     None | Some(&"auto") => 0,
@@ -390,9 +402,16 @@ mod tests {
 
     #[test]
     fn orders_parse_and_print() {
-        for o in PixelOrder::ALL.into_iter().chain([PixelOrder::Hilbert { chunk: 16, procs: 3 }]) {
+        let more = [
+            PixelOrder::Hilbert { chunk: 16, procs: 3 },
+            PixelOrder::Adaptive { revisit: DEFAULT_REVISIT_PASSES },
+            PixelOrder::Adaptive { revisit: 5 },
+        ];
+        for o in PixelOrder::ALL.into_iter().chain(more) {
             assert_eq!(o.to_string().parse::<PixelOrder>().unwrap(), o);
         }
+        assert_eq!("adaptive".parse::<PixelOrder>().unwrap().to_string(), "adaptive");
+        assert!("adaptive:0".parse::<PixelOrder>().is_err());
         assert!("hilbert:8".parse::<PixelOrder>().is_err(), "8 is not a power of 4");
         assert!("hilbert:4:0".parse::<PixelOrder>().is_err());
     }

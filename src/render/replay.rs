@@ -195,10 +195,12 @@ impl<D: Device> Ideal<D> {
 
 /// Pixels that reached the screen in a step, and the clock time of the camera they were traced
 /// with.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Landed {
     /// Frameless: `positions` of the pixel order (a pass is [`Source::pass_len`] of them).
     Slice { t: f64, positions: u64 },
+    /// Frameless in an order that is not a fixed permutation (adaptive): the pixels.
+    Pixels { t: f64, pixels: Vec<u32> },
     /// Conventional: a whole frame.
     Frame { t: f64 },
 }
@@ -208,6 +210,10 @@ pub enum Landed {
 pub trait Source {
     /// Positions of a frameless pass, or the pixels of a conventional frame.
     fn pass_len(&self) -> u64;
+    /// Slices land as [`Landed::Pixels`] (the order is not a fixed permutation).
+    fn per_pixel(&self) -> bool {
+        false
+    }
     /// The whole picture of the first camera, on screen at t = 0.
     fn warm_start(&mut self) -> Result<(), ReplayError>;
     /// Takes `camera` and the objects of time `time` (None: a still scene), read at clock time
@@ -255,6 +261,10 @@ impl<D: Device> Source for LocalSource<'_, D> {
         }
     }
 
+    fn per_pixel(&self) -> bool {
+        self.session.last_slice_pixels().is_some()
+    }
+
     fn warm_start(&mut self) -> Result<(), ReplayError> {
         self.session.try_complete_pass(self.ctx).map_err(gpu_err)?;
         Ok(())
@@ -280,7 +290,10 @@ impl<D: Device> Source for LocalSource<'_, D> {
             }
         } else {
             let slice = step.slice.expect("frameless steps report their slice");
-            landed.push(Landed::Slice { t: self.t_state, positions: slice.len });
+            landed.push(match self.session.last_slice_pixels() {
+                Some(pixels) => Landed::Pixels { t: self.t_state, pixels: pixels.to_vec() },
+                None => Landed::Slice { t: self.t_state, positions: slice.len },
+            });
         }
         Ok(step)
     }
@@ -373,6 +386,7 @@ impl<S: Source> Replayer<'_, S> {
         for l in landed {
             match *l {
                 Landed::Slice { t, positions } => self.screen.record_slice(t, positions),
+                Landed::Pixels { t, ref pixels } => self.screen.record_pixels(t, pixels),
                 Landed::Frame { t } => self.screen.record_frame(t),
             }
         }
@@ -478,7 +492,11 @@ pub fn replay_on<S: Source>(
     }
     let conventional = matches!(mode, Mode::Conventional { .. });
     let mut r = Replayer {
-        screen: AgeTracker::new(source.pass_len(), 0.0),
+        screen: if source.per_pixel() {
+            AgeTracker::per_pixel(source.pass_len(), 0.0)
+        } else {
+            AgeTracker::new(source.pass_len(), 0.0)
+        },
         source,
         path,
         opts,

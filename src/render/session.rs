@@ -11,9 +11,11 @@
 //! What changes the scene on the device (a new time, an edit, a BVH ordered or adopted) is in
 //! `render::updates`.
 
+use super::adaptive::AdaptiveOrder;
 use super::animation::Animation;
 use super::background::{builds_bvh_in_background, PendingBvh};
 use super::modes::{self, Bands, Queue, SliceSpan, Slices, BAND_PIXELS, GPU_BAND_PIXELS};
+use super::order::PixelOrder;
 use super::picture::{OutputGrid, Picture};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, RenderError, Settings};
@@ -21,7 +23,7 @@ use crate::accel::{Accel, AccelKind, Grid};
 use crate::gpu::device::{
     dealing_threads, infallible, BoundKernel, Device, DeviceScene, KernelSpec, ModeBuffers,
 };
-use crate::gpu::layout::{self, Prefix, LAVAPIPE_LOOP_LIMIT};
+use crate::gpu::layout::{self, Prefix, LAVAPIPE_LOOP_LIMIT, OUT_COMPACT};
 use crate::gpu::recording::Recording;
 use crate::gpu::shaders::Variant;
 use crate::gpu::{GpuContext, GpuError};
@@ -139,6 +141,9 @@ pub struct Session<D: Device = GpuContext> {
     timings: SetupTimings,
     /// The first frame has run (drivers that compile at the first dispatch have compiled).
     compiled: bool,
+    /// The adaptive frameless order's state (`--order adaptive`); the slices' bookkeeping is
+    /// in `state` as for any order.
+    adaptive: Option<Box<AdaptiveOrder>>,
 }
 
 impl<D: Device> Session<D> {
@@ -242,6 +247,7 @@ impl<D: Device> Session<D> {
             prefix,
             timings,
             compiled: false,
+            adaptive: None,
         };
         s.configure_mode(ctx)?;
         s.bound(ctx).clear_frame().map_err(Into::into)?;
@@ -450,6 +456,9 @@ impl<D: Device> Session<D> {
             ModeState::Slices(s) => s.restart(),
             ModeState::Bands { .. } => {}
         }
+        if let Some(a) = &mut self.adaptive {
+            a.restart();
+        }
     }
 
     /// The mode's state for the current size, and what it reads from the work buffer.
@@ -472,6 +481,12 @@ impl<D: Device> Session<D> {
                 let (slices, work) = Slices::new(order, size)?;
                 (ModeState::Slices(slices), work)
             }
+        };
+        self.adaptive = match self.settings.mode {
+            Mode::Frameless { order: PixelOrder::Adaptive { revisit }, .. } => {
+                Some(Box::new(AdaptiveOrder::new(size[0], size[1], revisit)))
+            }
+            _ => None,
         };
         if !work.is_empty() {
             self.bound(ctx).write_work(&work).map_err(Into::into)?;
@@ -532,6 +547,10 @@ impl<D: Device> Session<D> {
     /// its ray counts and loop meter. `progress(rows done, rows)` after each band of the bands.
     pub fn try_picture(&mut self, ctx: &D, progress: &mut dyn FnMut(u32, u32)) -> Result<Picture, D::Error> {
         self.restart();
+        if let Some(a) = &mut self.adaptive {
+            // One whole pass in the Hilbert order: the picture, as any order's first pass.
+            a.cover_in_order();
+        }
         self.bound(ctx).reset_counts()?;
         match self.state.clone() {
             ModeState::Bands { band_pixels } => {
@@ -661,6 +680,9 @@ impl<D: Device> Session<D> {
         let Mode::Frameless { slice, blend, jitter_pairs, .. } = self.settings.mode else {
             unreachable!("a frameless state has a frameless mode")
         };
+        if self.adaptive.is_some() {
+            return self.step_adaptive(ctx, slice, blend, jitter_pairs);
+        }
         let ModeState::Slices(slices) = &self.state else { unreachable!("step_frameless is for slices") };
         let span = slices.next_span(slice);
         let sample = modes::frameless_sample(slices.visit(), blend, jitter_pairs);
@@ -682,6 +704,73 @@ impl<D: Device> Session<D> {
             camera_version: self.camera_version,
             idle: false,
         })
+    }
+
+    /// A slice of the adaptive order (`render::adaptive`): dealt by its estimates until every
+    /// block has been dealt since the change (each slice's samples read back to update them),
+    /// then the Hilbert order's passes for refinement. Either way the host writes the slice's
+    /// pixels at the start of the work buffer.
+    fn step_adaptive(
+        &mut self,
+        ctx: &D,
+        slice: u32,
+        blend: Option<f32>,
+        jitter_pairs: bool,
+    ) -> Result<StepReport, D::Error> {
+        let ModeState::Slices(slices) = &mut self.state else { unreachable!("adaptive is frameless") };
+        let a = self.adaptive.as_mut().expect("step_adaptive is for the adaptive order");
+        let covering = a.covering();
+        let span = (!covering).then(|| slices.next_span(slice));
+        let pixels = match span {
+            None => a.deal(slice),
+            Some(span) => a.traced_in_order(span.first, span.len),
+        };
+        let len = pixels.len() as u64;
+        let mut sample = modes::frameless_sample(slices.visit(), blend, jitter_pairs);
+        if covering {
+            sample.flags |= OUT_COMPACT;
+        }
+        let at = SliceSpan { first: 0, len };
+        let rec = slices.recording(at, &self.passes, sample);
+        let bound = ctx.bind(&self.kernel);
+        bound.write_work(pixels)?;
+        let t0 = Instant::now();
+        bound.run(&rec, &mut |_, _| {})?;
+        let trace_time = t0.elapsed();
+        let (frame_done, visit_done) = match span {
+            None => {
+                a.learn(&bound.read_output_range(0, len)?);
+                let done = !a.covering();
+                if done {
+                    // Every pixel shows the change: the refinement passes follow.
+                    slices.since_change = slices.pass_len;
+                    slices.cursor = 0;
+                }
+                (done, done)
+            }
+            Some(span) => {
+                let (_, pass_done, visit_done) = slices.advance(span);
+                (pass_done, visit_done)
+            }
+        };
+        if visit_done {
+            self.samples += 1;
+        }
+        Ok(StepReport {
+            pixels: len,
+            eye_rays: len * if jitter_pairs { 2 } else { 1 },
+            trace_time,
+            frame_done,
+            slice: Some(at),
+            camera_version: self.camera_version,
+            idle: false,
+        })
+    }
+
+    /// The pixels the last frameless slice traced, where the order is not a fixed permutation
+    /// (adaptive): for measures that follow pixels rather than positions.
+    pub fn last_slice_pixels(&self) -> Option<&[u32]> {
+        self.adaptive.as_ref().map(|a| a.last_traced())
     }
 
     /// What is on screen: the frame buffer as an image (each pixel the mean of its samples); in
