@@ -3,11 +3,14 @@
 //!
 //! The image is cut into blocks of 8×8 pixels (the Hilbert order's default chunk, so a SIMD
 //! group still traces a compact 2×4 run of one block). Each block keeps an estimate of how much
-//! its pixels change between visits: the mean difference, in display space, between a pixel's
-//! new sample and its previous one, taken from the slice's samples as they come back. A slice of
-//! S positions takes the ⌈S/64⌉ blocks of highest priority `(estimate + FLOOR) × age`, age the
-//! positions dealt since the block was last dealt: a block that changes is revisited soon, a
-//! still one only as it ages. A block whose age would pass the revisit bound within the slice is
+//! its pixels change between visits (the mean difference, in display space, between a pixel's
+//! new sample and its previous one) and what a pixel of it costs (its shader loop iterations),
+//! both taken from the slice's samples as they come back. A slice of S positions takes the
+//! ⌈S/64⌉ blocks of highest priority `(estimate + FLOOR) × age / cost`, age the positions dealt
+//! since the block was last dealt: a block that changes is revisited soon, a still one only as
+//! it ages, and of two that change alike the cheaper first (the pixels that change under a
+//! moving camera are the dear ones — reflections, refractions, edges — so an order that ignored
+//! cost would trace fewer of them per second than it assumes). A block whose age would pass the revisit bound within the slice is
 //! dealt first (oldest first): every pixel is traced again within [`AdaptiveOrder::bound`]
 //! positions, a stated number of passes of the image.
 //!
@@ -35,6 +38,9 @@ const FLOOR: f32 = 1.0 / 1024.0;
 /// block moves into the next one, which may not have changed yet.
 const SPREAD: f32 = 0.5;
 
+/// A pixel's cost beyond its loops (the eye ray, the write), in loop iterations.
+const COST_BASE: f32 = 8.0;
+
 /// The adaptive order's state over a `width`×`height` image.
 #[derive(Clone, Debug)]
 pub struct AdaptiveOrder {
@@ -48,6 +54,9 @@ pub struct AdaptiveOrder {
     /// The Hilbert order of a pass, for the refinement passes once every block is covered.
     base: Vec<u32>,
     estimate: Vec<f32>,
+    /// What a pixel of the block cost at its last visit: its mean shader loop iterations, plus
+    /// [`COST_BASE`].
+    cost: Vec<f32>,
     /// `clock` when each block was last dealt.
     dealt_at: Vec<u64>,
     /// Positions dealt so far (starts at a pass, so that the first ages are a pass's).
@@ -104,6 +113,7 @@ impl AdaptiveOrder {
             block_start,
             base,
             estimate: vec![1.0; blocks],
+            cost: vec![COST_BASE; blocks],
             dealt_at,
             clock: pass,
             bound: pass * revisit_passes.max(1) as u64,
@@ -153,7 +163,7 @@ impl AdaptiveOrder {
             let p = if horizon - self.dealt_at[b] >= self.bound {
                 f32::MAX / 2.0 + age as f32
             } else {
-                (self.spread[b] + FLOOR) * age as f32
+                (self.spread[b] + FLOOR) * age as f32 / self.cost[b]
             };
             self.ranked.push((p, b as u32));
         }
@@ -214,14 +224,17 @@ impl AdaptiveOrder {
         for &b in &self.slice_blocks {
             let b = b as usize;
             let n = (self.block_start[b + 1] - self.block_start[b]) as usize;
-            let mut sum = 0.0f32;
+            let (mut sum, mut iters) = (0.0f32, 0.0f32);
             for (&p, s) in self.block_pixels[self.block_start[b] as usize..][..n].iter().zip(&samples[at..]) {
                 let new = [shown(s[0]), shown(s[1]), shown(s[2])];
                 let old = &mut self.last[p as usize];
                 sum += (0..3).map(|c| (new[c] - old[c]).abs()).sum::<f32>() / 3.0;
                 *old = new;
+                // Alpha is 2 × the loop iterations + whether the eye ray hit.
+                iters += (s[3] / 2.0).floor();
             }
             self.estimate[b] = sum / n.max(1) as f32;
+            self.cost[b] = iters / n.max(1) as f32 + COST_BASE;
             at += n;
         }
     }

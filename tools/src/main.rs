@@ -3,6 +3,7 @@
 //!
 //!     cargo run --release -p irt-tools -- <HARNESS> [ARGS...]
 
+mod adaptive;
 mod backends;
 mod deal;
 mod dispatch_floor;
@@ -17,7 +18,12 @@ use clap::Parser;
 /// (name, what it measures, the harness)
 type Harness = (&'static str, &'static str, fn(&[String]) -> anyhow::Result<()>);
 
-const HARNESSES: [Harness; 8] = [
+const HARNESSES: [Harness; 9] = [
+    (
+        "adaptive",
+        "the adaptive frameless order against Hilbert on camera paths: dynamic error, latency, age (docs/adaptive.md)",
+        adaptive::run,
+    ),
     (
         "backends",
         "wgpu against ash: device open, first frame, frame, tiny dispatch, slices (docs/backends.md)",

@@ -302,7 +302,8 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             }
         }
         write("modes.md", &t)?;
-        plot_timeline(&timeline, &args.out_dir.join("modes-error.svg"))?;
+        let title = "default scene, orbit path: displayed vs ideal image";
+        plot_timeline(&timeline, title, &args.out_dir.join("modes-error.svg"))?;
     }
 
     // ---- Conventional schedules -------------------------------------------------------------
@@ -500,7 +501,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
 
 const COLOURS: [RGBColor; 5] = [BLACK, RED, BLUE, GREEN, MAGENTA];
 
-fn plot_timeline(runs: &[(String, ReplayReport)], path: &Path) -> Result<(), anyhow::Error> {
+pub fn plot_timeline(runs: &[(String, ReplayReport)], title: &str, path: &Path) -> Result<(), anyhow::Error> {
     let pts: Vec<Vec<(f64, f64)>> = runs
         .iter()
         .map(|(_, r)| r.refreshes.iter().filter_map(|s| s.error.map(|e| (s.t, e))).collect())
@@ -510,7 +511,7 @@ fn plot_timeline(runs: &[(String, ReplayReport)], path: &Path) -> Result<(), any
     let axes = ("clock time (s)", "dynamic error: RMSE of the displayed image (display space)");
     irt::lab::plot::linear_svg(
         path,
-        "default scene, orbit path: displayed vs ideal image",
+        title,
         (0.0..end, 0.0..top),
         axes,
         |chart| {
