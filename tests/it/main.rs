@@ -22,6 +22,7 @@
 //! `embree_peer` is compiled only with `--features embree` (it links the system's libembree3).
 
 mod acne;
+mod adaptive;
 mod backends;
 mod bvh;
 mod cli;

@@ -150,7 +150,13 @@ fn slice_cost(ctx: &GpuContext, scene: &Scene, path: &CameraPath, slices: u32) -
 
 /// The images of frame `k` of each order's presents, the ideal image of its instant beneath
 /// each, and their error maps: one picture.
-fn side_by_side(ctx: &GpuContext, scene: &Scene, path: &CameraPath, dirs: &[PathBuf], t: f64) -> Result<Image> {
+fn side_by_side(
+    ctx: &GpuContext,
+    scene: &Scene,
+    path: &CameraPath,
+    dirs: &[PathBuf],
+    t: f64,
+) -> Result<Image> {
     let [w, h] = [scene.camera.width, scene.camera.height];
     let mut ideal_scene = scene.clone();
     ideal_scene.camera = path.camera_at(t, w, h);
@@ -164,7 +170,8 @@ fn side_by_side(ctx: &GpuContext, scene: &Scene, path: &CameraPath, dirs: &[Path
         .map(|d| {
             let f = d.join(format!("frame_{k:04}.png"));
             let bytes = std::fs::read(&f).with_context(|| format!("reading {}", f.display()))?;
-            let (w, h, texels) = irt::io::png::decode(&bytes, "a replay frame").map_err(|e| anyhow!("{e:?}"))?;
+            let (w, h, texels) =
+                irt::io::png::decode(&bytes, "a replay frame").map_err(|e| anyhow!("{e:?}"))?;
             let lin = |c: u8| irt::image::srgb_to_linear(c as f64 / 255.0) as f32;
             let pixels = texels.iter().map(|t| [lin(t[0]), lin(t[1]), lin(t[2])]).collect();
             Ok(Image { width: w, height: h, pixels })
@@ -172,11 +179,13 @@ fn side_by_side(ctx: &GpuContext, scene: &Scene, path: &CameraPath, dirs: &[Path
         .collect::<Result<_>>()?;
     // Row 1: what each order shows, then the ideal; row 2: each one's error ×4.
     let cols = shown.len() as u32 + 1;
-    let mut out = Image { width: w * cols, height: h * 2, pixels: vec![[1.0; 3]; (w * cols * h * 2) as usize] };
+    let mut out =
+        Image { width: w * cols, height: h * 2, pixels: vec![[1.0; 3]; (w * cols * h * 2) as usize] };
     let mut put = |img: &Image, cx: u32, cy: u32| {
         for y in 0..h {
             for x in 0..w {
-                out.pixels[((cy * h + y) * w * cols + cx * w + x) as usize] = img.pixels[(y * w + x) as usize];
+                out.pixels[((cy * h + y) * w * cols + cx * w + x) as usize] =
+                    img.pixels[(y * w + x) as usize];
             }
         }
     };
@@ -191,7 +200,11 @@ fn side_by_side(ctx: &GpuContext, scene: &Scene, path: &CameraPath, dirs: &[Path
 pub fn run(args: &[String]) -> Result<()> {
     let o = parse(args)?;
     let scenes: Vec<(String, bool)> = if o.scenes.is_empty() {
-        TUNED.iter().map(|s| (s.to_string(), true)).chain(HELD_OUT.iter().map(|s| (s.to_string(), false))).collect()
+        TUNED
+            .iter()
+            .map(|s| (s.to_string(), true))
+            .chain(HELD_OUT.iter().map(|s| (s.to_string(), false)))
+            .collect()
     } else {
         o.scenes.iter().map(|s| (s.clone(), TUNED.contains(&s.as_str()))).collect()
     };
@@ -240,7 +253,11 @@ pub fn run(args: &[String]) -> Result<()> {
             // at its own speed; noisy, one run each).
             let mut real = [f64::NAN; 2];
             for (i, (_, order)) in ORDERS.iter().enumerate() {
-                let opts = ReplayOptions { clock: Clock::Real, error_every: o.error_every, ..ReplayOptions::default() };
+                let opts = ReplayOptions {
+                    clock: Clock::Real,
+                    error_every: o.error_every,
+                    ..ReplayOptions::default()
+                };
                 let r = replay(&ctx, &scene, &settings(*order), &path, &opts)?;
                 real[i] = r.dynamic_error.map_or(f64::NAN, |e| e.mean);
             }
@@ -280,15 +297,20 @@ pub fn run(args: &[String]) -> Result<()> {
         }
     }
     for (what, pick) in [("equal rays/s", 3), ("real clock", 4)] {
-        let held: Vec<f64> = ratios.iter().filter(|r| !r.2).map(|r| if pick == 3 { r.3 } else { r.4 }).collect();
+        let held: Vec<f64> =
+            ratios.iter().filter(|r| !r.2).map(|r| if pick == 3 { r.3 } else { r.4 }).collect();
         if !held.is_empty() {
             let worst = held.iter().copied().fold(0.0, f64::max);
             let mean = held.iter().sum::<f64>() / held.len() as f64;
-            writeln!(table, "\nHeld-out scenes, {what}: dynamic error ratio mean {mean:.2}, worst {worst:.2}.")?;
+            writeln!(
+                table,
+                "\nHeld-out scenes, {what}: dynamic error ratio mean {mean:.2}, worst {worst:.2}."
+            )?;
         }
     }
     let file = o.out_dir.join("table.md");
-    irt::image::write_atomic(&file, table.as_bytes()).with_context(|| format!("writing {}", file.display()))?;
+    irt::image::write_atomic(&file, table.as_bytes())
+        .with_context(|| format!("writing {}", file.display()))?;
     println!("{table}");
     Ok(())
 }

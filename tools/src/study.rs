@@ -509,24 +509,18 @@ pub fn plot_timeline(runs: &[(String, ReplayReport)], title: &str, path: &Path) 
     let top = pts.iter().flatten().map(|p| p.1).fold(1e-3, f64::max) * 1.1;
     let end = runs.iter().map(|(_, r)| r.duration).fold(0.0, f64::max);
     let axes = ("clock time (s)", "dynamic error: RMSE of the displayed image (display space)");
-    irt::lab::plot::linear_svg(
-        path,
-        title,
-        (0.0..end, 0.0..top),
-        axes,
-        |chart| {
-            for (i, ((name, _), p)) in runs.iter().zip(&pts).enumerate() {
-                let c = COLOURS[i % COLOURS.len()];
-                chart
-                    .draw_series(LineSeries::new(p.iter().copied(), c.stroke_width(2)))
-                    .map_err(|e| e.to_string())?
-                    .label(name.clone())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-            }
-            chart.configure_series_labels().background_style(WHITE).border_style(BLACK).draw()?;
-            Ok(())
-        },
-    )
+    irt::lab::plot::linear_svg(path, title, (0.0..end, 0.0..top), axes, |chart| {
+        for (i, ((name, _), p)) in runs.iter().zip(&pts).enumerate() {
+            let c = COLOURS[i % COLOURS.len()];
+            chart
+                .draw_series(LineSeries::new(p.iter().copied(), c.stroke_width(2)))
+                .map_err(|e| e.to_string())?
+                .label(name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        }
+        chart.configure_series_labels().background_style(WHITE).border_style(BLACK).draw()?;
+        Ok(())
+    })
     .map_err(anyhow::Error::from)
 }
 
