@@ -57,8 +57,9 @@ Examples:
 /// builds them), beside the scene it shows.
 #[derive(Clone, Debug)]
 pub struct ViewOptions {
-    /// The window's size in pixels.
-    pub size: [u32; 2],
+    /// The window's size in pixels (`--size`); `None`: about 1280×720 within the screen, with
+    /// the scene camera's aspect ([`present::default_window_size`]).
+    pub size: Option<[u32; 2]>,
     /// Resolution divisor of the render against the window: 1, 2 or 4.
     pub scale: u32,
     /// Start with the HUD hidden.
@@ -81,6 +82,12 @@ pub struct ViewOptions {
     pub scene_name: String,
     /// The session's settings at the start; their mode is one of the two below.
     pub settings: Settings,
+    /// `--slice` was given: frameless S stays as given instead of following the slice-time
+    /// controller ([`crate::render::adapt::Adaptation`]).
+    pub fixed_slice: bool,
+    /// `--schedule` was given: conventional frames use it instead of the faster of the plain
+    /// dispatch and the queue, as the first frames measure them.
+    pub fixed_schedule: bool,
     /// The modes M switches between (frameless with its `present_every`).
     pub frameless: Mode,
     pub conventional: Mode,
