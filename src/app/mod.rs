@@ -30,8 +30,14 @@ pub const LONG_ABOUT: &str = "Open a window that traces the scene again and agai
 The picture refines while the camera rests (jittered samples add up, up to --max-samples). Two ways \
 of handing out the work (the paper's, see docs): conventional (tiles from a queue; the frame is \
 shown when it is whole) and frameless (slices of pixels in a fixed order, each traced with the newest \
-camera, shown continuously). The HUD (H) shows where the time goes and switches modes, shadows, depth \
-and resolution live.
+camera, shown continuously). A compact status in the top-left corner shows the rate, the mode and the \
+device; the HUD panel (H, or a click on the status) shows where the time goes and switches modes, \
+shadows, depth and resolution live. The window opens at about 1280x720 within the screen, with the \
+scene camera's aspect (--size sets it).
+
+Frameless slices adapt to the device: S is chosen slice by slice so that one slice takes a \
+quarter of a display refresh (--slice fixes it). Conventional frames time the plain dispatch \
+against the tile queue over their first frames and keep the faster (--schedule fixes it).
 
 On lavapipe (Vulkan on the CPU, the default device) expect a few frames per second at full size; \
 `[` lowers the resolution, and \"lower resolution while moving\" in the HUD halves it during motion.
