@@ -767,6 +767,7 @@ impl<'a> Viewer<'a> {
         };
         let now = Instant::now();
         self.stats.present(now, now - t0);
+        self.adapt.presented(now - t0);
         self.presents += 1;
         self.host.presented(self.clock());
         // egui asks for another pass after input (a popup opening, a window settling). Its

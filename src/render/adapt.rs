@@ -72,6 +72,15 @@ impl SliceControl {
         self.target
     }
 
+    /// Slices aim at `target` from now on (the smoothed cost is rescaled to it).
+    pub fn set_target(&mut self, target: Duration) {
+        let target = target.max(Duration::from_micros(1));
+        if let Some(s) = &mut self.smoothed {
+            *s += (self.target.as_secs_f64() / target.as_secs_f64()).ln();
+        }
+        self.target = target;
+    }
+
     /// The largest S becomes `max` (the image was resized); S is kept within it.
     pub fn set_max(&mut self, max: u32) {
         self.max = max.max(self.min);
@@ -172,6 +181,16 @@ impl ScheduleProbe {
     }
 }
 
+/// Frameless in the window: presents may take at most this share of the loop's time. Where a
+/// present costs more than a refresh (lavapipe's software present of a large window: about 20 ms),
+/// slices of a quarter of a refresh would leave the loop presenting most of the time; slices then
+/// take three times a present instead ([`Adaptation::presented`]).
+pub const PRESENT_SHARE: f64 = 0.25;
+
+/// Presents whose cost is remembered; the cheapest is the present's cost (a present is never
+/// faster than it, and the first ones carry one-off uploads).
+const PRESENTS_KEPT: usize = 8;
+
 /// The window's use of both: what it adapts while it runs, and what the user fixed (`--slice`,
 /// `--schedule`). Frameless: S follows a [`SliceControl`] fed each slice's measured trace time.
 /// Conventional: the first frames alternate the plain dispatch and the queue
@@ -189,6 +208,9 @@ pub struct Adaptation {
     /// Pixels of the first frame timed: later frames' times are scaled to it, so that a resize
     /// during the probe does not decide it.
     probe_pixels: u64,
+    /// The slice target a refresh gives ([`SLICE_SHARE`] of it), and the last presents' costs.
+    refresh_target: Duration,
+    presents: std::collections::VecDeque<Duration>,
 }
 
 impl Adaptation {
@@ -205,12 +227,39 @@ impl Adaptation {
             (!fixed_slice).then(|| SliceControl::new(refresh, SLICE_SHARE, start, SLICE_QUANTUM, u32::MAX));
         // Probing plain against plain would decide nothing.
         let probe = (!fixed_schedule && queue != Schedule::Plain).then(|| ScheduleProbe::new(queue));
-        Adaptation { control, probe, frame: None, probe_pixels: 0 }
+        let refresh_target = refresh.mul_f64(SLICE_SHARE);
+        Adaptation {
+            control,
+            probe,
+            frame: None,
+            probe_pixels: 0,
+            refresh_target,
+            presents: Default::default(),
+        }
     }
 
     /// Nothing adapts (the MPI master's slicing is its own).
     pub fn fixed() -> Adaptation {
-        Adaptation { control: None, probe: None, frame: None, probe_pixels: 0 }
+        Adaptation::new(Duration::from_millis(16), 1, Schedule::Plain, true, true)
+    }
+
+    /// A present (blit, HUD and the surface's present) took `took`: slices aim at the larger
+    /// of [`SLICE_SHARE`] of a refresh and what keeps presents within [`PRESENT_SHARE`] of the
+    /// loop's time (one slice per present, as when a present outlasts a refresh).
+    pub fn presented(&mut self, took: Duration) {
+        let Some(c) = &mut self.control else { return };
+        if self.presents.len() == PRESENTS_KEPT {
+            self.presents.pop_front();
+        }
+        self.presents.push_back(took);
+        let present = self.presents.iter().min().copied().unwrap_or_default();
+        let floor = present.mul_f64((1.0 - PRESENT_SHARE) / PRESENT_SHARE);
+        let target = self.refresh_target.max(floor);
+        // Small drifts of the present's cost are noise: the target moves by 10% or more.
+        let ratio = target.as_secs_f64() / c.target().as_secs_f64();
+        if !(0.9..=1.1).contains(&ratio) {
+            c.set_target(target);
+        }
     }
 
     /// Frameless: the slice size the next step should trace, when S adapts.
@@ -537,5 +586,72 @@ mod tests {
         let fixed = Adaptation::new(REFRESH, 1000, Schedule::default(), true, false);
         assert_eq!(fixed.slice(), None);
         assert_eq!(fixed.describe(&Mode::frameless()), "S = 16384 pixels a slice (fixed)");
+    }
+
+    /// The window's frameless loop with its presents: the host loop's rule (present after the
+    /// step in which a refresh fell due) on a virtual clock, each present costing `present`.
+    /// Returns (the tracing share of the last second, presents in it, S at the end).
+    fn window_loop(device: &mut Device, present: Duration, feed_presents: bool) -> (f64, u32, u32) {
+        use crate::render::{Cancel, HostLoop};
+        let mut a = Adaptation::new(REFRESH, 16_384, Schedule::default(), false, false);
+        let mut host = HostLoop::new(REFRESH.as_secs_f64(), 0, Cancel::FirstWave);
+        let (mut now, mut traced, mut presents) = (0.0, 0.0, 0);
+        while now < 4.0 {
+            let s = a.slice().unwrap();
+            let took = device.slice(s);
+            let r = StepReport {
+                pixels: s as u64,
+                trace_time: took,
+                slice: Some(crate::render::SliceSpan { first: 0, len: s as u64 }),
+                ..Default::default()
+            };
+            a.stepped(&Mode::frameless(), HD as u64, &r);
+            now += took.as_secs_f64();
+            if now > 3.0 {
+                traced += took.as_secs_f64();
+            }
+            if host.stepped(now, false, &r) {
+                now += present.as_secs_f64();
+                if feed_presents {
+                    a.presented(present);
+                }
+                host.presented(now);
+                presents += (now > 3.0) as u32;
+            }
+        }
+        // The last second or so: from 3 s to the end of the step or present that crossed 4 s.
+        let span = now - 3.0;
+        (traced / span, (presents as f64 / span).round() as u32, a.slice().unwrap())
+    }
+
+    /// Lavapipe's software present (20 ms at 1280×720) is longer than a refresh: slices of a
+    /// quarter of a refresh would leave the loop presenting most of the time (tracing ~40%); the
+    /// slices grow to three presents, and tracing takes about three quarters of the time. A fast
+    /// device's cheap present (0.3 ms) leaves the refresh's target as it was.
+    #[test]
+    fn an_expensive_present_makes_slices_long_enough_to_keep_tracing() {
+        let (share, presents, s) = window_loop(&mut slow(), Duration::from_millis(20), true);
+        eprintln!("slow, 20 ms presents: tracing {:.1}%, {presents} presents/s, S = {s}", share * 100.0);
+        assert!(share > 0.7, "tracing {:.0}% of the time", share * 100.0);
+        // The slice's time: 60 ms, at 200 µs + 700 ns a pixel.
+        let ideal = (0.060 - 200e-6) / 700e-9;
+        assert!((s as f64 / ideal - 1.0).abs() < 0.12, "S = {s}, ideal {ideal:.0}");
+        assert!((10..=14).contains(&presents), "{presents} presents a second");
+        // Without the present's floor (the refresh's target only) the same loop traces a fraction.
+        let (share, p, s) = window_loop(&mut slow(), Duration::from_millis(20), false);
+        eprintln!("without the floor: tracing {:.1}%, {p} presents/s, S = {s}", share * 100.0);
+        assert!(share < 0.5, "tracing {:.0}% of the time without the floor", share * 100.0);
+        let (_, presents, s) = window_loop(&mut fast(), Duration::from_micros(300), true);
+        assert_eq!(s, HD, "the fast device traces whole passes");
+        assert!(presents >= 55, "{presents} presents a second");
+        let mut a = Adaptation::new(REFRESH, 16_384, Schedule::default(), false, false);
+        a.presented(Duration::from_micros(300));
+        assert_eq!(a.control.as_ref().unwrap().target(), REFRESH.mul_f64(SLICE_SHARE));
+        // The first presents' one-off cost does not stay: the cheapest of the last 8 counts.
+        a.presented(Duration::from_millis(200));
+        for _ in 0..8 {
+            a.presented(Duration::from_millis(20));
+        }
+        assert_eq!(a.control.as_ref().unwrap().target(), Duration::from_millis(60));
     }
 }
