@@ -429,7 +429,7 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
             if v.cpu_device {
                 ui.colored_label(
                     egui::Color32::from_rgb(255, 200, 80),
-                    "CPU device (lavapipe): expect a few frames per second",
+                    "CPU device (lavapipe): a whole picture is slow; [ lowers the resolution",
                 );
             }
             ui.separator();

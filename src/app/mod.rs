@@ -36,7 +36,8 @@ shadows, depth and resolution live. The window opens at about 1280x720 within th
 scene camera's aspect (--size sets it).
 
 Frameless slices adapt to the device: S is chosen slice by slice so that one slice takes a \
-quarter of a display refresh (--slice fixes it). Conventional frames time the plain dispatch \
+quarter of a display refresh, or three presents where presenting takes longer (lavapipe's software \
+present), so that presenting never takes over (--slice fixes S). Conventional frames time the plain dispatch \
 against the tile queue over their first frames and keep the faster (--schedule fixes it).
 
 On lavapipe (Vulkan on the CPU, the default device) expect a few frames per second at full size; \

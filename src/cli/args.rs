@@ -241,7 +241,8 @@ pub struct ModeArgs {
     #[arg(long, value_name = "ORDER", default_value_t = PixelOrder::default())]
     pub order: PixelOrder,
     /// Frameless: pixels per slice (one dispatch each, each with the newest camera). Default
-    /// 16384; `irt view` then adapts S so that a slice takes a quarter of a display refresh.
+    /// 16384; `irt view` then adapts S so that a slice takes a quarter of a display refresh (or
+    /// three presents, where a present takes longer).
     #[arg(long, value_name = "S")]
     pub slice: Option<u32>,
     /// Frameless: blend new samples into the old with weight ALPHA (the paper's option;
