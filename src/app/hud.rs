@@ -98,6 +98,10 @@ pub fn scale_name(div: u32) -> String {
 
 /// What the HUD shows this present.
 pub struct HudView<'a> {
+    /// The full panel; otherwise the compact status in a corner.
+    pub panel: bool,
+    /// How the slice size or the schedule in use came about ([`crate::render::adapt::Adaptation`]).
+    pub adapting: &'a str,
     pub adapter: &'a str,
     pub cpu_device: bool,
     pub mode: Mode,
@@ -134,6 +138,8 @@ pub struct EditView<'a> {
 /// What the user changed in the HUD.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct HudRequest {
+    /// Show the full panel (a click on the compact status) or close it.
+    pub panel: Option<bool>,
     pub mode: Option<&'static str>,
     pub order: Option<PixelOrder>,
     pub shadows: Option<ShadowMode>,
@@ -198,15 +204,12 @@ fn colour(ui: &mut egui::Ui, c: &mut DVec3) -> bool {
 fn edit_section(ui: &mut egui::Ui, e: &EditView, req: &mut HudRequest) {
     let scene = e.base;
     ui.horizontal_wrapped(|ui| {
-        ui.label("lights");
+        ui.label(lights_heading(scene.lights.len()));
         for i in 0..scene.lights.len() {
             let on = e.selection == Some(Selection::Light(i));
-            if ui.selectable_label(on, i.to_string()).clicked() {
+            if ui.selectable_label(on, light_button(i)).clicked() {
                 req.select = Some(if on { None } else { Some(Selection::Light(i)) });
             }
-        }
-        if scene.lights.is_empty() {
-            ui.label("(none)");
         }
     });
     match e.selection {
@@ -219,7 +222,7 @@ fn edit_section(ui: &mut egui::Ui, e: &EditView, req: &mut HudRequest) {
             let (mut hue, mut intensity) = edit::split_light_color(l.color);
             let mut changed = false;
             ui.horizontal(|ui| {
-                ui.label(format!("light {i}  position"));
+                ui.label(format!("{} of {}: position", light_button(i), scene.lights.len()));
                 let step = (l.position.length() * 0.005).max(0.01);
                 changed |= drag3(ui, &mut l.position, step, f64::MIN..=f64::MAX);
             });
@@ -322,6 +325,80 @@ fn edit_section(ui: &mut egui::Ui, e: &EditView, req: &mut HudRequest) {
     }
 }
 
+/// The light selector's heading: how many lights there are, in words ("lights 0" read as "no
+/// lights" when it was a button for light #0).
+pub fn lights_heading(n: usize) -> String {
+    match n {
+        0 => "no lights".into(),
+        1 => "1 light:".into(),
+        n => format!("{n} lights:"),
+    }
+}
+
+/// A light's button in the selector, and its name in the editor.
+pub fn light_button(i: usize) -> String {
+    format!("light #{i}")
+}
+
+/// The compact status's lines: rates, mode and S or schedule, samples, device (and the CPU
+/// note), and how to open the panel.
+pub fn compact_lines(v: &HudView) -> Vec<String> {
+    let (_, _, pixels) = v.stats.rates(v.now);
+    let limit = if v.max_samples > 0 { format!("/{}", v.max_samples) } else { String::new() };
+    let conv = if v.converged { ", converged" } else { "" };
+    let knob = match v.mode {
+        Mode::Frameless { slice, .. } => format!("S = {slice}"),
+        Mode::Conventional { schedule, .. } => schedule.to_string(),
+        Mode::Bands => String::new(),
+    };
+    let mut lines = vec![
+        format!("{:.1} pictures/s, {} pixel updates/s", v.stats.fps(v.now), si(pixels).trim_end()),
+        format!("{} ({knob}), samples {}{limit}{conv}", v.mode.name(), v.samples),
+        format!("device: {}", v.adapter),
+    ];
+    if v.cpu_device {
+        lines.push("CPU device (lavapipe): a whole picture is slow; [ lowers the resolution".into());
+    }
+    lines.push("H or click: panel".into());
+    lines
+}
+
+/// The compact status: a few lines in the top-left corner, never wider than 45% of the window
+/// (so never over its middle); a click on it opens the panel.
+fn compact(ctx: &egui::Context, v: &HudView, req: &mut HudRequest) -> egui::Rect {
+    let screen = ctx.content_rect();
+    let frame = egui::Frame::popup(&ctx.global_style())
+        .fill(egui::Color32::from_black_alpha(150))
+        .inner_margin(egui::Margin::symmetric(5, 3))
+        .shadow(egui::epaint::Shadow::NONE);
+    let lines = compact_lines(v);
+    let shown = egui::Area::new(egui::Id::unique("irt-status"))
+        .anchor(egui::Align2::LEFT_TOP, [6.0, 6.0])
+        .movable(false)
+        .sense(egui::Sense::click())
+        .show(ctx, |ui| {
+            frame.show(ui, |ui| {
+                ui.set_max_width(screen.width() * 0.45);
+                let last = lines.len() - 1;
+                for (i, line) in lines.iter().enumerate() {
+                    let text = egui::RichText::new(line);
+                    let text = if line.starts_with("CPU") {
+                        text.color(egui::Color32::from_rgb(255, 200, 80))
+                    } else if i == last {
+                        text.color(egui::Color32::from_gray(170))
+                    } else {
+                        text.color(egui::Color32::from_gray(230))
+                    };
+                    ui.add(egui::Label::new(text).selectable(false).sense(egui::Sense::hover()));
+                }
+            });
+        });
+    if shown.response.clicked() {
+        req.panel = Some(true);
+    }
+    shown.response.rect
+}
+
 fn si(x: f64) -> String {
     if x >= 1e6 {
         format!("{:.2} M", x / 1e6)
@@ -335,18 +412,24 @@ fn si(x: f64) -> String {
 /// Draws the HUD into `ctx`; returns the changes asked for and the HUD's rectangle (points).
 pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>) {
     let mut req = HudRequest::default();
+    if !v.panel {
+        let rect = compact(ctx, v, &mut req);
+        return (req, Some(rect));
+    }
+    let mut open = true;
     let frame = egui::Frame::window(&ctx.global_style()).fill(egui::Color32::from_black_alpha(170));
     let shown = egui::Window::new("irt")
         .frame(frame)
         .default_pos([8.0, 8.0])
         .resizable(false)
         .collapsible(true)
+        .open(&mut open)
         .show(ctx, |ui| {
             ui.label(format!("device: {}", v.adapter));
             if v.cpu_device {
                 ui.colored_label(
                     egui::Color32::from_rgb(255, 200, 80),
-                    "CPU device (lavapipe): expect a few frames per second",
+                    "CPU device (lavapipe): a whole picture is slow; [ lowers the resolution",
                 );
             }
             ui.separator();
@@ -392,6 +475,9 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
                 ui.end_row();
                 ui.label("mode");
                 ui.label(v.mode.to_string());
+                ui.end_row();
+                ui.label("");
+                ui.label(v.adapting);
                 ui.end_row();
                 ui.label("fly speed");
                 ui.label(format!("{:.3} units/s", v.speed));
@@ -486,6 +572,9 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
                 });
             });
         });
+    if !open {
+        req.panel = Some(false);
+    }
     (req, shown.map(|r| r.response.rect))
 }
 
@@ -510,5 +599,76 @@ mod tests {
         assert_eq!(s.steps_per_present, 1);
         // Two seconds later nothing is recent.
         assert_eq!(s.fps(now + Duration::from_secs(2)), 0.0);
+    }
+
+    #[test]
+    fn the_light_selector_says_which_light_and_how_many() {
+        assert_eq!(lights_heading(0), "no lights");
+        assert_eq!(lights_heading(1), "1 light:");
+        assert_eq!(lights_heading(3), "3 lights:");
+        // A button reads as the light it selects, not as a count.
+        assert_eq!(light_button(0), "light #0");
+    }
+
+    fn view<'a>(mode: Mode, stats: &'a Stats, scene: &'a Scene, now: Instant) -> HudView<'a> {
+        HudView {
+            panel: false,
+            adapting: "",
+            adapter: "llvmpipe (LLVM 15.0.6, 256 bits)",
+            cpu_device: true,
+            mode,
+            shadows: ShadowMode::Hard,
+            max_depth: 5,
+            render: [640, 480],
+            window: [640, 480],
+            scale: 1,
+            effective_scale: 1,
+            lowres_moving: false,
+            samples: 3,
+            max_samples: 64,
+            converged: false,
+            age: None,
+            speed: 1.0,
+            status: "",
+            now,
+            stats,
+            edit: EditView { base: scene, selection: None, last_update: None, playback: None },
+        }
+    }
+
+    /// The compact status: rate, mode with its S or schedule, samples, device, the CPU note and
+    /// the way to the panel, in five short lines.
+    #[test]
+    fn the_compact_status_says_rate_mode_samples_device_and_the_way_to_the_panel() {
+        let mut stats = Stats::default();
+        let t0 = Instant::now();
+        for i in 0..10 {
+            stats.step(t0 + Duration::from_millis(100 * i), 120_000, 120_000, Duration::from_millis(4));
+            stats.present(t0 + Duration::from_millis(100 * i), Duration::from_millis(5));
+        }
+        let scene = crate::scene::default_scene();
+        let now = t0 + Duration::from_millis(950);
+        let mut mode = Mode::frameless();
+        if let Mode::Frameless { slice, .. } = &mut mode {
+            *slice = 5632;
+        }
+        let lines = compact_lines(&view(mode, &stats, &scene, now));
+        assert_eq!(
+            lines,
+            [
+                "10.0 pictures/s, 1.20 M pixel updates/s",
+                "frameless (S = 5632), samples 3/64",
+                "device: llvmpipe (LLVM 15.0.6, 256 bits)",
+                "CPU device (lavapipe): a whole picture is slow; [ lowers the resolution",
+                "H or click: panel",
+            ]
+        );
+        let plain = Mode::Conventional { schedule: crate::render::Schedule::Plain, workers: 0 };
+        let mut v = view(plain, &stats, &scene, now);
+        v.cpu_device = false;
+        v.converged = true;
+        let lines = compact_lines(&v);
+        assert_eq!(lines[1], "conventional (plain), samples 3/64, converged");
+        assert_eq!(lines.len(), 4);
     }
 }

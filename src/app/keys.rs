@@ -130,7 +130,11 @@ pub const TABLE: &[Binding] = &[
         &[(K::KeyP, A::Screenshot)],
         "screenshot PNG (--screenshot FILE, else irt-YYYYmmdd-HHMMSS.png, UTC)",
     ),
-    keys("`H`", &[(K::KeyH, A::Hud)], "HUD panel on / off"),
+    keys(
+        "`H`",
+        &[(K::KeyH, A::Hud)],
+        "HUD panel on / off (else a compact status in the corner; a click on it opens the panel too)",
+    ),
     mouse("left click", A::Pick, "select the object or light under the cursor (the HUD edits it)"),
     mouse("`Shift`+left drag, middle drag", A::DragLight, "move the selected light in the view plane"),
     keys(

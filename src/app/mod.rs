@@ -30,8 +30,15 @@ pub const LONG_ABOUT: &str = "Open a window that traces the scene again and agai
 The picture refines while the camera rests (jittered samples add up, up to --max-samples). Two ways \
 of handing out the work (the paper's, see docs): conventional (tiles from a queue; the frame is \
 shown when it is whole) and frameless (slices of pixels in a fixed order, each traced with the newest \
-camera, shown continuously). The HUD (H) shows where the time goes and switches modes, shadows, depth \
-and resolution live.
+camera, shown continuously). A compact status in the top-left corner shows the rate, the mode and the \
+device; the HUD panel (H, or a click on the status) shows where the time goes and switches modes, \
+shadows, depth and resolution live. The window opens at about 1280x720 within the screen, with the \
+scene camera's aspect (--size sets it).
+
+Frameless slices adapt to the device: S is chosen slice by slice so that one slice takes a \
+quarter of a display refresh, or three presents where presenting takes longer (lavapipe's software \
+present), so that presenting never takes over (--slice fixes S). Conventional frames time the plain dispatch \
+against the tile queue over their first frames and keep the faster (--schedule fixes it).
 
 On lavapipe (Vulkan on the CPU, the default device) expect a few frames per second at full size; \
 `[` lowers the resolution, and \"lower resolution while moving\" in the HUD halves it during motion.
@@ -57,8 +64,9 @@ Examples:
 /// builds them), beside the scene it shows.
 #[derive(Clone, Debug)]
 pub struct ViewOptions {
-    /// The window's size in pixels.
-    pub size: [u32; 2],
+    /// The window's size in pixels (`--size`); `None`: about 1280×720 within the screen, with
+    /// the scene camera's aspect ([`present::default_window_size`]).
+    pub size: Option<[u32; 2]>,
     /// Resolution divisor of the render against the window: 1, 2 or 4.
     pub scale: u32,
     /// Start with the HUD hidden.
@@ -81,6 +89,12 @@ pub struct ViewOptions {
     pub scene_name: String,
     /// The session's settings at the start; their mode is one of the two below.
     pub settings: Settings,
+    /// `--slice` was given: frameless S stays as given instead of following the slice-time
+    /// controller ([`crate::render::adapt::Adaptation`]).
+    pub fixed_slice: bool,
+    /// `--schedule` was given: conventional frames use it instead of the faster of the plain
+    /// dispatch and the queue, as the first frames measure them.
+    pub fixed_schedule: bool,
     /// The modes M switches between (frameless with its `present_every`).
     pub frameless: Mode,
     pub conventional: Mode,

@@ -49,8 +49,16 @@ pub struct Presented {
 impl Presenter {
     /// Opens the window and, on the device that can draw to it, the context the tracer may
     /// share.
-    pub fn new(event_loop: &ActiveEventLoop, args: &ViewOptions) -> Result<(Presenter, GpuContext)> {
-        let [ww, wh] = args.size;
+    /// `aspect`: the scene camera's width over height, for the default size.
+    pub fn new(
+        event_loop: &ActiveEventLoop,
+        args: &ViewOptions,
+        aspect: f64,
+    ) -> Result<(Presenter, GpuContext)> {
+        let [ww, wh] = args.size.unwrap_or_else(|| {
+            let monitor = event_loop.primary_monitor().or_else(|| event_loop.available_monitors().next());
+            default_window_size(monitor.map(|m| [m.size().width, m.size().height]), aspect)
+        });
         let attrs = Window::default_attributes()
             .with_title(format!("irt — {}", args.scene_name))
             .with_inner_size(PhysicalSize::new(ww, wh));
@@ -299,6 +307,26 @@ impl Presenter {
     }
 }
 
+/// The window's size without `--size`: the scene camera's aspect, as large as fits in 1280×720
+/// and in the screen (`monitor`, in pixels, when known) less a margin for the window's
+/// decorations and a task bar, and at least 320×240's area. The render follows the window, so
+/// this is also what is traced: on lavapipe more would cost frame rate, and 1280×720 is what
+/// a person expects a window to open at.
+pub fn default_window_size(monitor: Option<[u32; 2]>, aspect: f64) -> [u32; 2] {
+    /// Room left on the screen: a title bar and a task bar (height), borders (width).
+    const MARGIN: [u32; 2] = [64, 128];
+    let mut fit: [f64; 2] = [1280.0, 720.0];
+    if let Some([mw, mh]) = monitor.filter(|m| m[0] > 0 && m[1] > 0) {
+        fit[0] = fit[0].min(mw.saturating_sub(MARGIN[0]).max(320) as f64);
+        fit[1] = fit[1].min(mh.saturating_sub(MARGIN[1]).max(240) as f64);
+    }
+    let aspect = if aspect.is_finite() && aspect > 0.0 { aspect.clamp(0.1, 10.0) } else { 4.0 / 3.0 };
+    let (w, h) = if fit[0] / fit[1] > aspect { (fit[1] * aspect, fit[1]) } else { (fit[0], fit[0] / aspect) };
+    // Very wide or tall cameras: not thinner than a usable strip.
+    let scale = (320.0 * 240.0 / (w * h)).sqrt().max(1.0);
+    [(w * scale).round().max(1.0) as u32, (h * scale).round().max(1.0) as u32]
+}
+
 /// The surface's configuration: an sRGB format where offered (Bgra8UnormSrgb first), present
 /// mode Mailbox > Immediate > Fifo, one frame of latency.
 fn surface_config(
@@ -335,4 +363,29 @@ fn surface_config(
         config.view_formats.push(gamma);
     }
     Ok(config)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_window_fits_the_screen_with_the_camera_s_aspect() {
+        // A 4:3 camera on a 1080p screen: 720 high; on Xvfb's 1024×768, 640 high (128 left).
+        assert_eq!(default_window_size(Some([1920, 1080]), 4.0 / 3.0), [960, 720]);
+        assert_eq!(default_window_size(Some([1024, 768]), 4.0 / 3.0), [853, 640]);
+        // 16:9 fills 1280×720 where it fits; a square NFF camera is as high as allowed.
+        assert_eq!(default_window_size(Some([2560, 1440]), 16.0 / 9.0), [1280, 720]);
+        assert_eq!(default_window_size(Some([1366, 768]), 16.0 / 9.0), [1138, 640]);
+        assert_eq!(default_window_size(Some([1920, 1080]), 1.0), [720, 720]);
+        // No screen known: 1280×720 at most; a nonsense aspect: 4:3.
+        assert_eq!(default_window_size(None, 16.0 / 9.0), [1280, 720]);
+        assert_eq!(default_window_size(None, f64::NAN), [960, 720]);
+        // A tiny screen still gets a usable window; a strip-like camera keeps 320×240's area.
+        let [w, h] = default_window_size(Some([320, 200]), 4.0 / 3.0);
+        assert!(w * h >= 320 * 240 - 400, "{w}x{h}");
+        let [w, h] = default_window_size(Some([1920, 1080]), 10.0);
+        assert_eq!(w, 1280);
+        assert!(w * h >= 320 * 240 - 400 && (w as f64 / h as f64 - 10.0).abs() < 0.1, "{w}x{h}");
+    }
 }

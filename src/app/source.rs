@@ -9,7 +9,7 @@ use crate::dist::cluster::Cluster;
 use crate::dist::master::{Deadlines, Master};
 use crate::gpu::GpuContext;
 use crate::image::Image;
-use crate::render::{Session, Settings, StepReport, UpdateReport};
+use crate::render::{Schedule, Session, Settings, StepReport, UpdateReport};
 use crate::scene::{Camera, Scene};
 use anyhow::{anyhow, Result};
 use std::time::{Duration, Instant};
@@ -32,6 +32,13 @@ pub trait Source {
     /// A live edit: the scene as given becomes `scene` (the camera stays).
     fn set_scene(&mut self, ctx: &GpuContext, scene: &Scene) -> Result<UpdateReport>;
     fn apply(&mut self, ctx: &GpuContext, settings: Settings) -> Result<()>;
+    /// Frameless: the next steps' slice size, restarting nothing (the MPI master keeps its own).
+    fn set_slice(&mut self, _slice: u32) {}
+    /// Conventional: the next frame's schedule, between frames, restarting nothing; whether it
+    /// changed (the MPI master keeps its own).
+    fn set_schedule(&mut self, _ctx: &GpuContext, _schedule: Schedule) -> Result<bool> {
+        Ok(false)
+    }
     /// One step of work: a wave or slice on the device, or one turn of the master's loop.
     fn step(&mut self, ctx: &GpuContext) -> Result<StepReport>;
     /// Samples per pixel so far since the last change.
@@ -93,6 +100,12 @@ impl Source for Local {
     }
     fn apply(&mut self, ctx: &GpuContext, settings: Settings) -> Result<()> {
         Ok(self.0.apply(ctx, settings)?)
+    }
+    fn set_slice(&mut self, slice: u32) {
+        self.0.set_slice(slice);
+    }
+    fn set_schedule(&mut self, ctx: &GpuContext, schedule: Schedule) -> Result<bool> {
+        Ok(self.0.set_schedule(ctx, schedule)?)
     }
     fn step(&mut self, ctx: &GpuContext) -> Result<StepReport> {
         Ok(self.0.step(ctx))

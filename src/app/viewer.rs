@@ -15,9 +15,10 @@ use super::ViewOptions;
 use crate::dist::cluster::Cluster;
 use crate::dist::master::Deadlines;
 use crate::gpu::GpuContext;
+use crate::render::adapt::Adaptation;
 use crate::render::metrics::AgeTracker;
-use crate::render::{Cancel, HostLoop, UpdateReport, FRAME_BUDGET};
-use crate::render::{Mode, Session, Settings};
+use crate::render::{Cancel, HostLoop, UpdateReport, DEFAULT_SLICE, FRAME_BUDGET};
+use crate::render::{Mode, Schedule, Session, Settings};
 use crate::scene::{Camera, Scene, MAX_TRACE_DEPTH};
 use anyhow::{anyhow, Result};
 use std::io::Write as _;
@@ -155,7 +156,12 @@ struct Viewer<'a> {
     source: Box<dyn Source + 'a>,
     /// Who traces, in words (the HUD).
     device: String,
-    hud_visible: bool,
+    /// The compact status shows in a corner while the panel is off (not with `--no-hud`).
+    compact: bool,
+    /// The full HUD panel (`H`, or a click on the compact status).
+    panel: bool,
+    /// The frameless slice size and the conventional schedule as this device's timings say.
+    adapt: Adaptation,
     controller: CameraController,
     input: Input,
     /// When to step, present and cancel (on seconds since `start`).
@@ -210,9 +216,14 @@ impl<'a> Viewer<'a> {
         scene: Scene,
         cluster: Option<(&'a Cluster, Deadlines)>,
     ) -> Result<Self> {
-        let (out, ctx) = Presenter::new(event_loop, args)?;
+        let aspect = scene.camera.width.max(1) as f64 / scene.camera.height.max(1) as f64;
+        let (out, ctx) = Presenter::new(event_loop, args, aspect)?;
         let scale = args.scale;
-        let win = if out.minimised { args.size } else { out.window_size() };
+        let win = match (out.minimised, args.size) {
+            (false, _) => out.window_size(),
+            (true, Some(size)) => size,
+            (true, None) => [scene.camera.width, scene.camera.height],
+        };
         let [rw, rh] = render_size(win, scale);
         let mut traced = scene.clone();
         traced.camera.width = rw;
@@ -225,6 +236,20 @@ impl<'a> Viewer<'a> {
         let present_every = match settings.mode {
             Mode::Frameless { present_every, .. } => present_every,
             _ => 0,
+        };
+        let adapt = if cluster.is_some() {
+            // The master slices as it was told; the window shows what it uses.
+            Adaptation::fixed()
+        } else {
+            let start = match args.frameless {
+                Mode::Frameless { slice, .. } => slice,
+                _ => DEFAULT_SLICE,
+            };
+            let queue = match args.conventional {
+                Mode::Conventional { schedule, .. } => schedule,
+                _ => Schedule::default(),
+            };
+            Adaptation::new(FRAME_BUDGET, start, queue, args.fixed_slice, args.fixed_schedule)
         };
         let mut source: Box<dyn Source + 'a> = match cluster {
             Some((cluster, deadlines)) => {
@@ -246,7 +271,9 @@ impl<'a> Viewer<'a> {
         let mut v = Viewer {
             args: args.clone(),
             out,
-            hud_visible: !args.no_hud,
+            compact: !args.no_hud,
+            panel: false,
+            adapt,
             controller,
             input: Input::default(),
             host: HostLoop::new(FRAME_BUDGET.as_secs_f64(), present_every, Cancel::FirstWave),
@@ -323,16 +350,21 @@ impl<'a> Viewer<'a> {
         self.out.window_size()
     }
 
+    /// Whether anything of the HUD is drawn (the panel or the compact status).
+    fn hud_visible(&self) -> bool {
+        self.panel || self.compact
+    }
+
     fn over_hud(&self) -> bool {
         let Some(c) = self.input.cursor else { return false };
-        self.hud_visible && self.out.over_hud([c.x, c.y])
+        self.hud_visible() && self.out.over_hud([c.x, c.y])
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
         let egui_response = self.out.egui.state.on_window_event(&self.out.window, &event);
         // (egui asks to repaint after a redraw too: that is no news.)
         let news = !matches!(event, WindowEvent::RedrawRequested);
-        if egui_response.repaint && news && self.hud_visible {
+        if egui_response.repaint && news && self.hud_visible() {
             self.dirty = true;
             self.egui_followups = EGUI_FOLLOWUPS;
             self.out.window.request_redraw();
@@ -395,7 +427,7 @@ impl<'a> Viewer<'a> {
                 );
                 let down = event.state == ElementState::Pressed;
                 // Keys typed into a HUD field (a number being entered) are the HUD's.
-                let typing = self.hud_visible && self.out.egui.ctx.egui_wants_keyboard_input();
+                let typing = self.hud_visible() && self.out.egui.ctx.egui_wants_keyboard_input();
                 let action = match event.physical_key {
                     PhysicalKey::Code(code) => keys::action(code),
                     PhysicalKey::Unidentified(_) => None,
@@ -434,7 +466,7 @@ impl<'a> Viewer<'a> {
                 self.say("camera printed on stdout");
             }
             Action::Hud => {
-                self.hud_visible = !self.hud_visible;
+                self.panel = !self.panel;
                 self.dirty = true;
             }
             Action::Screenshot => self.screenshot()?,
@@ -621,7 +653,9 @@ impl<'a> Viewer<'a> {
         let mut present;
         let mut idle;
         loop {
+            self.adapt_mode()?;
             let r = self.source.step(&self.ctx)?;
+            self.adapt.stepped(&self.source.settings().mode, self.source.pass_len(), &r);
             idle = r.idle;
             if !r.idle {
                 self.record(&r);
@@ -663,6 +697,25 @@ impl<'a> Viewer<'a> {
         Ok(busy || (self.dirty && self.out.retry_at.is_none()))
     }
 
+    /// The slice size (before each frameless step) and the schedule (between conventional
+    /// frames) as [`Adaptation`] says; neither restarts the picture.
+    fn adapt_mode(&mut self) -> Result<()> {
+        match self.source.settings().mode {
+            Mode::Frameless { slice, .. } => {
+                if let Some(s) = self.adapt.slice().filter(|&s| s != slice) {
+                    self.source.set_slice(s);
+                }
+            }
+            Mode::Conventional { .. } if !self.host.in_frame() => {
+                if let Some(s) = self.adapt.schedule() {
+                    self.source.set_schedule(&self.ctx, s)?;
+                }
+            }
+            Mode::Conventional { .. } | Mode::Bands => {}
+        }
+        Ok(())
+    }
+
     fn record(&mut self, r: &crate::render::StepReport) {
         let now = Instant::now();
         self.stats.step(now, r.eye_rays, r.pixels, r.trace_time);
@@ -676,7 +729,10 @@ impl<'a> Viewer<'a> {
         let t0 = Instant::now();
         let window = self.window_size();
         let settings = self.source.settings();
-        let hud = self.hud_visible.then(|| HudView {
+        let adapting = self.adapt.describe(&settings.mode);
+        let hud = self.hud_visible().then(|| HudView {
+            panel: self.panel,
+            adapting: &adapting,
             adapter: &self.device,
             cpu_device: self.ctx.info.device_type == wgpu::DeviceType::Cpu,
             mode: settings.mode,
@@ -711,6 +767,7 @@ impl<'a> Viewer<'a> {
         };
         let now = Instant::now();
         self.stats.present(now, now - t0);
+        self.adapt.presented(now - t0);
         self.presents += 1;
         self.host.presented(self.clock());
         // egui asks for another pass after input (a popup opening, a window settling). Its

@@ -228,9 +228,10 @@ pub struct ModeArgs {
     pub mode: Option<ModeName>,
     /// Conventional: chunk sizes of the tile queue: rtrt[:ROUNDS] (RTRT's shrinking chunks,
     /// default 40 rounds), guided, factoring, fixed[:TILES], or plain (no queue: one dispatch,
-    /// split statically between the device's threads).
-    #[arg(long, value_name = "SCHEDULE", default_value_t = Schedule::default())]
-    pub schedule: Schedule,
+    /// split statically between the device's threads). Default rtrt:40; `irt view` then keeps
+    /// rtrt:40 or plain, whichever its first frames find faster on the device.
+    #[arg(long, value_name = "SCHEDULE")]
+    pub schedule: Option<Schedule>,
     /// Conventional: the workers P the schedule is built for (0: the device's, its thread
     /// count on lavapipe).
     #[arg(long, value_name = "P", default_value_t = 0)]
@@ -239,9 +240,11 @@ pub struct ModeArgs {
     /// default 64 = 8x8 blocks, PROCS 16), random, or dissolve (an LFSR, no table).
     #[arg(long, value_name = "ORDER", default_value_t = PixelOrder::default())]
     pub order: PixelOrder,
-    /// Frameless: pixels per slice (one dispatch each, each with the newest camera).
-    #[arg(long, value_name = "S", default_value_t = DEFAULT_SLICE)]
-    pub slice: u32,
+    /// Frameless: pixels per slice (one dispatch each, each with the newest camera). Default
+    /// 16384; `irt view` then adapts S so that a slice takes a quarter of a display refresh (or
+    /// three presents, where a present takes longer).
+    #[arg(long, value_name = "S")]
+    pub slice: Option<u32>,
     /// Frameless: blend new samples into the old with weight ALPHA (the paper's option;
     /// replaces progressive refinement).
     #[arg(long, value_name = "ALPHA")]
@@ -268,7 +271,7 @@ impl ModeArgs {
                 bail!("--blend {a}: expected a weight in (0, 1]");
             }
         }
-        if self.slice == 0 {
+        if self.slice == Some(0) {
             bail!("--slice 0: a slice holds at least one pixel");
         }
         Ok(self.mode.map(|m| match m {
@@ -287,7 +290,7 @@ impl ModeArgs {
     pub fn frameless(&self, present_every: u32) -> Mode {
         Mode::Frameless {
             order: self.order,
-            slice: self.slice,
+            slice: self.slice.unwrap_or(DEFAULT_SLICE),
             present_every,
             blend: self.blend,
             jitter_pairs: self.jitter_pairs,
@@ -296,7 +299,7 @@ impl ModeArgs {
 
     /// The conventional mode with `--schedule` and `--workers`.
     pub fn conventional(&self) -> Mode {
-        Mode::Conventional { schedule: self.schedule, workers: self.workers }
+        Mode::Conventional { schedule: self.schedule.unwrap_or_default(), workers: self.workers }
     }
 }
 

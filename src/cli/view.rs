@@ -15,7 +15,7 @@ use std::path::PathBuf;
     about = ABOUT,
     long_about = LONG_ABOUT,
     after_long_help = keys::help(),
-    mut_arg("size", |a| a.help("Window size in pixels, WxH (default: the scene camera's, at least 320x240)"))
+    mut_arg("size", |a| a.help("Window size in pixels, WxH (default: about 1280x720 within the screen, with the scene camera's aspect)"))
 )]
 pub struct ViewArgs {
     /// Frameless: present after exactly N slices (0: as many slices as fit in one display
@@ -103,7 +103,7 @@ fn window(args: ViewArgs, cluster: Option<(&Cluster, Deadlines)>) -> Result<()> 
         ..Settings::default()
     };
     let options = ViewOptions {
-        size: args.scene.size.unwrap_or([scene.camera.width.max(320), scene.camera.height.max(240)]),
+        size: args.scene.size,
         scale: args.scale,
         no_hud: args.no_hud,
         frames: args.frames,
@@ -115,6 +115,8 @@ fn window(args: ViewArgs, cluster: Option<(&Cluster, Deadlines)>) -> Result<()> 
         no_cache: args.device.no_cache,
         scene_name: args.scene.name_or("default scene"),
         settings,
+        fixed_slice: args.mode.slice.is_some(),
+        fixed_schedule: args.mode.schedule.is_some(),
         frameless,
         conventional,
     };

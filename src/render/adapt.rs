@@ -12,6 +12,7 @@
 //! clock with cost models of a fast and a slow device.
 
 use super::schedule::Schedule;
+use super::{Mode, StepReport};
 use std::time::Duration;
 
 /// Frameless: the share of a refresh one slice should take by default. A quarter leaves room for
@@ -69,6 +70,26 @@ impl SliceControl {
     /// The time one slice is aimed at.
     pub fn target(&self) -> Duration {
         self.target
+    }
+
+    /// Slices aim at `target` from now on (the smoothed cost is rescaled to it).
+    pub fn set_target(&mut self, target: Duration) {
+        let target = target.max(Duration::from_micros(1));
+        if let Some(s) = &mut self.smoothed {
+            *s += (self.target.as_secs_f64() / target.as_secs_f64()).ln();
+        }
+        self.target = target;
+    }
+
+    /// The largest S becomes `max` (the image was resized); S is kept within it.
+    pub fn set_max(&mut self, max: u32) {
+        self.max = max.max(self.min);
+        let slice = self.slice.min(self.max);
+        // The smoothed cost is of a slice of the current S: carried over to the new S.
+        if let Some(s) = &mut self.smoothed {
+            *s += (slice as f64 / self.slice as f64).ln();
+        }
+        self.slice = slice;
     }
 
     /// A slice of `pixels` took `took`: the size of the next.
@@ -132,6 +153,16 @@ impl ScheduleProbe {
         self.chosen
     }
 
+    /// The queue's schedule, which the plain dispatch is timed against.
+    pub fn queue(&self) -> Schedule {
+        self.queue
+    }
+
+    /// The best frame time of the plain dispatch and of the queue, once both were timed.
+    pub fn best(&self) -> Option<(Duration, Duration)> {
+        Some((*self.plain.iter().min()?, *self.queued.iter().min()?))
+    }
+
     /// A frame traced with `schedule` took `took` (a frame cancelled part-way is not reported).
     pub fn observe(&mut self, schedule: Schedule, took: Duration) {
         if self.chosen.is_some() {
@@ -146,6 +177,158 @@ impl ScheduleProbe {
             // The best of each: the first frames carry one-off costs (caches, page faults).
             let queue_wins = best(&self.queued) < QUEUE_MARGIN * best(&self.plain);
             self.chosen = Some(if queue_wins { self.queue } else { Schedule::Plain });
+        }
+    }
+}
+
+/// Frameless in the window: presents may take at most this share of the loop's time. Where a
+/// present costs more than a refresh (lavapipe's software present of a large window: about 20 ms),
+/// slices of a quarter of a refresh would leave the loop presenting most of the time; slices then
+/// take three times a present instead ([`Adaptation::presented`]).
+pub const PRESENT_SHARE: f64 = 0.25;
+
+/// Presents whose cost is remembered; the cheapest is the present's cost (a present is never
+/// faster than it, and the first ones carry one-off uploads).
+const PRESENTS_KEPT: usize = 8;
+
+/// The window's use of both: what it adapts while it runs, and what the user fixed (`--slice`,
+/// `--schedule`). Frameless: S follows a [`SliceControl`] fed each slice's measured trace time.
+/// Conventional: the first frames alternate the plain dispatch and the queue
+/// ([`ScheduleProbe`]), timed whole (the trace time of all their steps), and the faster is kept.
+/// The caller applies [`Adaptation::slice`] before each frameless step and
+/// [`Adaptation::schedule`] between conventional frames; neither restarts the picture.
+#[derive(Clone, Debug)]
+pub struct Adaptation {
+    /// `None`: S is fixed (given, or the mode is not the window's to change).
+    control: Option<SliceControl>,
+    /// `None`: the schedule is fixed.
+    probe: Option<ScheduleProbe>,
+    /// Conventional: the frame in flight (its camera version, schedule and trace time so far).
+    frame: Option<(u64, Schedule, Duration)>,
+    /// Pixels of the first frame timed: later frames' times are scaled to it, so that a resize
+    /// during the probe does not decide it.
+    probe_pixels: u64,
+    /// The slice target a refresh gives ([`SLICE_SHARE`] of it), and the last presents' costs.
+    refresh_target: Duration,
+    presents: std::collections::VecDeque<Duration>,
+}
+
+impl Adaptation {
+    /// Adapts S from `start` (aiming at [`SLICE_SHARE`] of `refresh`) unless `fixed_slice`, and
+    /// probes the plain dispatch against `queue` unless `fixed_schedule`.
+    pub fn new(
+        refresh: Duration,
+        start: u32,
+        queue: Schedule,
+        fixed_slice: bool,
+        fixed_schedule: bool,
+    ) -> Adaptation {
+        let control =
+            (!fixed_slice).then(|| SliceControl::new(refresh, SLICE_SHARE, start, SLICE_QUANTUM, u32::MAX));
+        // Probing plain against plain would decide nothing.
+        let probe = (!fixed_schedule && queue != Schedule::Plain).then(|| ScheduleProbe::new(queue));
+        let refresh_target = refresh.mul_f64(SLICE_SHARE);
+        Adaptation {
+            control,
+            probe,
+            frame: None,
+            probe_pixels: 0,
+            refresh_target,
+            presents: Default::default(),
+        }
+    }
+
+    /// Nothing adapts (the MPI master's slicing is its own).
+    pub fn fixed() -> Adaptation {
+        Adaptation::new(Duration::from_millis(16), 1, Schedule::Plain, true, true)
+    }
+
+    /// A present (blit, HUD and the surface's present) took `took`: slices aim at the larger
+    /// of [`SLICE_SHARE`] of a refresh and what keeps presents within [`PRESENT_SHARE`] of the
+    /// loop's time (one slice per present, as when a present outlasts a refresh).
+    pub fn presented(&mut self, took: Duration) {
+        let Some(c) = &mut self.control else { return };
+        if self.presents.len() == PRESENTS_KEPT {
+            self.presents.pop_front();
+        }
+        self.presents.push_back(took);
+        let present = self.presents.iter().min().copied().unwrap_or_default();
+        let floor = present.mul_f64((1.0 - PRESENT_SHARE) / PRESENT_SHARE);
+        let target = self.refresh_target.max(floor);
+        // Small drifts of the present's cost are noise: the target moves by 10% or more.
+        let ratio = target.as_secs_f64() / c.target().as_secs_f64();
+        if !(0.9..=1.1).contains(&ratio) {
+            c.set_target(target);
+        }
+    }
+
+    /// Frameless: the slice size the next step should trace, when S adapts.
+    pub fn slice(&self) -> Option<u32> {
+        self.control.as_ref().map(SliceControl::slice)
+    }
+
+    /// Conventional: the schedule the next frame should use, when the schedule adapts.
+    pub fn schedule(&self) -> Option<Schedule> {
+        self.probe.as_ref().map(ScheduleProbe::next)
+    }
+
+    /// A step of `mode` ran; `pass_len`: positions in one frameless pass (the largest S).
+    pub fn stepped(&mut self, mode: &Mode, pass_len: u64, r: &StepReport) {
+        if r.idle {
+            self.frame = None;
+            return;
+        }
+        match *mode {
+            Mode::Frameless { .. } => {
+                if let (Some(c), Some(span)) = (&mut self.control, r.slice) {
+                    c.set_max(pass_len.clamp(1, u32::MAX as u64) as u32);
+                    c.observe(span.len.min(u32::MAX as u64) as u32, r.trace_time);
+                }
+            }
+            Mode::Conventional { schedule, .. } => {
+                let Some(probe) = &mut self.probe else { return };
+                // A frame restarted (a new camera, size or settings) counts from its new start.
+                let t = match self.frame {
+                    Some((v, s, t)) if v == r.camera_version && s == schedule => t + r.trace_time,
+                    _ => r.trace_time,
+                };
+                self.frame = Some((r.camera_version, schedule, t));
+                if r.frame_done {
+                    self.frame = None;
+                    if self.probe_pixels == 0 {
+                        self.probe_pixels = r.pixels.max(1);
+                    }
+                    let scaled = t.mul_f64(self.probe_pixels as f64 / r.pixels.max(1) as f64);
+                    probe.observe(schedule, scaled);
+                }
+            }
+            Mode::Bands => {}
+        }
+    }
+
+    /// The HUD's words for how `mode`'s slice size or schedule came about.
+    pub fn describe(&self, mode: &Mode) -> String {
+        match *mode {
+            Mode::Frameless { slice, .. } => match &self.control {
+                Some(c) => format!(
+                    "S = {slice} pixels a slice (adapting: {:.1} ms a slice)",
+                    c.target().as_secs_f64() * 1e3
+                ),
+                None => format!("S = {slice} pixels a slice (fixed)"),
+            },
+            Mode::Conventional { schedule, .. } => match &self.probe {
+                None => format!("schedule {schedule} (fixed)"),
+                Some(p) => match (p.chosen(), p.best()) {
+                    (Some(_), Some((plain, queue))) => format!(
+                        "schedule {schedule} (chosen: plain {:.1} ms, {} {:.1} ms a frame)",
+                        plain.as_secs_f64() * 1e3,
+                        p.queue(),
+                        queue.as_secs_f64() * 1e3
+                    ),
+                    _ => format!("schedule {schedule} (timing plain against {})", p.queue()),
+                },
+            },
+            Mode::Bands => "bands".into(),
         }
     }
 }
@@ -307,5 +490,168 @@ mod tests {
         assert_eq!(probe(173e-3, 223e-3), Schedule::Plain);
         // A tie keeps the simpler plain dispatch.
         assert_eq!(probe(100e-3, 98e-3), Schedule::Plain);
+    }
+
+    /// A conventional frame of `waves` steps, `frame` long in all, at camera version `version`.
+    fn frame_steps(waves: u32, frame: Duration, pixels: u64, version: u64) -> Vec<StepReport> {
+        (1..=waves)
+            .map(|i| StepReport {
+                pixels: if i == waves { pixels } else { 0 },
+                trace_time: frame / waves,
+                frame_done: i == waves,
+                camera_version: version,
+                ..Default::default()
+            })
+            .collect()
+    }
+
+    /// Runs the window's conventional loop on frame times `plain` and `queue` (seconds): each
+    /// frame takes the schedule the adaptation asks for. Returns the schedule after 8 frames.
+    fn window_probe(plain: f64, queue: f64) -> (Schedule, Adaptation) {
+        let mut a = Adaptation::new(REFRESH, 16_384, Schedule::default(), false, false);
+        let mut mode = Mode::conventional();
+        // A frame cancelled after two of its waves by a camera move: not counted.
+        for r in &frame_steps(4, Duration::from_millis(1), 512 * 512, 1)[..2] {
+            a.stepped(&mode, 512 * 512, r);
+        }
+        for _ in 0..8 {
+            let schedule = a.schedule().expect("the schedule adapts");
+            mode = Mode::Conventional { schedule, workers: 0 };
+            let t = if schedule == Schedule::Plain { plain } else { queue };
+            for r in frame_steps(4, Duration::from_secs_f64(t), 512 * 512, 2) {
+                a.stepped(&mode, 512 * 512, &r);
+            }
+        }
+        (a.schedule().unwrap(), a)
+    }
+
+    #[test]
+    fn the_window_keeps_the_faster_schedule_timed_over_whole_frames() {
+        // H200 at 512²: the plain dispatch; lavapipe on the default scene: the queue.
+        let (gpu, a) = window_probe(0.4e-3, 2.3e-3);
+        assert_eq!(gpu, Schedule::Plain);
+        // Whole frames were timed (4 waves each), not the cancelled frame's 1 ms.
+        assert_eq!(
+            a.probe.as_ref().unwrap().best(),
+            Some((Duration::from_micros(400), Duration::from_micros(2300)))
+        );
+        let mode = Mode::Conventional { schedule: Schedule::Plain, workers: 0 };
+        assert_eq!(a.describe(&mode), "schedule plain (chosen: plain 0.4 ms, rtrt:40 2.3 ms a frame)");
+        assert_eq!(window_probe(114e-3, 96e-3).0, Schedule::default());
+        // Given on the command line, or the MPI master's: nothing is probed.
+        let fixed = Adaptation::new(REFRESH, 16_384, Schedule::default(), false, true);
+        assert_eq!(fixed.schedule(), None);
+        assert_eq!(fixed.describe(&Mode::conventional()), "schedule rtrt:40 (fixed)");
+        assert_eq!(Adaptation::fixed().schedule(), None);
+        // A probe of plain against plain decides nothing: not run.
+        assert_eq!(Adaptation::new(REFRESH, 16_384, Schedule::Plain, false, false).schedule(), None);
+    }
+
+    /// The window's frameless loop: S as the adaptation says before each step, the step's
+    /// measured trace time back into it, on the two cost models; the image shrinks half-way.
+    #[test]
+    fn the_window_s_slices_settle_on_both_devices_and_follow_a_resize() {
+        for (mut device, ideal) in
+            [(slow(), (REFRESH.as_secs_f64() * SLICE_SHARE - 200e-6) / 700e-9), (fast(), HD as f64)]
+        {
+            let mut a = Adaptation::new(REFRESH, 16_384, Schedule::default(), false, false);
+            let mut mode = Mode::frameless();
+            let mut pass = HD as u64;
+            for i in 0..40 {
+                if i == 20 {
+                    // Resized to 640×360: S at most the new image.
+                    pass = 640 * 360;
+                }
+                let s = a.slice().expect("S adapts");
+                if let Mode::Frameless { slice, .. } = &mut mode {
+                    *slice = s;
+                }
+                let len = (s as u64).min(pass);
+                let r = StepReport {
+                    pixels: len,
+                    trace_time: device.slice(len as u32),
+                    slice: Some(crate::render::SliceSpan { first: 0, len }),
+                    ..Default::default()
+                };
+                a.stepped(&mode, pass, &r);
+                let s = a.slice().unwrap() as f64;
+                let want = ideal.min(pass as f64);
+                if (8..20).contains(&i) || i >= 28 {
+                    assert!((s / want - 1.0).abs() < 0.12, "step {i}: S = {s}, ideal {want:.0}");
+                }
+                assert!(s <= pass as f64, "step {i}: S = {s} over the image's {pass}");
+            }
+            assert!(a.describe(&mode).contains("(adapting: 4.2 ms a slice)"), "{}", a.describe(&mode));
+        }
+        let fixed = Adaptation::new(REFRESH, 1000, Schedule::default(), true, false);
+        assert_eq!(fixed.slice(), None);
+        assert_eq!(fixed.describe(&Mode::frameless()), "S = 16384 pixels a slice (fixed)");
+    }
+
+    /// The window's frameless loop with its presents: the host loop's rule (present after the
+    /// step in which a refresh fell due) on a virtual clock, each present costing `present`.
+    /// Returns (the tracing share of the last second, presents in it, S at the end).
+    fn window_loop(device: &mut Device, present: Duration, feed_presents: bool) -> (f64, u32, u32) {
+        use crate::render::{Cancel, HostLoop};
+        let mut a = Adaptation::new(REFRESH, 16_384, Schedule::default(), false, false);
+        let mut host = HostLoop::new(REFRESH.as_secs_f64(), 0, Cancel::FirstWave);
+        let (mut now, mut traced, mut presents) = (0.0, 0.0, 0);
+        while now < 4.0 {
+            let s = a.slice().unwrap();
+            let took = device.slice(s);
+            let r = StepReport {
+                pixels: s as u64,
+                trace_time: took,
+                slice: Some(crate::render::SliceSpan { first: 0, len: s as u64 }),
+                ..Default::default()
+            };
+            a.stepped(&Mode::frameless(), HD as u64, &r);
+            now += took.as_secs_f64();
+            if now > 3.0 {
+                traced += took.as_secs_f64();
+            }
+            if host.stepped(now, false, &r) {
+                now += present.as_secs_f64();
+                if feed_presents {
+                    a.presented(present);
+                }
+                host.presented(now);
+                presents += (now > 3.0) as u32;
+            }
+        }
+        // The last second or so: from 3 s to the end of the step or present that crossed 4 s.
+        let span = now - 3.0;
+        (traced / span, (presents as f64 / span).round() as u32, a.slice().unwrap())
+    }
+
+    /// Lavapipe's software present (20 ms at 1280×720) is longer than a refresh: slices of a
+    /// quarter of a refresh would leave the loop presenting most of the time (tracing ~40%); the
+    /// slices grow to three presents, and tracing takes about three quarters of the time. A fast
+    /// device's cheap present (0.3 ms) leaves the refresh's target as it was.
+    #[test]
+    fn an_expensive_present_makes_slices_long_enough_to_keep_tracing() {
+        let (share, presents, s) = window_loop(&mut slow(), Duration::from_millis(20), true);
+        eprintln!("slow, 20 ms presents: tracing {:.1}%, {presents} presents/s, S = {s}", share * 100.0);
+        assert!(share > 0.7, "tracing {:.0}% of the time", share * 100.0);
+        // The slice's time: 60 ms, at 200 µs + 700 ns a pixel.
+        let ideal = (0.060 - 200e-6) / 700e-9;
+        assert!((s as f64 / ideal - 1.0).abs() < 0.12, "S = {s}, ideal {ideal:.0}");
+        assert!((10..=14).contains(&presents), "{presents} presents a second");
+        // Without the present's floor (the refresh's target only) the same loop traces a fraction.
+        let (share, p, s) = window_loop(&mut slow(), Duration::from_millis(20), false);
+        eprintln!("without the floor: tracing {:.1}%, {p} presents/s, S = {s}", share * 100.0);
+        assert!(share < 0.5, "tracing {:.0}% of the time without the floor", share * 100.0);
+        let (_, presents, s) = window_loop(&mut fast(), Duration::from_micros(300), true);
+        assert_eq!(s, HD, "the fast device traces whole passes");
+        assert!(presents >= 55, "{presents} presents a second");
+        let mut a = Adaptation::new(REFRESH, 16_384, Schedule::default(), false, false);
+        a.presented(Duration::from_micros(300));
+        assert_eq!(a.control.as_ref().unwrap().target(), REFRESH.mul_f64(SLICE_SHARE));
+        // The first presents' one-off cost does not stay: the cheapest of the last 8 counts.
+        a.presented(Duration::from_millis(200));
+        for _ in 0..8 {
+            a.presented(Duration::from_millis(20));
+        }
+        assert_eq!(a.control.as_ref().unwrap().target(), Duration::from_millis(60));
     }
 }

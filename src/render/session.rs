@@ -437,6 +437,28 @@ impl<D: Device> Session<D> {
         Ok(())
     }
 
+    /// Frameless: the next steps trace slices of `slice` positions. Unlike [`Session::apply`] it
+    /// restarts nothing: S is only how much of the pass one dispatch traces (the window's
+    /// [`super::adapt::Adaptation`] changes it slice by slice). Other modes ignore it.
+    pub fn set_slice(&mut self, slice: u32) {
+        if let Mode::Frameless { slice: s, .. } = &mut self.settings.mode {
+            *s = slice.max(1);
+        }
+    }
+
+    /// Conventional: the next frame is handed out by `schedule`; refinement carries on (a frame's
+    /// pixels do not depend on how its tiles are handed out). Only between frames: with a frame
+    /// in flight, or in another mode, nothing changes. Whether it changed.
+    pub fn set_schedule(&mut self, ctx: &D, schedule: Schedule) -> Result<bool, RenderError> {
+        let Mode::Conventional { schedule: now, workers } = self.settings.mode else { return Ok(false) };
+        if now == schedule || matches!(self.state, ModeState::Queue { in_flight: true, .. }) {
+            return Ok(false);
+        }
+        self.settings.mode = Mode::Conventional { schedule, workers };
+        self.configure_mode(ctx)?;
+        Ok(true)
+    }
+
     pub(super) fn write_camera(&mut self, ctx: &D) {
         let mut p = self.gpu_scene.params;
         layout::set_camera(&mut p, &self.scene.camera, self.origin);

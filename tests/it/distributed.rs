@@ -11,7 +11,7 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use crate::viewer::{decode, differing_pixels, headless, serial, window_id, TempDir, Xvfb};
+use crate::viewer::{capture, decode, differing_pixels, headless, serial, window_id, TempDir, Xvfb};
 use irt::render::{Mode, Settings};
 
 const IRT: &str = env!("CARGO_BIN_EXE_irt");
@@ -406,17 +406,6 @@ fn settled(x: &Xvfb, job: &mut Job, shot: &Path, limit: Duration) -> Vec<u8> {
         assert!(Instant::now() < deadline, "the picture did not settle within {limit:?}");
         std::thread::sleep(Duration::from_millis(1000));
     }
-}
-
-/// The window `wid` as the X server holds it (ImageMagick's `import`), RGB.
-fn capture(x: &Xvfb, wid: &str, path: &Path) -> Vec<u8> {
-    let status = x
-        .command("import")
-        .args(["-window", wid, path.to_str().unwrap()])
-        .status()
-        .expect("ImageMagick's import runs (scripts/setup.sh installs it)");
-    assert!(status.success(), "import -window {wid}: {status}");
-    decode(path).2
 }
 
 /// A pixel of `scene` over a sphere and that sphere's material, as the viewer picks.

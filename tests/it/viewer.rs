@@ -293,6 +293,25 @@ pub(crate) fn headless(settings: Settings, w: u32, h: u32, passes: u32) -> Vec<u
     s.read_image(&ctx).to_srgb8()
 }
 
+/// The window `wid` as the X server holds it (ImageMagick's `import`), RGB.
+pub(crate) fn capture(x: &Xvfb, wid: &str, path: &Path) -> Vec<u8> {
+    let status = x
+        .command("import")
+        .args(["-window", wid, path.to_str().unwrap()])
+        .status()
+        .expect("ImageMagick's import runs (scripts/setup.sh installs it)");
+    assert!(status.success(), "import -window {wid}: {status}");
+    decode(path).2
+}
+
+/// The window's size, as X reports it (`xdotool getwindowgeometry`).
+fn window_geometry(x: &Xvfb, wid: &str) -> [u32; 2] {
+    let out = x.xdotool(&["getwindowgeometry", wid], Duration::from_secs(10));
+    let g = out.lines().find_map(|l| l.trim().strip_prefix("Geometry: ")).expect("a geometry line");
+    let (w, h) = g.split_once('x').expect("WxH");
+    [w.trim().parse().unwrap(), h.trim().parse().unwrap()]
+}
+
 pub(crate) fn differing_pixels(a: &[u8], b: &[u8]) -> usize {
     a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p != q).count()
 }
@@ -636,4 +655,148 @@ fn a_paused_animated_scene_shows_its_time_bit_for_bit() {
         shots.push(got);
     }
     assert!(differing_pixels(&shots[0], &shots[1]) > 500, "things moved between 0 and 1.5 s");
+}
+
+/// Pixels of the `w`-wide RGB pictures `a` and `b` inside `[x0, x1)×[y0, y1)` whose channels
+/// differ by more than `levels`.
+fn differing_in(a: &[u8], b: &[u8], w: u32, [x0, x1, y0, y1]: [u32; 4], levels: u8) -> usize {
+    (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| 3 * (y * w + x) as usize))
+        .filter(|&i| (0..3).any(|c| a[i + c].abs_diff(b[i + c]) > levels))
+        .count()
+}
+
+/// (h) The default window, as a person meets it: it opens at the size that suits the screen
+/// (Xvfb's 1024×768: 853×640, the default camera's 4:3 within 1280×720 and the screen less its
+/// margin), with the compact status on, and a drag that starts at its exact centre orbits.
+#[test]
+fn the_default_window_fits_the_screen_and_a_drag_from_its_centre_orbits() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("h");
+    let shot = dir.join("h.png");
+    let t = Instant::now();
+    let mut v = Viewer::start(&x, &["--max-samples", "1", "--screenshot", shot.to_str().unwrap()]);
+    let wid = window_id(&x);
+    let [w, h] = window_geometry(&x, &wid);
+    assert_eq!([w, h], irt::app::present::default_window_size(Some([1024, 768]), 640.0 / 480.0));
+    assert_eq!([w, h], [853, 640]);
+    focus(&x, &wid);
+    let before = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(90));
+    assert_eq!(decode(&shot).0, w, "the render follows the window");
+    let (cx, cy) = (w / 2, h / 2);
+    x.xdotool(&["mousemove", "--window", &wid, &cx.to_string(), &cy.to_string()], Duration::from_secs(10));
+    x.xdotool(&["mousedown", "1"], Duration::from_secs(10));
+    for dx in [10, 20, 40, 60, 80] {
+        let to = (cx + dx).to_string();
+        x.xdotool(&["mousemove", "--window", &wid, &to, &(cy + 4).to_string()], Duration::from_secs(10));
+        std::thread::sleep(Duration::from_millis(30));
+    }
+    x.xdotool(&["mouseup", "1"], Duration::from_secs(10));
+    let after = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(90));
+    let diff = differing_pixels(&before, &after);
+    assert!(diff > (w * h / 10) as usize, "only {diff} pixels changed after a drag from the centre");
+    x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+    v.exits_cleanly(Duration::from_secs(20));
+    eprintln!("default window test: {:.1} s", t.elapsed().as_secs_f64());
+}
+
+/// (i) The compact status leaves the middle of a 640×480 window free: the window's capture
+/// (HUD and all) equals `irt render` of the same camera and size in the middle 50%×50%, within 2
+/// levels a channel (the surface's sRGB encoding of the frame buffer rounds apart from the
+/// library's 8-bit conversion; no other difference is allowed there), while the top-left corner
+/// does differ (the status is drawn). A click on the status opens the panel (the left of the
+/// window changes), and `H` closes it again.
+#[test]
+fn the_compact_status_leaves_the_middle_free_and_a_click_opens_the_panel() {
+    let _serial = serial();
+    let x = Xvfb::start();
+    let dir = TempDir::new("i");
+    let shot = dir.join("i.png");
+    let (w, h) = (640u32, 480u32);
+    let out = dir.join("render.png");
+    let status = Command::new(env!("CARGO_BIN_EXE_irt"))
+        .args(["render", "--size", "640x480", "--out", out.to_str().unwrap()])
+        .env("IRT_CACHE_DIR", "off")
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let (_, _, rendered) = decode(&out);
+    let mut v = Viewer::start(
+        &x,
+        &["--size", "640x480", "--max-samples", "1", "--screenshot", shot.to_str().unwrap()],
+    );
+    let wid = window_id(&x);
+    focus(&x, &wid);
+    // The picture converged (one sample: then the viewer waits, and the window holds still).
+    let settled = settled_screenshot(&x, &mut v, &shot, Duration::from_secs(60));
+    assert_eq!(differing_pixels(&settled, &rendered), 0, "the traced picture is `irt render`'s");
+    std::thread::sleep(Duration::from_millis(500));
+    let screen = capture(&x, &wid, &dir.join("screen.png"));
+    assert_eq!(screen.len(), rendered.len(), "the capture is the 640×480 window");
+    let middle = [w / 4, 3 * w / 4, h / 4, 3 * h / 4];
+    let off = differing_in(&screen, &rendered, w, middle, 2);
+    assert_eq!(off, 0, "{off} pixels of the window's middle differ from the render by over 2 levels");
+    // The status is there, in the corner (its text and backing darken the sky).
+    let corner = differing_in(&screen, &rendered, w, [0, w / 4, 0, h / 8], 8);
+    assert!(corner > 500, "the compact status is not in the top-left corner ({corner} pixels differ)");
+    // A click on it opens the panel, over the left of the window.
+    x.xdotool(&["mousemove", "--window", &wid, "30", "14"], Duration::from_secs(10));
+    x.xdotool(&["click", "1"], Duration::from_secs(10));
+    std::thread::sleep(Duration::from_millis(1500));
+    let panel = capture(&x, &wid, &dir.join("panel.png"));
+    let left = [0, w / 2, h / 4, 3 * h / 4];
+    let covered = differing_in(&panel, &rendered, w, left, 8);
+    assert!(
+        covered > (w / 2 * 3 * h / 8 / 2) as usize,
+        "the click did not open the panel ({covered} pixels)"
+    );
+    assert!(v.alive(), "the click on the status did not reach the HUD");
+    x.xdotool(&["key", "h"], Duration::from_secs(10));
+    std::thread::sleep(Duration::from_millis(1500));
+    let closed = capture(&x, &wid, &dir.join("closed.png"));
+    assert_eq!(differing_in(&closed, &rendered, w, middle, 2), 0, "H did not close the panel");
+    assert!(differing_in(&closed, &rendered, w, left, 8) < covered / 4, "H did not close the panel");
+    x.xdotool(&["key", "Escape"], Duration::from_secs(10));
+    v.exits_cleanly(Duration::from_secs(20));
+}
+
+/// The window's adaptation restarts nothing: a frameless pass traced with S changed part-way
+/// (`Session::set_slice`) and conventional frames with the schedule switched between them
+/// (`Session::set_schedule`) give the pictures of an unchanged session bit for bit, and a
+/// schedule cannot change with a frame in flight.
+#[test]
+fn changing_the_slice_size_or_the_schedule_keeps_the_picture() {
+    use irt::render::Schedule;
+    let ctx = common::gpu();
+    let (w, h) = (96, 64);
+    let mut scene = irt::scene::default_scene();
+    (scene.camera.width, scene.camera.height) = (w, h);
+
+    let settings = Settings { mode: Mode::frameless(), max_samples: 1, ..Settings::default() };
+    let mut s = Session::new(&ctx, &scene, settings.clone()).unwrap();
+    s.set_slice(1000);
+    let r = s.step(&ctx);
+    assert_eq!(r.slice.unwrap().len, 1000);
+    let version = s.camera_version();
+    s.set_slice(640);
+    let r = s.step(&ctx);
+    assert_eq!((r.slice.unwrap().first, r.slice.unwrap().len), (1000, 640), "the pass carries on");
+    assert_eq!(s.camera_version(), version, "nothing restarted");
+    s.complete_pass(&ctx);
+    assert!(s.converged());
+    assert_eq!(differing_pixels(&s.read_image(&ctx).to_srgb8(), &headless(settings, w, h, 1)), 0);
+
+    let settings = Settings { mode: Mode::conventional(), max_samples: 3, ..Settings::default() };
+    let mut s = Session::new(&ctx, &scene, settings.clone()).unwrap();
+    s.complete_pass(&ctx);
+    assert!(s.set_schedule(&ctx, Schedule::Plain).unwrap());
+    s.complete_pass(&ctx);
+    assert!(s.set_schedule(&ctx, Schedule::default()).unwrap());
+    assert!(!s.step(&ctx).frame_done, "the queue's frame takes several waves");
+    assert!(!s.set_schedule(&ctx, Schedule::Plain).unwrap(), "changed with a frame in flight");
+    s.complete_pass(&ctx);
+    assert_eq!(s.samples(), 3);
+    assert_eq!(differing_pixels(&s.read_image(&ctx).to_srgb8(), &headless(settings, w, h, 3)), 0);
 }

@@ -165,6 +165,10 @@ impl Viewer<'_> {
     }
 
     pub(super) fn apply_hud(&mut self, r: HudRequest) {
+        if let Some(p) = r.panel {
+            self.panel = p;
+            self.dirty = true;
+        }
         if let Some(m) = r.mode {
             self.set_mode_named(m);
         }
