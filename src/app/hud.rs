@@ -503,7 +503,11 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
                 if let Mode::Frameless { order, .. } = v.mode {
                     let mut o = order;
                     egui::ComboBox::from_id_salt("order").selected_text(o.to_string()).show_ui(ui, |ui| {
-                        for choice in [PixelOrder::default(), PixelOrder::Random, PixelOrder::Dissolve] {
+                        let adaptive =
+                            PixelOrder::Adaptive { revisit: crate::render::adaptive::DEFAULT_REVISIT_PASSES };
+                        for choice in
+                            [PixelOrder::default(), adaptive, PixelOrder::Random, PixelOrder::Dissolve]
+                        {
                             ui.selectable_value(&mut o, choice, choice.to_string());
                         }
                     });

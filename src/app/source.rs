@@ -9,7 +9,7 @@ use crate::dist::cluster::Cluster;
 use crate::dist::master::{Deadlines, Master};
 use crate::gpu::GpuContext;
 use crate::image::Image;
-use crate::render::{Schedule, Session, Settings, StepReport, UpdateReport};
+use crate::render::{Mode, PixelOrder, Schedule, Session, Settings, StepReport, UpdateReport};
 use crate::scene::{Camera, Scene};
 use anyhow::{anyhow, Result};
 use std::time::{Duration, Instant};
@@ -231,6 +231,10 @@ impl Source for Distributed<'_> {
         Ok(UpdateReport { upload: start.elapsed(), ..Default::default() })
     }
     fn apply(&mut self, _: &GpuContext, settings: Settings) -> Result<()> {
+        if let Mode::Frameless { order: PixelOrder::Adaptive { .. }, .. } = settings.mode {
+            // Refused before it reaches the master, which would end the job over it.
+            return Err(anyhow!("the adaptive order runs in one process, not with --mpi"));
+        }
         let settings =
             crate::render::pieces::split_settings(settings).map_err(|e| anyhow!("{e} with --mpi"))?;
         let camera = self.master.camera().clone();

@@ -101,9 +101,12 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
         Settings { light_radius: args.light_radius, max_depth: args.max_depth, ..Settings::default() };
     overrides.apply_to(&mut scene);
     // After the size and the lights' radius: `soft` weighs the modes on the scene as it is traced.
-    if let Some(setting) = args.shadows {
+    // The command line's choice, else the scene file's `shadows = "soft"`.
+    let setting = args.shadows.or(scene.trace.soft.then_some(irt::scene::ShadowSetting::Soft));
+    if let Some(setting) = setting {
         let (mode, choice) = setting.resolve(&scene);
         scene.trace.shadows = mode;
+        scene.trace.soft = false;
         if let Some(c) = choice {
             eprintln!("shadows: {c}");
         }
@@ -237,7 +240,9 @@ pub struct ModeArgs {
     #[arg(long, value_name = "P", default_value_t = 0)]
     pub workers: u32,
     /// Frameless: pixel order: hilbert[:CHUNK[:PROCS]] (the paper's; CHUNK a power of 4,
-    /// default 64 = 8x8 blocks, PROCS 16), random, or dissolve (an LFSR, no table).
+    /// default 64 = 8x8 blocks, PROCS 16), adaptive[:PASSES] (slices go where the picture
+    /// changes, every pixel revisited within PASSES passes, default 3; one process only; see
+    /// docs/adaptive.md), random, or dissolve (an LFSR, no table).
     #[arg(long, value_name = "ORDER", default_value_t = PixelOrder::default())]
     pub order: PixelOrder,
     /// Frameless: pixels per slice (one dispatch each, each with the newest camera). Default

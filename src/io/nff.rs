@@ -40,7 +40,7 @@ pub fn parse_str(src: &str, origin: &str) -> Result<Scene, LoadError> {
 /// (no weight cut-off), point lights with hard shadows. The renderer's part, eye rays through
 /// the pixel corners, is `gpu::RenderOptions::corner_rays`.
 pub fn apply_spd_rules(scene: &mut Scene) {
-    scene.trace = TraceSettings { max_depth: 5, weight_cutoff: 0.0, shadows: ShadowMode::Hard };
+    scene.trace = TraceSettings { max_depth: 5, weight_cutoff: 0.0, shadows: ShadowMode::Hard, soft: false };
     scene.lights.iter_mut().for_each(|l| l.radius = 0.0);
 }
 

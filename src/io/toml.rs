@@ -15,8 +15,9 @@ use super::{
     line_column, png, LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES,
 };
 use crate::scene::{
-    Ambient, Animated, Camera, Cone, Filter, Light, Material, MaterialKind, Mesh, Scene, Sphere, Target,
-    Texture, TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES, MAX_TEXTURE_PIXELS,
+    Ambient, Animated, Camera, Cone, Filter, Light, Material, MaterialKind, Mesh, Scene, ShadowMode,
+    ShadowSetting, Sphere, Target, Texture, TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES,
+    MAX_TEXTURE_PIXELS,
 };
 use ::toml::Spanned;
 use glam::{DVec2, DVec3};
@@ -472,13 +473,20 @@ fn ambient(a: &AmbientDoc) -> Res<Ambient> {
 
 fn trace(t: &TraceDoc) -> Res<TraceSettings> {
     let default = TraceSettings::default();
+    let setting = match &t.shadows {
+        None => ShadowSetting::Mode(default.shadows),
+        Some(s) => s.get_ref().parse().or_else(|e: crate::ParseError| err(s.span(), e.to_string()))?,
+    };
+    let (shadows, soft) = match setting {
+        ShadowSetting::Mode(m) => (m, false),
+        // Picked once the scene is whole and its overrides applied (`Scene::resolve_soft`).
+        ShadowSetting::Soft => (ShadowMode::Hard, true),
+    };
     Ok(TraceSettings {
         max_depth: t.max_depth.unwrap_or(default.max_depth),
         weight_cutoff: number_or(&t.weight_cutoff, "weight_cutoff", default.weight_cutoff)?,
-        shadows: match &t.shadows {
-            None => default.shadows,
-            Some(s) => s.get_ref().parse().or_else(|e: crate::ParseError| err(s.span(), e.to_string()))?,
-        },
+        shadows,
+        soft,
     })
 }
 

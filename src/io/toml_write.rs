@@ -124,7 +124,7 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
     let ambient = [("sky", Value::Vec3(a.sky)), ("ground", Value::Vec3(a.ground)), ("up", Value::Vec3(a.up))];
     table(&mut out, "[ambient]", &ambient);
     let t = &scene.trace;
-    let shadows = t.shadows.to_string();
+    let shadows = if t.soft { "soft".to_string() } else { t.shadows.to_string() };
     #[rustfmt::skip]
     table(&mut out, "[trace]", &[
         ("max_depth", Value::Int(t.max_depth.into())),

@@ -190,11 +190,15 @@ pub struct TraceSettings {
     pub weight_cutoff: f64,
     /// How light visibility is found (docs/shadows.md).
     pub shadows: ShadowMode,
+    /// The scene file asked for `soft`: the mode is to be picked for the scene as it will be
+    /// traced, after any overrides (`ShadowSetting::Soft`, resolved by `resolve_soft`); until
+    /// then `shadows` is hard.
+    pub soft: bool,
 }
 
 impl Default for TraceSettings {
     fn default() -> Self {
-        TraceSettings { max_depth: 5, weight_cutoff: 1.0 / 512.0, shadows: ShadowMode::Hard }
+        TraceSettings { max_depth: 5, weight_cutoff: 1.0 / 512.0, shadows: ShadowMode::Hard, soft: false }
     }
 }
 

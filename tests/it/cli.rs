@@ -534,3 +534,34 @@ fn ash_renders_modes_and_sequences_like_wgpu() {
         assert_eq!(read(&files[0]), read(&files[1]), "{name}: the two paths wrote different files");
     }
 }
+
+/// A scene file's `[trace] shadows = "soft"` is resolved for the scene as traced, and says what
+/// it picked; `--shadows` overrides it; `irt convert` keeps the word.
+#[test]
+fn a_scene_file_asks_for_soft_shadows() {
+    let text = std::fs::read_to_string("scenes/shadows.toml").unwrap();
+    assert!(!text.contains("[trace]"), "the test adds its own [trace] table");
+    let file = tmp("soft.toml");
+    std::fs::write(&file, format!("{text}\n[trace]\nshadows = \"soft\"\n")).unwrap();
+    let out_path = tmp("soft.png");
+    let render = |extra: &[&str]| {
+        let mut args =
+            vec!["render", file.to_str().unwrap(), "--size", "64x48", "--out", out_path.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let out = irt(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    // Its lights are points: soft has nothing to soften …
+    let said = render(&[]);
+    assert!(said.contains("shadows: soft → hard (point lights only)"), "the pick is not said:\n{said}");
+    // … until the command line gives them a radius, which the pick sees.
+    let said = render(&["--light-radius", "0.3"]);
+    assert!(said.contains("shadows: soft → ") && !said.contains("point lights"), "{said}");
+    let said = render(&["--shadows", "hard", "--light-radius", "0.3"]);
+    assert!(!said.contains("soft →"), "--shadows hard still ran the soft pilot:\n{said}");
+    let back = tmp("soft-back.toml");
+    let out = irt(&["convert", file.to_str().unwrap(), back.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read_to_string(&back).unwrap().contains("shadows = \"soft\""));
+}

@@ -140,6 +140,7 @@ fn awkward() -> Scene {
         max_depth: 8,
         weight_cutoff: 0.0,
         shadows: ShadowMode::Shell { falloff: Falloff::Disc, combine: Combine::Product },
+        soft: false,
     };
     s.materials[0].name = "quote \" backslash \\ newline \n tab \t bell \u{7} é 🦀".into();
     s.materials[1].name = String::new();
@@ -348,7 +349,7 @@ fn scene() -> impl Strategy<Value = Scene> {
         ];
         let trace =
             (1..=MAX_TRACE_DEPTH, 0.0..1.0f64, shadows).prop_map(|(max_depth, weight_cutoff, shadows)| {
-                TraceSettings { max_depth, weight_cutoff, shadows }
+                TraceSettings { max_depth, weight_cutoff, shadows, soft: false }
             });
         let all_materials: Vec<_> = (0..materials).map(|i| material(i, textures)).collect();
         let all_textures: Vec<_> = (0..textures).map(texture).collect();
