@@ -46,6 +46,11 @@ pub trait Source {
     fn converged(&self) -> bool;
     /// Positions of one frameless pass (pixel age is counted over it).
     fn pass_len(&self) -> u64;
+    /// The pixels the last frameless slice traced, where the order is not a fixed permutation
+    /// (adaptive; see `Session::last_slice_pixels`).
+    fn last_slice_pixels(&self) -> Option<&[u32]> {
+        None
+    }
     /// The picture to present, in the frame buffer's layout.
     fn shown(&self) -> Shown<'_>;
     /// The picture as an image (a screenshot).
@@ -112,6 +117,9 @@ impl Source for Local {
     }
     fn samples(&self) -> u32 {
         self.0.samples()
+    }
+    fn last_slice_pixels(&self) -> Option<&[u32]> {
+        self.0.last_slice_pixels()
     }
     fn converged(&self) -> bool {
         self.0.converged()

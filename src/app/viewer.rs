@@ -641,8 +641,12 @@ impl<'a> Viewer<'a> {
             self.source.set_size(&self.ctx, rw, rh)?;
             self.host.restart();
         }
-        if self.ages.pass_len() != self.source.pass_len() {
-            self.ages = AgeTracker::new(self.source.pass_len(), self.clock());
+        let per_pixel = self.source.last_slice_pixels().is_some();
+        if self.ages.pass_len() != self.source.pass_len() || self.ages.is_per_pixel() != per_pixel {
+            self.ages = match per_pixel {
+                true => AgeTracker::per_pixel(self.source.pass_len(), self.clock()),
+                false => AgeTracker::new(self.source.pass_len(), self.clock()),
+            };
         }
         if changed && self.host.take_input(conventional, changed) {
             self.source.set_camera(&self.ctx, &camera)?;
@@ -719,8 +723,11 @@ impl<'a> Viewer<'a> {
     fn record(&mut self, r: &crate::render::StepReport) {
         let now = Instant::now();
         self.stats.step(now, r.eye_rays, r.pixels, r.trace_time);
-        if let Some(span) = r.slice {
-            self.ages.record_slice((now - self.start).as_secs_f64(), span.len);
+        let t = (now - self.start).as_secs_f64();
+        match (r.slice, self.source.last_slice_pixels()) {
+            (Some(_), Some(pixels)) if self.ages.is_per_pixel() => self.ages.record_pixels(t, pixels),
+            (Some(span), _) if !self.ages.is_per_pixel() => self.ages.record_slice(t, span.len),
+            _ => {}
         }
     }
 

@@ -147,6 +147,11 @@ impl AgeTracker {
         self.pass_len
     }
 
+    /// Follows pixels ([`AgeTracker::per_pixel`]) rather than positions.
+    pub fn is_per_pixel(&self) -> bool {
+        self.pixels.is_some()
+    }
+
     /// A frameless slice of `positions` traced with the camera of time `t` (not earlier than
     /// any recorded before).
     pub fn record_slice(&mut self, t: f64, positions: u64) {
