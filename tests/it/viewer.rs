@@ -280,6 +280,18 @@ pub(crate) fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
     (img.width(), img.height(), img.into_raw())
 }
 
+/// `irt render` of the default scene at `size` into `out`: its RGB bytes.
+fn irt_render(out: &Path, size: &str) -> Vec<u8> {
+    let status = Command::new(env!("CARGO_BIN_EXE_irt"))
+        .args(["render", "--size", size, "--out", out.to_str().unwrap()])
+        .env("IRT_CACHE_DIR", "off")
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    decode(out).2
+}
+
 /// The default scene at `w`×`h`, traced headless by the library for `passes` pictures.
 pub(crate) fn headless(settings: Settings, w: u32, h: u32, passes: u32) -> Vec<u8> {
     let ctx = common::gpu();
@@ -355,15 +367,7 @@ fn scripted_screenshot_matches_headless_render() {
         assert_eq!(diff, 0, "{extra:?}: {diff} of {} pixels differ from the headless render", w * h);
         if passes == 1 {
             // One sample: also what `irt render` writes at that size.
-            let out = dir.join("render.png");
-            let status = Command::new(env!("CARGO_BIN_EXE_irt"))
-                .args(["render", "--size", "256x192", "--out", out.to_str().unwrap()])
-                .env("IRT_CACHE_DIR", "off")
-                .stderr(Stdio::null())
-                .status()
-                .unwrap();
-            assert!(status.success());
-            let (_, _, rendered) = decode(&out);
+            let rendered = irt_render(&dir.join("render.png"), "256x192");
             assert_eq!(differing_pixels(&got, &rendered), 0, "{extra:?}: differs from `irt render`");
         }
         // Not a black or blank picture.
@@ -714,15 +718,7 @@ fn the_compact_status_leaves_the_middle_free_and_a_click_opens_the_panel() {
     let dir = TempDir::new("i");
     let shot = dir.join("i.png");
     let (w, h) = (640u32, 480u32);
-    let out = dir.join("render.png");
-    let status = Command::new(env!("CARGO_BIN_EXE_irt"))
-        .args(["render", "--size", "640x480", "--out", out.to_str().unwrap()])
-        .env("IRT_CACHE_DIR", "off")
-        .stderr(Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let (_, _, rendered) = decode(&out);
+    let rendered = irt_render(&dir.join("render.png"), "640x480");
     let mut v = Viewer::start(
         &x,
         &["--size", "640x480", "--max-samples", "1", "--screenshot", shot.to_str().unwrap()],

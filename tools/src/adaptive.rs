@@ -2,7 +2,8 @@
 //! Each scene's own camera is swung 60° about its look-at point in 3 s and replayed in both
 //! orders at equal rays per second (a virtual clock calibrated per scene and size from a
 //! conventional frame, the same for both orders): dynamic error, latency to 50/90/100% of the
-//! screen and pixel age. Then the real cost of a slice in each order, interleaved slice by
+//! screen and pixel age; and the dynamic error on the real clock, each order at its own speed.
+//! Then the real cost of a slice in each order, interleaved slice by
 //! slice (the adaptive order reads its samples back and ranks its blocks on the host, which the
 //! virtual clock does not charge), and frames side by side for the first scene.
 //!
@@ -314,7 +315,8 @@ pub fn run(args: &[String]) -> Result<()> {
             )?;
         }
     }
-    let file = o.out_dir.join("table.md");
+    let sizes: Vec<String> = o.sizes.iter().map(|[w, h]| format!("{w}x{h}")).collect();
+    let file = o.out_dir.join(format!("table-{}.md", sizes.join("_")));
     irt::image::write_atomic(&file, table.as_bytes())
         .with_context(|| format!("writing {}", file.display()))?;
     println!("{table}");
