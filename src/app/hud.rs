@@ -106,6 +106,8 @@ pub struct HudView<'a> {
     pub cpu_device: bool,
     pub mode: Mode,
     pub shadows: ShadowMode,
+    /// `soft`'s pick for the scene and why, while its mode is in use.
+    pub soft_pick: Option<&'a str>,
     pub max_depth: u32,
     pub render: [u32; 2],
     pub window: [u32; 2],
@@ -528,15 +530,10 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
                 if s != v.shadows {
                     req.shadows = Some(s);
                 }
-                ui.label("depth");
-                if ui.small_button("-").clicked() {
-                    req.max_depth = Some(v.max_depth.saturating_sub(1).max(1));
-                }
-                ui.label(v.max_depth.to_string());
-                if ui.small_button("+").clicked() {
-                    req.max_depth = Some(v.max_depth + 1);
-                }
             });
+            if let Some(why) = v.soft_pick {
+                ui.label(egui::RichText::new(why).small());
+            }
             ui.horizontal(|ui| {
                 ui.label("scale");
                 let mut s = v.scale;
@@ -622,6 +619,7 @@ mod tests {
             cpu_device: true,
             mode,
             shadows: ShadowMode::Hard,
+            soft_pick: None,
             max_depth: 5,
             render: [640, 480],
             window: [640, 480],

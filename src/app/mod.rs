@@ -87,6 +87,9 @@ pub struct ViewOptions {
     pub no_cache: bool,
     /// The scene's name in the window's title and messages.
     pub scene_name: String,
+    /// What `soft` shadows picked for the scene, and the line that says why (shown in the panel
+    /// while that mode is in use).
+    pub soft_pick: Option<(crate::scene::ShadowMode, String)>,
     /// The session's settings at the start; their mode is one of the two below.
     pub settings: Settings,
     /// `--slice` was given: frameless S stays as given instead of following the slice-time

@@ -744,6 +744,12 @@ impl<'a> Viewer<'a> {
             cpu_device: self.ctx.info.device_type == wgpu::DeviceType::Cpu,
             mode: settings.mode,
             shadows: self.source.scene().trace.shadows,
+            soft_pick: self
+                .args
+                .soft_pick
+                .as_ref()
+                .filter(|(mode, _)| *mode == self.source.scene().trace.shadows)
+                .map(|(_, why)| why.as_str()),
             max_depth: self.source.scene().trace.max_depth,
             render: self.source.size(),
             window,

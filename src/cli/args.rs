@@ -89,6 +89,12 @@ pub fn fixed_size(arg: clap::Arg, default: &'static str, why: &str) -> clap::Arg
 /// The scene the arguments name (or the built-in default scene), with their size and overrides
 /// applied, validated and non-empty: what every command traces.
 pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
+    Ok(load_scene_and_pick(args)?.0)
+}
+
+/// [`load_scene`], and what `soft` shadows picked for it (the command line's or the scene
+/// file's), for the window to show.
+pub fn load_scene_and_pick(args: &SceneArgs) -> Result<(Scene, Option<irt::scene::SoftChoice>)> {
     if let Some(path) = &args.scene {
         not_a_directory(path)?;
     }
@@ -103,16 +109,18 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
     // After the size and the lights' radius: `soft` weighs the modes on the scene as it is traced.
     // The command line's choice, else the scene file's `shadows = "soft"`.
     let setting = args.shadows.or(scene.trace.soft.then_some(irt::scene::ShadowSetting::Soft));
+    let mut pick = None;
     if let Some(setting) = setting {
         let (mode, choice) = setting.resolve(&scene);
         scene.trace.shadows = mode;
         scene.trace.soft = false;
-        if let Some(c) = choice {
+        if let Some(c) = &choice {
             eprintln!("shadows: {c}");
         }
+        pick = choice;
     }
     irt::io::check_renderable(&scene, &args.name_or("default scene")).map_err(anyhow::Error::msg)?;
-    Ok(scene)
+    Ok((scene, pick))
 }
 
 /// Fails with a message that says so when `path`, given as a scene, is a directory (the loader

@@ -1,7 +1,7 @@
 //! `irt view`: the interactive window ([`irt::app`]), its arguments turned into the library's
 //! [`ViewOptions`].
 
-use super::args::{load_scene, DeviceArgs, ModeArgs, SceneArgs};
+use super::args::{load_scene_and_pick, DeviceArgs, ModeArgs, SceneArgs};
 use anyhow::{bail, Result};
 use clap::Args;
 use irt::app::{keys, ViewOptions, ABOUT, LONG_ABOUT};
@@ -88,7 +88,7 @@ pub fn run(args: ViewArgs) -> Result<()> {
 
 /// The window, on this process's device or (`cluster`) with the job's workers tracing.
 fn window(args: ViewArgs, cluster: Option<(&Cluster, Deadlines)>) -> Result<()> {
-    let scene = load_scene(&args.scene)?;
+    let (scene, pick) = load_scene_and_pick(&args.scene)?;
     let frameless = args.mode.frameless(args.present_every);
     let conventional = args.mode.conventional();
     let mode = match args.mode.mode()? {
@@ -114,6 +114,7 @@ fn window(args: ViewArgs, cluster: Option<(&Cluster, Deadlines)>) -> Result<()> 
         adapter: args.device.adapter,
         no_cache: args.device.no_cache,
         scene_name: args.scene.name_or("default scene"),
+        soft_pick: pick.map(|c| (c.mode, format!("soft picked {}: {}", c.mode, c.why))),
         settings,
         fixed_slice: args.mode.slice.is_some(),
         fixed_schedule: args.mode.schedule.is_some(),
