@@ -349,7 +349,9 @@ pub fn compact_lines(v: &HudView) -> Vec<String> {
     let limit = if v.max_samples > 0 { format!("/{}", v.max_samples) } else { String::new() };
     let conv = if v.converged { ", converged" } else { "" };
     let knob = match v.mode {
-        Mode::Frameless { slice, .. } => format!("S = {slice}"),
+        // The order only where it is not the paper's.
+        Mode::Frameless { slice, order: PixelOrder::Hilbert { .. }, .. } => format!("S = {slice}"),
+        Mode::Frameless { slice, order, .. } => format!("{order}, S = {slice}"),
         Mode::Conventional { schedule, .. } => schedule.to_string(),
         Mode::Bands => String::new(),
     };
@@ -671,6 +673,13 @@ mod tests {
         v.converged = true;
         let lines = compact_lines(&v);
         assert_eq!(lines[1], "conventional (plain), samples 3/64, converged");
+        if let Mode::Frameless { order, .. } = &mut mode {
+            *order = PixelOrder::Adaptive { revisit: 3 };
+        }
+        assert_eq!(
+            compact_lines(&view(mode, &stats, &scene, now))[1],
+            "frameless (adaptive, S = 5632), samples 3/64"
+        );
         assert_eq!(lines.len(), 4);
     }
 }
