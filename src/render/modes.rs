@@ -335,6 +335,13 @@ impl Slices {
         (pixels, pass_done, visit_done)
     }
 
+    /// The first visit since the change was traced some other way (the adaptive order's dealt
+    /// slices): the next slice starts the second visit's pass.
+    pub fn first_visit_done(&mut self) {
+        self.since_change = self.pass_len;
+        self.cursor = 0;
+    }
+
     /// A change (camera, scene, settings): the visits count again from here.
     pub fn restart(&mut self) {
         self.since_change = 0;

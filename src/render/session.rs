@@ -765,8 +765,7 @@ impl<D: Device> Session<D> {
                 let done = !a.covering();
                 if done {
                     // Every pixel shows the change: the refinement passes follow.
-                    slices.since_change = slices.pass_len;
-                    slices.cursor = 0;
+                    slices.first_visit_done();
                 }
                 (done, done)
             }
