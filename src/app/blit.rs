@@ -1,6 +1,10 @@
 //! The frame buffer onto the window: one full-screen triangle whose fragment shader reads the
-//! session's storage buffer (sums and counts) and writes the mean, nearest-neighbour scaled.
+//! session's storage buffer (sums and counts) and writes the mean, nearest-neighbour scaled;
+//! under the adaptive order, filled as `render::fill` says (the same rule as its `fill`, which
+//! the test below holds it to).
 
+use crate::render::adaptive::BLOCK_SIDE;
+use crate::render::fill::{BlockFill, FILL_EPS, FILL_RADIUS};
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
@@ -11,13 +15,19 @@ struct Blit {
     window: vec2<u32>,
     // 1: the target is not sRGB, encode here.
     encode_srgb: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // The fill's blocks a row (0: no fill) and their side in pixels.
+    blocks_x: u32,
+    block_side: u32,
+    _pad: u32,
 };
 
 @group(0) @binding(0) var<storage, read> frame: array<vec4<f32>>;
 @group(0) @binding(1) var<uniform> blit: Blit;
+// Per block: the change it missed, its gradient (render::fill::BlockFill).
+@group(0) @binding(2) var<storage, read> blocks: array<vec2<f32>>;
+
+const FILL_RADIUS: i32 = {FILL_RADIUS};
+const FILL_EPS: f32 = {FILL_EPS};
 
 @vertex
 fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -25,6 +35,44 @@ fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     let x = f32((i << 1u) & 2u);
     let y = f32(i & 2u);
     return vec4<f32>(x * 2.0 - 1.0, 1.0 - y * 2.0, 0.0, 1.0);
+}
+
+fn mean(i: u32) -> vec3<f32> {
+    let v = frame[i];
+    if (v.w > 0.0) {
+        return v.xyz / v.w;
+    }
+    return vec3<f32>(0.0);
+}
+
+fn block_of(x: u32, y: u32) -> u32 {
+    return (y / blit.block_side) * blit.blocks_x + x / blit.block_side;
+}
+
+// render::fill::fill for one pixel: its fresher neighbours blended in by the inverse of each
+// sample's expected squared error.
+fn filled(x: u32, y: u32) -> vec3<f32> {
+    let own = blocks[block_of(x, y)];
+    if (own.x <= 0.0) {
+        return mean(y * blit.render.x + x);
+    }
+    var sum = vec3<f32>(0.0);
+    var weights = 0.0;
+    for (var dy = -FILL_RADIUS; dy <= FILL_RADIUS; dy++) {
+        for (var dx = -FILL_RADIUS; dx <= FILL_RADIUS; dx++) {
+            let qx = i32(x) + dx;
+            let qy = i32(y) + dy;
+            if (qx < 0 || qy < 0 || qx >= i32(blit.render.x) || qy >= i32(blit.render.y)) {
+                continue;
+            }
+            let e = blocks[block_of(u32(qx), u32(qy))].x;
+            let d2 = f32(dx * dx + dy * dy);
+            let wt = 1.0 / (FILL_EPS * FILL_EPS + e * e + own.y * own.y * d2);
+            sum += wt * mean(u32(qy) * blit.render.x + u32(qx));
+            weights += wt;
+        }
+    }
+    return sum / weights;
 }
 
 fn srgb(c: vec3<f32>) -> vec3<f32> {
@@ -41,11 +89,13 @@ fn fs_main(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let wy = min(u32(p.y), blit.window.y - 1u);
     let fx = min(wx * blit.render.x / blit.window.x, blit.render.x - 1u);
     let fy = min(wy * blit.render.y / blit.window.y, blit.render.y - 1u);
-    let v = frame[fy * blit.render.x + fx];
-    var c = vec3<f32>(0.0);
-    if (v.w > 0.0) {
-        c = clamp(v.xyz / v.w, vec3<f32>(0.0), vec3<f32>(1.0));
+    var c: vec3<f32>;
+    if (blit.blocks_x > 0u) {
+        c = filled(fx, fy);
+    } else {
+        c = mean(fy * blit.render.x + fx);
     }
+    c = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
     if (blit.encode_srgb != 0u) {
         c = srgb(c);
     }
@@ -53,20 +103,39 @@ fn fs_main(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
 }
 "#;
 
+/// The shader with the fill's constants (one source: `render::fill`).
+fn shader() -> String {
+    SHADER
+        .replace("{FILL_RADIUS}", &FILL_RADIUS.to_string())
+        .replace("{FILL_EPS}", &format!("{:?}", FILL_EPS))
+}
+
+fn blocks_buffer(device: &wgpu::Device, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("blit fill blocks"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 struct BlitUniform {
     render: [u32; 2],
     window: [u32; 2],
     encode_srgb: u32,
-    _pad: [u32; 3],
+    blocks_x: u32,
+    block_side: u32,
+    _pad: u32,
 }
 
 /// The picture to show: a device's frame buffer, or the same layout in host memory (the MPI
 /// master's frame buffer, assembled from the workers' pixels), which the blit uploads.
 #[derive(Clone, Copy)]
 pub enum Shown<'a> {
-    Device(&'a wgpu::Buffer),
+    /// The frame buffer, and the fill it is shown with ([`crate::render::Session::fill`]).
+    Device(&'a wgpu::Buffer, Option<(&'a [BlockFill], u32)>),
     Host(&'a [u8]),
 }
 
@@ -77,8 +146,11 @@ pub struct Blit {
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     last: BlitUniform,
-    /// The frame buffer the bind group was made for (the session may replace it).
-    bound: Option<(wgpu::Buffer, wgpu::BindGroup)>,
+    /// The fill's blocks (grown as needed; 16 bytes while there is no fill).
+    blocks: wgpu::Buffer,
+    /// The frame and blocks buffers the bind group was made for (the session may replace the
+    /// first, a larger fill the second).
+    bound: Option<([wgpu::Buffer; 2], wgpu::BindGroup)>,
     encode_srgb: bool,
 }
 
@@ -87,7 +159,7 @@ impl Blit {
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("blit"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+            source: wgpu::ShaderSource::Wgsl(shader().into()),
         });
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
@@ -100,6 +172,7 @@ impl Blit {
             entries: &[
                 entry(0, wgpu::BufferBindingType::Storage { read_only: true }),
                 entry(1, wgpu::BufferBindingType::Uniform),
+                entry(2, wgpu::BufferBindingType::Storage { read_only: true }),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -143,6 +216,7 @@ impl Blit {
             layout,
             uniform,
             last: BlitUniform::default(),
+            blocks: blocks_buffer(device, 16),
             bound: None,
             encode_srgb: !format.is_srgb(),
         }
@@ -163,8 +237,8 @@ impl Blit {
         render: [u32; 2],
         window: [u32; 2],
     ) {
-        let frame = match shown {
-            Shown::Device(b) => b,
+        let (frame, fill) = match shown {
+            Shown::Device(b, fill) => (b, fill),
             Shown::Host(bytes) => {
                 let size = (bytes.len() as u64).max(16);
                 if self.upload.as_ref().is_none_or(|b| b.size() < size) {
@@ -177,29 +251,39 @@ impl Blit {
                 }
                 let upload = self.upload.as_ref().expect("made above");
                 queue.write_buffer(upload, 0, bytes);
-                upload
+                (upload, None)
             }
         };
         let u = BlitUniform {
             render: [render[0].max(1), render[1].max(1)],
             window: [window[0].max(1), window[1].max(1)],
             encode_srgb: self.encode_srgb as u32,
-            _pad: [0; 3],
+            blocks_x: fill.map_or(0, |f| f.1),
+            block_side: BLOCK_SIDE,
+            _pad: 0,
         };
+        if let Some((blocks, _)) = fill {
+            let bytes: &[u8] = bytemuck::cast_slice(blocks);
+            if self.blocks.size() < bytes.len() as u64 {
+                self.blocks = blocks_buffer(device, bytes.len() as u64);
+            }
+            queue.write_buffer(&self.blocks, 0, bytes);
+        }
         if u != self.last {
             queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&u));
             self.last = u;
         }
-        if self.bound.as_ref().is_none_or(|(b, _)| b != frame) {
+        if self.bound.as_ref().is_none_or(|([f, b], _)| f != frame || *b != self.blocks) {
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("blit"),
                 layout: &self.layout,
                 entries: &[
                     wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
                     wgpu::BindGroupEntry { binding: 1, resource: self.uniform.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 2, resource: self.blocks.as_entire_binding() },
                 ],
             });
-            self.bound = Some((frame.clone(), group));
+            self.bound = Some(([frame.clone(), self.blocks.clone()], group));
         }
         let (_, group) = self.bound.as_ref().expect("bound above");
         pass.set_pipeline(&self.pipeline);

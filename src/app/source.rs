@@ -53,6 +53,8 @@ pub trait Source {
     }
     /// The picture to present, in the frame buffer's layout.
     fn shown(&self) -> Shown<'_>;
+    /// Brings what [`Self::shown`] draws up to date (the adaptive order's fill).
+    fn prepare_shown(&mut self) {}
     /// The picture as an image (a screenshot).
     fn read_image(&mut self, ctx: &GpuContext) -> Result<Image>;
     /// Adopts an accelerator built in the background, if one is ready: whether it did.
@@ -128,7 +130,10 @@ impl Source for Local {
         self.0.pass_len()
     }
     fn shown(&self) -> Shown<'_> {
-        Shown::Device(self.0.frame_buffer())
+        Shown::Device(self.0.frame_buffer(), self.0.fill())
+    }
+    fn prepare_shown(&mut self) {
+        self.0.update_fill();
     }
     fn read_image(&mut self, ctx: &GpuContext) -> Result<Image> {
         Ok(self.0.read_image(ctx))

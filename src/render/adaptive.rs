@@ -19,6 +19,7 @@
 //! order's first pass leaves it — and then walks the Hilbert order pass after pass for the
 //! refinement samples, as the Hilbert order does: at rest it converges to the same picture.
 
+use super::fill::BlockFill;
 use super::order::{hilbert_d2xy, PixelOrder};
 
 /// Blocks are 4×4 pixels.
@@ -68,8 +69,13 @@ pub struct AdaptiveOrder {
     covered: Vec<u32>,
     generation: u32,
     uncovered: usize,
+    /// `clock` at the last change.
+    changed_at: u64,
     /// Each pixel's last sample, in display space (√ of the clamped radiance).
     last: Vec<[f32; 3]>,
+    /// Each block's mean difference between adjacent pixels of `last` (pairs whose first pixel
+    /// is the block's), for the fill.
+    gradient: Vec<f32>,
     /// The blocks and pixels of the last slice dealt.
     slice_blocks: Vec<u32>,
     slice: Vec<u32>,
@@ -101,11 +107,12 @@ impl AdaptiveOrder {
         block_start.push(block_pixels.len() as u32);
         let base = PixelOrder::default().table(width, height).expect("the Hilbert order has a table");
         let pass = base.len() as u64;
-        // A block was last dealt where the Hilbert pass traced its last pixel.
+        // A block was last dealt where the Hilbert pass traced its last pixel (as
+        // `traced_in_order` counts).
         let mut dealt_at = vec![0u64; blocks];
         for (pos, &p) in base.iter().enumerate() {
             let b = ((p / width) / BLOCK_SIDE * bx + (p % width) / BLOCK_SIDE) as usize;
-            dealt_at[b] = dealt_at[b].max(pos as u64 + 1);
+            dealt_at[b] = dealt_at[b].max(pos as u64);
         }
         AdaptiveOrder {
             width,
@@ -123,7 +130,9 @@ impl AdaptiveOrder {
             covered: vec![0; blocks],
             generation: 1,
             uncovered: blocks,
+            changed_at: 0,
             last: vec![[0.0; 3]; width as usize * height as usize],
+            gradient: vec![0.0; blocks],
             slice_blocks: Vec::new(),
             slice: Vec::new(),
             ranked: Vec::with_capacity(blocks),
@@ -145,6 +154,7 @@ impl AdaptiveOrder {
     pub fn restart(&mut self) {
         self.generation = self.generation.wrapping_add(1).max(1);
         self.uncovered = self.estimate.len();
+        self.changed_at = self.clock;
     }
 
     /// Some block has not been dealt since the last change: slices are dealt adaptively.
@@ -245,6 +255,60 @@ impl AdaptiveOrder {
             self.cost[b] = iters / n.max(1) as f32 + COST_BASE;
             at += n;
         }
+        // A block's gradient counts pairs reaching into its right and lower neighbours.
+        let bx = self.blocks_x;
+        for i in 0..self.slice_blocks.len() {
+            let b = self.slice_blocks[i];
+            self.update_gradient(b);
+            if !b.is_multiple_of(bx) {
+                self.update_gradient(b - 1);
+            }
+            if b >= bx {
+                self.update_gradient(b - bx);
+            }
+        }
+    }
+
+    fn update_gradient(&mut self, b: u32) {
+        let w = self.width as usize;
+        let h = self.last.len() / w;
+        let shown = |i: usize| self.last[i].iter().sum::<f32>() / 3.0;
+        let (mut sum, mut pairs) = (0.0f32, 0u32);
+        let r = self.block_start[b as usize] as usize..self.block_start[b as usize + 1] as usize;
+        for &p in &self.block_pixels[r] {
+            let (p, x, y) = (p as usize, p as usize % w, p as usize / w);
+            if x + 1 < w {
+                sum += (shown(p) - shown(p + 1)).abs();
+                pairs += 1;
+            }
+            if y + 1 < h {
+                sum += (shown(p) - shown(p + w)).abs();
+                pairs += 1;
+            }
+        }
+        self.gradient[b as usize] = sum / pairs.max(1) as f32;
+    }
+
+    /// What the fill ([`super::fill`]) needs of every block, into `out`: the change it missed
+    /// (its rate, spread as the slices are dealt, times the passes from its last visit to the
+    /// last change) and its gradient. Returns whether any block missed a change (otherwise the
+    /// fill changes nothing).
+    pub fn fill_blocks(&mut self, out: &mut Vec<BlockFill>) -> bool {
+        self.spread_estimates();
+        out.clear();
+        let mut stale = false;
+        for b in 0..self.estimate.len() {
+            let passes = self.changed_at.saturating_sub(self.dealt_at[b]) as f32 / self.pass as f32;
+            let missed = self.spread[b] * passes;
+            stale |= missed > 0.0;
+            out.push([missed, self.gradient[b]]);
+        }
+        stale
+    }
+
+    /// Blocks a row (of [`BLOCK_SIDE`] pixels).
+    pub fn blocks_x(&self) -> u32 {
+        self.blocks_x
     }
 
     /// `spread[b]` = the larger of b's estimate and [`SPREAD`] × its 4-neighbours' largest.
@@ -376,6 +440,35 @@ mod tests {
         assert!(gap.iter().all(|&g| g <= a.bound() + n));
         let (lo, hi) = (visits.iter().min().unwrap(), visits.iter().max().unwrap());
         assert!(*lo >= 5 && hi - lo <= 3, "visits per pixel from {lo} to {hi} over 10 passes");
+    }
+
+    /// The fill's view: nothing missed before any change; after one, the blocks dealt since
+    /// missed nothing and the others their rate's worth; a block's gradient follows its samples.
+    #[test]
+    fn the_fill_sees_which_blocks_missed_the_change() {
+        let mut a = AdaptiveOrder::new(16, 16, DEFAULT_REVISIT_PASSES);
+        let mut out = Vec::new();
+        assert!(!a.fill_blocks(&mut out), "at the start nothing changed");
+        assert_eq!(out.len(), 16);
+        a.restart();
+        let dealt: Vec<u32> = a.deal(32).to_vec();
+        // A vertical stripe pattern: adjacent pixels differ by 1 in x, not in y.
+        let samples: Vec<[f32; 4]> =
+            dealt.iter().map(|&p| [((p % 16) % 2) as f32; 3]).map(|c| [c[0], c[1], c[2], 2.0]).collect();
+        a.learn(&samples);
+        assert!(a.fill_blocks(&mut out));
+        let fresh: Vec<usize> = a.slice_blocks.iter().map(|&b| b as usize).collect();
+        assert_eq!(fresh.len(), 2);
+        for (b, f) in out.iter().enumerate() {
+            if fresh.contains(&b) {
+                assert_eq!(f[0], 0.0, "block {b} was traced since the change");
+                // Half of its pairs (the horizontal ones) differ by 1, those reaching into an
+                // unsampled neighbour by 1 or 0: between a quarter and three quarters.
+                assert!(f[1] > 0.25 && f[1] < 0.75, "block {b}'s gradient {}", f[1]);
+            } else {
+                assert!(f[0] > 0.0, "block {b} missed the change");
+            }
+        }
     }
 
     /// Coverage after a change: `covering` until every block has been dealt once since.

@@ -20,6 +20,7 @@ pub mod adaptive;
 pub mod animation;
 pub mod background;
 pub mod camera_path;
+pub mod fill;
 pub mod host_loop;
 pub mod metrics;
 pub mod modes;

@@ -299,7 +299,7 @@ impl<D: Device> Source for LocalSource<'_, D> {
     }
 
     fn image(&mut self) -> Result<Image, ReplayError> {
-        self.session.try_read_image(self.ctx).map_err(gpu_err)
+        self.session.try_read_shown(self.ctx).map_err(gpu_err)
     }
 
     fn ideal(&mut self, camera: &Camera, t: f64) -> Result<Image, ReplayError> {

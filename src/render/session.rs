@@ -14,6 +14,7 @@
 use super::adaptive::AdaptiveOrder;
 use super::animation::Animation;
 use super::background::{builds_bvh_in_background, PendingBvh};
+use super::fill::{self, BlockFill};
 use super::modes::{self, Bands, Queue, SliceSpan, Slices, BAND_PIXELS, GPU_BAND_PIXELS};
 use super::order::PixelOrder;
 use super::picture::{OutputGrid, Picture};
@@ -144,6 +145,8 @@ pub struct Session<D: Device = GpuContext> {
     /// The adaptive frameless order's state (`--order adaptive`); the slices' bookkeeping is
     /// in `state` as for any order.
     adaptive: Option<Box<AdaptiveOrder>>,
+    /// The adaptive order's fill, as last computed (work space of `fill_blocks`).
+    fill: Vec<BlockFill>,
 }
 
 impl<D: Device> Session<D> {
@@ -248,6 +251,7 @@ impl<D: Device> Session<D> {
             timings,
             compiled: false,
             adaptive: None,
+            fill: Vec::new(),
         };
         s.configure_mode(ctx)?;
         s.bound(ctx).clear_frame().map_err(Into::into)?;
@@ -792,6 +796,37 @@ impl<D: Device> Session<D> {
     /// (adaptive): for measures that follow pixels rather than positions.
     pub fn last_slice_pixels(&self) -> Option<&[u32]> {
         self.adaptive.as_ref().map(|a| a.last_traced())
+    }
+
+    /// Brings the adaptive order's fill of what the screen shows ([`fill`]) up to date: see
+    /// [`Self::fill`].
+    pub fn update_fill(&mut self) {
+        let stale = match &mut self.adaptive {
+            Some(a) => a.fill_blocks(&mut self.fill),
+            None => false,
+        };
+        if !stale {
+            self.fill.clear();
+        }
+    }
+
+    /// The fill as last updated: each block's missed change and gradient, and the blocks a
+    /// row. `None` for the other orders, and where every block has been traced since the last
+    /// change (the fill would change nothing).
+    pub fn fill(&self) -> Option<(&[BlockFill], u32)> {
+        let a = self.adaptive.as_ref()?;
+        (!self.fill.is_empty()).then_some((&self.fill[..], a.blocks_x()))
+    }
+
+    /// What the screen shows: the frame buffer's image ([`Self::try_read_image`]), filled where
+    /// the adaptive order says ([`fill`]); what the window's blit draws.
+    pub fn try_read_shown(&mut self, ctx: &D) -> Result<Image, D::Error> {
+        let image = self.try_read_image(ctx)?;
+        self.update_fill();
+        Ok(match self.fill() {
+            Some((blocks, blocks_x)) => fill::fill(&image, super::adaptive::BLOCK_SIDE, blocks_x, blocks),
+            None => image,
+        })
     }
 
     /// What is on screen: the frame buffer as an image (each pixel the mean of its samples); in

@@ -1,7 +1,8 @@
 //! The adaptive frameless order (`--order adaptive`, src/render/adaptive.rs) on lavapipe: what
 //! the host says it traced is what the frame buffer shows, every pixel within the revisit bound;
 //! on a scripted camera path its dynamic error is below the Hilbert order's at equal rays; at
-//! rest it converges to the Hilbert order's picture.
+//! rest it converges to the Hilbert order's picture; the window's blit fills stale pixels as
+//! the replay that measures it does.
 use crate::common;
 
 use irt::gpu::GpuContext;
@@ -104,9 +105,10 @@ fn every_pixel_shows_the_camera_that_last_traced_it_within_the_bound() {
 
 /// The camera swings 20° in 1 s over a 192×144 image whose pass takes 10 refreshes (6 µs a
 /// pixel on the virtual clock: equal rays per second for both orders, and the run repeats
-/// exactly). Measured on lavapipe (Mesa 25.0.7): dynamic error Hilbert 0.0505, adaptive 0.0416
-/// (ratio 0.82). Small images favour the order least (a few hundred blocks, most of them on an
-/// edge); docs/adaptive.md has 512² and 1280×720.
+/// exactly). Measured on lavapipe (Mesa 25.0.7): dynamic error Hilbert 0.0505, adaptive 0.0335
+/// as the screen shows it, filled (ratio 0.66; 0.0416, 0.82, before the fill). Small images
+/// favour the order least (a few hundred blocks, most of them on an edge); docs/adaptive.md has
+/// 512² and 1280×720.
 #[test]
 fn on_a_camera_path_the_adaptive_order_errs_less_than_hilbert_at_equal_rays() {
     let ctx = common::gpu();
@@ -124,7 +126,7 @@ fn on_a_camera_path_the_adaptive_order_errs_less_than_hilbert_at_equal_rays() {
         replay(&ctx, &sc, &settings, &path, &opts).unwrap().dynamic_error.unwrap().mean
     };
     let (hilbert, adaptive) = (error(PixelOrder::default()), error(ADAPTIVE));
-    assert!(adaptive < 0.9 * hilbert, "adaptive {adaptive:.4} against hilbert {hilbert:.4}");
+    assert!(adaptive < 0.8 * hilbert, "adaptive {adaptive:.4} against hilbert {hilbert:.4}");
 }
 
 /// The camera moves for a few slices, then rests: refined to 3 samples, the adaptive order's
@@ -149,8 +151,100 @@ fn at_rest_the_adaptive_order_converges_to_the_hilbert_picture() {
             assert!(steps < 10_000, "{order}: never converged");
         }
         assert_eq!(s.samples(), 3);
-        s.read_image(&ctx)
+        let image = s.read_image(&ctx);
+        assert_eq!(s.try_read_shown(&ctx).unwrap(), image, "{order}: at rest the fill changes nothing");
+        image
     };
     let (a, b) = (picture(ADAPTIVE), picture(PixelOrder::default()));
     assert_eq!(a.pixels, b.pixels, "the adaptive order at rest differs from the Hilbert order");
+}
+
+/// The window's blit draws what the replay measures: mid-motion, the blit's fragment shader
+/// (drawn offscreen at the frame's size) equals `render::fill::fill` of the frame buffer, pixel
+/// for pixel, and the fill changed part of the picture (so the comparison tests the filling).
+#[test]
+fn the_blit_fills_stale_pixels_as_the_replay_measures_them() {
+    use irt::app::blit::{Blit, Shown};
+    let ctx = common::gpu();
+    let (w, h) = (96u32, 64u32);
+    let sc = scene(w, h);
+    let path = orbit(30.0, 1.0);
+    let settings = Settings { mode: frameless(ADAPTIVE, 512), max_samples: 1, ..Settings::default() };
+    let mut s = Session::new(&ctx, &sc, settings).unwrap();
+    s.complete_pass(&ctx);
+    for k in 0..8 {
+        s.set_camera(&ctx, &path.camera_at(k as f64 * 0.05, w, h));
+        s.step(&ctx);
+    }
+    let raw = s.read_image(&ctx);
+    let shown = s.try_read_shown(&ctx).unwrap();
+    let filled = (0..raw.pixels.len()).filter(|&p| raw.pixels[p] != shown.pixels[p]).count();
+    assert!(filled > raw.pixels.len() / 20, "the fill changed only {filled} pixels");
+
+    let format = wgpu::TextureFormat::Rgba32Float;
+    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("blit test"),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = target.create_view(&Default::default());
+    let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("blit test readback"),
+        size: (w * h * 16) as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut blit = Blit::new(&ctx.device, format);
+    assert!(blit.encodes_srgb());
+    let mut enc = ctx.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("blit test"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            ..Default::default()
+        });
+        let fill = s.fill();
+        assert!(fill.is_some(), "mid-motion, blocks missed the last change");
+        blit.draw(&ctx.device, &ctx.queue, &mut pass, Shown::Device(s.frame_buffer(), fill), [w, h], [w, h]);
+    }
+    enc.copy_texture_to_buffer(
+        target.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * 16),
+                rows_per_image: None,
+            },
+        },
+        target.size(),
+    );
+    ctx.queue.submit([enc.finish()]);
+    readback.slice(..).map_async(wgpu::MapMode::Read, |r| r.unwrap());
+    ctx.wait();
+    let texels: Vec<[f32; 4]> =
+        bytemuck::cast_slice(&readback.slice(..).get_mapped_range().unwrap()).to_vec();
+    let mut worst = 0.0f64;
+    for (t, s) in texels.iter().zip(&shown.pixels) {
+        for (got, want) in t.iter().zip(s) {
+            let want = irt::image::linear_to_srgb((*want as f64).clamp(0.0, 1.0));
+            worst = worst.max((*got as f64 - want).abs());
+        }
+    }
+    // The same f32 sums in the same order; what differs is the shader's f32 pow in the sRGB
+    // encoding against the reference's f64 one (about 1e-6) and lavapipe's division.
+    assert!(worst < 1e-4, "the blit differs from render::fill by {worst}");
 }

@@ -5,10 +5,13 @@
 //! screen and pixel age; and the dynamic error on the real clock, each order at its own speed.
 //! Then the real cost of a slice in each order, interleaved slice by
 //! slice (the adaptive order reads its samples back and ranks its blocks on the host, which the
-//! virtual clock does not charge), and frames side by side for the first scene.
+//! virtual clock does not charge), and frames side by side for the first scene. What is shown
+//! of the adaptive order is filled (`render::fill`), as the window's blit shows it.
+//! `--virtual-only` skips the real clock and the slice cost (their columns read "—"): half the
+//! time.
 //!
 //!     cargo run --release -p irt-tools -- adaptive [--sizes 512x512,1280x720] [--error-every K]
-//!         [--out-dir docs/adaptive] [SCENE...]
+//!         [--virtual-only] [--out-dir docs/adaptive] [SCENE...]
 //!
 //! Without scenes: the two its constants were chosen on (the default scene, balls_s2) and the
 //! held-out ones, marked so in the table.
@@ -50,6 +53,7 @@ const HELD_OUT: [&str; 13] = [
 struct Options {
     sizes: Vec<[u32; 2]>,
     error_every: u32,
+    virtual_only: bool,
     out_dir: PathBuf,
     scenes: Vec<String>,
 }
@@ -58,6 +62,7 @@ fn parse(args: &[String]) -> Result<Options> {
     let mut o = Options {
         sizes: vec![[512, 512], [1280, 720]],
         error_every: 4,
+        virtual_only: false,
         out_dir: "docs/adaptive".into(),
         scenes: Vec::new(),
     };
@@ -75,6 +80,7 @@ fn parse(args: &[String]) -> Result<Options> {
                     .collect::<Result<_>>()?
             }
             "--error-every" => o.error_every = value()?.parse()?,
+            "--virtual-only" => o.virtual_only = true,
             "--out-dir" => o.out_dir = value()?.into(),
             s if s.starts_with("--") => bail!("unknown option {s}"),
             s => o.scenes.push(s.into()),
@@ -212,6 +218,15 @@ fn side_by_side(
     Ok(out)
 }
 
+/// `x` to `digits` decimals, or "—" where it was not measured.
+fn dash(x: f64, digits: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.digits$}")
+    } else {
+        "—".into()
+    }
+}
+
 pub fn run(args: &[String]) -> Result<()> {
     let o = parse(args)?;
     let scenes: Vec<(String, bool)> = if o.scenes.is_empty() {
@@ -267,7 +282,7 @@ pub fn run(args: &[String]) -> Result<()> {
             // The same on the real clock: what a viewer on this machine would see (each order
             // at its own speed; noisy, one run each).
             let mut real = [f64::NAN; 2];
-            for (i, (_, order)) in ORDERS.iter().enumerate() {
+            for (i, (_, order)) in ORDERS.iter().enumerate().filter(|_| !o.virtual_only) {
                 let opts = ReplayOptions {
                     clock: Clock::Real,
                     error_every: o.error_every,
@@ -276,7 +291,7 @@ pub fn run(args: &[String]) -> Result<()> {
                 let r = replay(&ctx, &scene, &settings(*order), &path, &opts)?;
                 real[i] = r.dynamic_error.map_or(f64::NAN, |e| e.mean);
             }
-            let cost = slice_cost(&ctx, &scene, &path, 30)?;
+            let cost = if o.virtual_only { [f64::NAN; 2] } else { slice_cost(&ctx, &scene, &path, 30)? };
             let err = |r: &ReplayReport| r.dynamic_error.map_or(f64::NAN, |e| e.mean);
             let (eh, ea) = (err(&reports[0].1), err(&reports[1].1));
             let lat = |r: &ReplayReport| {
@@ -289,7 +304,7 @@ pub fn run(args: &[String]) -> Result<()> {
             let (rh, ra) = (&reports[0].1, &reports[1].1);
             writeln!(
                 table,
-                "| {short}{} | {w}×{h} | {:.0} | {eh:.4} | {ea:.4} | **{:.2}** | {} | {} | {} | {} | {:.1} | {:.1} | {:.2} |",
+                "| {short}{} | {w}×{h} | {:.0} | {eh:.4} | {ea:.4} | **{:.2}** | {} | {} | {} | {} | {} | {} | {} |",
                 if *tuned { " (tuned on)" } else { "" },
                 spp * 1e9,
                 ea / eh,
@@ -297,9 +312,9 @@ pub fn run(args: &[String]) -> Result<()> {
                 lat(ra),
                 age(rh),
                 age(ra),
-                cost[0],
-                cost[1],
-                real[1] / real[0],
+                dash(cost[0], 1),
+                dash(cost[1], 1),
+                dash(real[1] / real[0], 2),
             )?;
             ratios.push((short.clone(), [w, h], *tuned, ea / eh, real[1] / real[0]));
             if first {
@@ -312,8 +327,12 @@ pub fn run(args: &[String]) -> Result<()> {
         }
     }
     for (what, pick) in [("equal rays/s", 3), ("real clock", 4)] {
-        let held: Vec<f64> =
-            ratios.iter().filter(|r| !r.2).map(|r| if pick == 3 { r.3 } else { r.4 }).collect();
+        let held: Vec<f64> = ratios
+            .iter()
+            .filter(|r| !r.2)
+            .map(|r| if pick == 3 { r.3 } else { r.4 })
+            .filter(|r| r.is_finite())
+            .collect();
         if !held.is_empty() {
             let worst = held.iter().copied().fold(0.0, f64::max);
             let mean = held.iter().sum::<f64>() / held.len() as f64;
