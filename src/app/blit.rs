@@ -15,10 +15,10 @@ struct Blit {
     window: vec2<u32>,
     // 1: the target is not sRGB, encode here.
     encode_srgb: u32,
-    // The fill's blocks a row (0: no fill) and their side in pixels.
+    // The fill's blocks a row (0: no fill).
     blocks_x: u32,
-    block_side: u32,
-    _pad: u32,
+    _pad0: u32,
+    _pad1: u32,
 };
 
 @group(0) @binding(0) var<storage, read> frame: array<vec4<f32>>;
@@ -27,6 +27,7 @@ struct Blit {
 @group(0) @binding(2) var<storage, read> blocks: array<vec2<f32>>;
 
 const FILL_RADIUS: i32 = {FILL_RADIUS};
+const BLOCK_SIDE: u32 = {BLOCK_SIDE}u;
 const FILL_EPS: f32 = {FILL_EPS};
 
 @vertex
@@ -46,7 +47,7 @@ fn mean(i: u32) -> vec3<f32> {
 }
 
 fn block_of(x: u32, y: u32) -> u32 {
-    return (y / blit.block_side) * blit.blocks_x + x / blit.block_side;
+    return (y / BLOCK_SIDE) * blit.blocks_x + x / BLOCK_SIDE;
 }
 
 // render::fill::fill for one pixel: its fresher neighbours blended in by the inverse of each
@@ -107,6 +108,7 @@ fn fs_main(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
 fn shader() -> String {
     SHADER
         .replace("{FILL_RADIUS}", &FILL_RADIUS.to_string())
+        .replace("{BLOCK_SIDE}", &BLOCK_SIDE.to_string())
         .replace("{FILL_EPS}", &format!("{:?}", FILL_EPS))
 }
 
@@ -126,8 +128,8 @@ struct BlitUniform {
     window: [u32; 2],
     encode_srgb: u32,
     blocks_x: u32,
-    block_side: u32,
-    _pad: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 /// The picture to show: a device's frame buffer, or the same layout in host memory (the MPI
@@ -259,8 +261,8 @@ impl Blit {
             window: [window[0].max(1), window[1].max(1)],
             encode_srgb: self.encode_srgb as u32,
             blocks_x: fill.map_or(0, |f| f.1),
-            block_side: BLOCK_SIDE,
-            _pad: 0,
+            _pad0: 0,
+            _pad1: 0,
         };
         if let Some((blocks, _)) = fill {
             let bytes: &[u8] = bytemuck::cast_slice(blocks);

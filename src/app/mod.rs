@@ -71,6 +71,9 @@ pub struct ViewOptions {
     pub scale: u32,
     /// Start with the HUD hidden.
     pub no_hud: bool,
+    /// The adaptive order's pixels not yet traced since a change are shown as traced, not
+    /// filled from fresher neighbours (`render::fill`).
+    pub no_fill: bool,
     /// Show this many pictures (each after at least one step), write the screenshot and exit.
     pub frames: Option<u32>,
     /// Where P (and `frames`) writes the PNG; otherwise irt-YYYYmmdd-HHMMSS.png (UTC).

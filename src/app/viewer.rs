@@ -735,7 +735,10 @@ impl<'a> Viewer<'a> {
     fn present(&mut self) -> Result<()> {
         let t0 = Instant::now();
         let window = self.window_size();
-        self.source.prepare_shown();
+        // Without it the fill stays empty: the blit shows the frame buffer as traced.
+        if !self.args.no_fill {
+            self.source.prepare_shown();
+        }
         let settings = self.source.settings();
         let adapting = self.adapt.describe(&settings.mode);
         let hud = self.hud_visible().then(|| HudView {

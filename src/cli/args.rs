@@ -249,7 +249,8 @@ pub struct ModeArgs {
     pub workers: u32,
     /// Frameless: pixel order: hilbert[:CHUNK[:PROCS]] (the paper's; CHUNK a power of 4,
     /// default 64 = 8x8 blocks, PROCS 16), adaptive[:PASSES] (slices go where the picture
-    /// changes, every pixel revisited within PASSES passes, default 3; one process only; see
+    /// changes, every pixel revisited within PASSES passes, default 3, pixels not yet traced
+    /// since a change shown blended with fresher neighbours; one process only; see
     /// docs/adaptive.md), random, or dissolve (an LFSR, no table).
     #[arg(long, value_name = "ORDER", default_value_t = PixelOrder::default())]
     pub order: PixelOrder,

@@ -31,6 +31,11 @@ pub struct ViewArgs {
     /// Start with the HUD hidden (H shows it).
     #[arg(long)]
     pub no_hud: bool,
+    /// With --order adaptive: show pixels not yet traced since a change as they were traced,
+    /// rather than blended with fresher neighbours. The blend costs the window's present about
+    /// 5x on lavapipe (docs/adaptive.md), time the CPU then does not trace.
+    #[arg(long)]
+    pub no_fill: bool,
     /// Show N pictures (each after at least one step), write the screenshot and exit 0.
     #[arg(long, value_name = "N")]
     pub frames: Option<u32>,
@@ -106,6 +111,7 @@ fn window(args: ViewArgs, cluster: Option<(&Cluster, Deadlines)>) -> Result<()> 
         size: args.scene.size,
         scale: args.scale,
         no_hud: args.no_hud,
+        no_fill: args.no_fill,
         frames: args.frames,
         screenshot: args.screenshot,
         save: args.save,

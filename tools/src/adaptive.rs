@@ -8,10 +8,12 @@
 //! virtual clock does not charge), and frames side by side for the first scene. What is shown
 //! of the adaptive order is filled (`render::fill`), as the window's blit shows it.
 //! `--virtual-only` skips the real clock and the slice cost (their columns read "—"): half the
-//! time.
+//! time. `--ns N` runs the virtual clock at N ns a pixel for every scene instead of each one's
+//! calibration (how the gain depends on how long a pass takes). `--blit-only` times only the
+//! window's blit of the picture, plain and filled.
 //!
 //!     cargo run --release -p irt-tools -- adaptive [--sizes 512x512,1280x720] [--error-every K]
-//!         [--virtual-only] [--out-dir docs/adaptive] [SCENE...]
+//!         [--virtual-only] [--ns N] [--blit-only] [--out-dir docs/adaptive] [SCENE...]
 //!
 //! Without scenes: the two its constants were chosen on (the default scene, balls_s2) and the
 //! held-out ones, marked so in the table.
@@ -54,6 +56,10 @@ struct Options {
     sizes: Vec<[u32; 2]>,
     error_every: u32,
     virtual_only: bool,
+    /// Only time the window's blit, plain and filled.
+    blit_only: bool,
+    /// The virtual clock's ns per pixel for every scene, instead of each scene's calibration.
+    ns: Option<f64>,
     out_dir: PathBuf,
     scenes: Vec<String>,
 }
@@ -63,6 +69,8 @@ fn parse(args: &[String]) -> Result<Options> {
         sizes: vec![[512, 512], [1280, 720]],
         error_every: 4,
         virtual_only: false,
+        blit_only: false,
+        ns: None,
         out_dir: "docs/adaptive".into(),
         scenes: Vec::new(),
     };
@@ -81,6 +89,8 @@ fn parse(args: &[String]) -> Result<Options> {
             }
             "--error-every" => o.error_every = value()?.parse()?,
             "--virtual-only" => o.virtual_only = true,
+            "--blit-only" => o.blit_only = true,
+            "--ns" => o.ns = Some(value()?.parse()?),
             "--out-dir" => o.out_dir = value()?.into(),
             s if s.starts_with("--") => bail!("unknown option {s}"),
             s => o.scenes.push(s.into()),
@@ -167,6 +177,69 @@ fn slice_cost(ctx: &GpuContext, scene: &Scene, path: &CameraPath, slices: u32) -
         ms(wall[1] - traced[1])
     );
     Ok(wall.map(ms))
+}
+
+/// Wall milliseconds of the window's blit of a `scene`-sized adaptive picture mid-motion onto
+/// an offscreen target of the same size, plain and filled (`render::fill`), alternating.
+fn blit_cost(ctx: &GpuContext, scene: &Scene, path: &CameraPath) -> Result<[f64; 2]> {
+    use irt::app::blit::{Blit, Shown};
+    let [w, h] = [scene.camera.width, scene.camera.height];
+    let mut s = Session::new(ctx, scene, settings(ORDERS[1].1))?;
+    s.try_complete_pass(ctx)?;
+    for k in 0..8 {
+        s.set_camera(ctx, &path.camera_at(k as f64 / 60.0, w, h));
+        s.try_step(ctx)?;
+    }
+    s.update_fill();
+    let fill = s.fill().ok_or_else(|| anyhow!("mid-motion, some block missed the change"))?;
+    let format = wgpu::TextureFormat::Rgba8Unorm;
+    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("blit cost"),
+        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    });
+    let view = target.create_view(&Default::default());
+    let mut blit = Blit::new(&ctx.device, format);
+    let mut total = [Duration::ZERO; 2];
+    const ROUNDS: u32 = 20;
+    for round in 0..=ROUNDS {
+        for (i, f) in [None, Some(fill)].into_iter().enumerate() {
+            let t0 = Instant::now();
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("blit cost"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: &view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                    })],
+                    ..Default::default()
+                });
+                blit.draw(
+                    &ctx.device,
+                    &ctx.queue,
+                    &mut pass,
+                    Shown::Device(s.frame_buffer(), f),
+                    [w, h],
+                    [w, h],
+                );
+            }
+            ctx.queue.submit([enc.finish()]);
+            ctx.wait();
+            // Round 0 compiles and uploads: not counted.
+            if round > 0 {
+                total[i] += t0.elapsed();
+            }
+        }
+    }
+    Ok(total.map(|t| t.as_secs_f64() * 1e3 / ROUNDS as f64))
 }
 
 /// The images of frame `k` of each order's presents, the ideal image of its instant beneath
@@ -261,7 +334,15 @@ pub fn run(args: &[String]) -> Result<()> {
         for &[w, h] in &o.sizes {
             let mut scene = base.clone();
             scene.camera = path.camera_at(0.0, w, h);
-            let spp = calibrate(&ctx, &scene, &settings(ORDERS[0].1), 3)?;
+            if o.blit_only {
+                let [plain, filled] = blit_cost(&ctx, &scene, &path)?;
+                println!("{short} blit ms at {w}x{h}: plain {plain:.2}, filled {filled:.2}");
+                continue;
+            }
+            let spp = match o.ns {
+                Some(ns) => ns * 1e-9,
+                None => calibrate(&ctx, &scene, &settings(ORDERS[0].1), 3)?,
+            };
             let first = name == &scenes[0].0 && [w, h] == o.sizes[0];
             let mut reports: Vec<(String, ReplayReport)> = Vec::new();
             let mut dirs = Vec::new();
@@ -292,6 +373,10 @@ pub fn run(args: &[String]) -> Result<()> {
                 real[i] = r.dynamic_error.map_or(f64::NAN, |e| e.mean);
             }
             let cost = if o.virtual_only { [f64::NAN; 2] } else { slice_cost(&ctx, &scene, &path, 30)? };
+            if !o.virtual_only {
+                let [plain, filled] = blit_cost(&ctx, &scene, &path)?;
+                eprintln!("blit ms at {w}x{h}: plain {plain:.2}, filled {filled:.2}");
+            }
             let err = |r: &ReplayReport| r.dynamic_error.map_or(f64::NAN, |e| e.mean);
             let (eh, ea) = (err(&reports[0].1), err(&reports[1].1));
             let lat = |r: &ReplayReport| {
