@@ -427,6 +427,9 @@ pub fn run(args: &[String]) -> Result<()> {
             )?;
         }
     }
+    if o.blit_only {
+        return Ok(());
+    }
     let sizes: Vec<String> = o.sizes.iter().map(|[w, h]| format!("{w}x{h}")).collect();
     let file = o.out_dir.join(format!("table-{}.md", sizes.join("_")));
     irt::image::write_atomic(&file, table.as_bytes())
