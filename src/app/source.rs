@@ -55,7 +55,7 @@ pub trait Source {
     fn shown(&self) -> Shown<'_>;
     /// Brings what [`Self::shown`] draws up to date (the adaptive order's fill).
     fn prepare_shown(&mut self) {}
-    /// The picture as an image (a screenshot).
+    /// The picture as an image, as the screen shows it (a screenshot).
     fn read_image(&mut self, ctx: &GpuContext) -> Result<Image>;
     /// Adopts an accelerator built in the background, if one is ready: whether it did.
     fn adopt_bvh(&mut self, _ctx: &GpuContext) -> Result<bool> {
@@ -136,7 +136,9 @@ impl Source for Local {
         self.0.update_fill();
     }
     fn read_image(&mut self, ctx: &GpuContext) -> Result<Image> {
-        Ok(self.0.read_image(ctx))
+        // As the screen shows it: filled where the last present was.
+        let image = self.0.read_image(ctx);
+        Ok(self.0.filled(image))
     }
     fn adopt_bvh(&mut self, ctx: &GpuContext) -> Result<bool> {
         Ok(self.0.adopt_bvh(ctx)?.is_some())

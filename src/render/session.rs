@@ -823,10 +823,15 @@ impl<D: Device> Session<D> {
     pub fn try_read_shown(&mut self, ctx: &D) -> Result<Image, D::Error> {
         let image = self.try_read_image(ctx)?;
         self.update_fill();
-        Ok(match self.fill() {
+        Ok(self.filled(image))
+    }
+
+    /// `image` (the frame buffer's) filled as [`Self::fill`] says, as last updated.
+    pub fn filled(&self, image: Image) -> Image {
+        match self.fill() {
             Some((blocks, blocks_x)) => fill::fill(&image, super::adaptive::BLOCK_SIDE, blocks_x, blocks),
             None => image,
-        })
+        }
     }
 
     /// What is on screen: the frame buffer as an image (each pixel the mean of its samples); in
