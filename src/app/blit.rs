@@ -104,6 +104,25 @@ fn fs_main(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
 }
 "#;
 
+/// A `size` target of `format` for [`Blit::draw_offscreen`], with `usage` besides.
+pub fn offscreen_target(
+    device: &wgpu::Device,
+    format: wgpu::TextureFormat,
+    size: [u32; 2],
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("blit offscreen"),
+        size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: usage | wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    })
+}
+
 /// The shader with the fill's constants (one source: `render::fill`).
 fn shader() -> String {
     SHADER
@@ -227,6 +246,35 @@ impl Blit {
     /// Whether the shader encodes sRGB itself (the surface format is not an sRGB one).
     pub fn encodes_srgb(&self) -> bool {
         self.encode_srgb
+    }
+
+    /// Draws `shown` (`render` pixels) onto `target` (offscreen: tests and benchmarks) and
+    /// submits it.
+    pub fn draw_offscreen(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        target: &wgpu::Texture,
+        shown: Shown<'_>,
+        render: [u32; 2],
+    ) {
+        let view = target.create_view(&Default::default());
+        let mut enc = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("blit offscreen"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                ..Default::default()
+            });
+            let size = target.size();
+            self.draw(device, queue, &mut pass, shown, render, [size.width, size.height]);
+        }
+        queue.submit([enc.finish()]);
     }
 
     /// Records the blit of `shown` (`render` pixels) onto a target of `window` pixels.

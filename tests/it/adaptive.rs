@@ -164,7 +164,7 @@ fn at_rest_the_adaptive_order_converges_to_the_hilbert_picture() {
 /// for pixel, and the fill changed part of the picture (so the comparison tests the filling).
 #[test]
 fn the_blit_fills_stale_pixels_as_the_replay_measures_them() {
-    use irt::app::blit::{Blit, Shown};
+    use irt::app::blit::{offscreen_target, Blit, Shown};
     let ctx = common::gpu();
     let (w, h) = (96u32, 64u32);
     let sc = scene(w, h);
@@ -182,17 +182,7 @@ fn the_blit_fills_stale_pixels_as_the_replay_measures_them() {
     assert!(filled > raw.pixels.len() / 20, "the fill changed only {filled} pixels");
 
     let format = wgpu::TextureFormat::Rgba32Float;
-    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("blit test"),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let view = target.create_view(&Default::default());
+    let target = offscreen_target(&ctx.device, format, [w, h], wgpu::TextureUsages::COPY_SRC);
     let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("blit test readback"),
         size: (w * h * 16) as u64,
@@ -201,25 +191,10 @@ fn the_blit_fills_stale_pixels_as_the_replay_measures_them() {
     });
     let mut blit = Blit::new(&ctx.device, format);
     assert!(blit.encodes_srgb());
+    let fill = s.fill();
+    assert!(fill.is_some(), "mid-motion, blocks missed the last change");
+    blit.draw_offscreen(&ctx.device, &ctx.queue, &target, Shown::Device(s.frame_buffer(), fill), [w, h]);
     let mut enc = ctx.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("blit test"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            ..Default::default()
-        });
-        let fill = s.fill();
-        assert!(fill.is_some(), "mid-motion, blocks missed the last change");
-        blit.draw(&ctx.device, &ctx.queue, &mut pass, Shown::Device(s.frame_buffer(), fill), [w, h], [w, h]);
-    }
     enc.copy_texture_to_buffer(
         target.as_image_copy(),
         wgpu::TexelCopyBufferInfo {

@@ -182,7 +182,7 @@ fn slice_cost(ctx: &GpuContext, scene: &Scene, path: &CameraPath, slices: u32) -
 /// Wall milliseconds of the window's blit of a `scene`-sized adaptive picture mid-motion onto
 /// an offscreen target of the same size, plain and filled (`render::fill`), alternating.
 fn blit_cost(ctx: &GpuContext, scene: &Scene, path: &CameraPath) -> Result<[f64; 2]> {
-    use irt::app::blit::{Blit, Shown};
+    use irt::app::blit::{offscreen_target, Blit, Shown};
     let [w, h] = [scene.camera.width, scene.camera.height];
     let mut s = Session::new(ctx, scene, settings(ORDERS[1].1))?;
     s.try_complete_pass(ctx)?;
@@ -193,45 +193,14 @@ fn blit_cost(ctx: &GpuContext, scene: &Scene, path: &CameraPath) -> Result<[f64;
     s.update_fill();
     let fill = s.fill().ok_or_else(|| anyhow!("mid-motion, some block missed the change"))?;
     let format = wgpu::TextureFormat::Rgba8Unorm;
-    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("blit cost"),
-        size: wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-        view_formats: &[],
-    });
-    let view = target.create_view(&Default::default());
+    let target = offscreen_target(&ctx.device, format, [w, h], wgpu::TextureUsages::empty());
     let mut blit = Blit::new(&ctx.device, format);
     let mut total = [Duration::ZERO; 2];
     const ROUNDS: u32 = 20;
     for round in 0..=ROUNDS {
         for (i, f) in [None, Some(fill)].into_iter().enumerate() {
             let t0 = Instant::now();
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("blit cost"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-                    })],
-                    ..Default::default()
-                });
-                blit.draw(
-                    &ctx.device,
-                    &ctx.queue,
-                    &mut pass,
-                    Shown::Device(s.frame_buffer(), f),
-                    [w, h],
-                    [w, h],
-                );
-            }
-            ctx.queue.submit([enc.finish()]);
+            blit.draw_offscreen(&ctx.device, &ctx.queue, &target, Shown::Device(s.frame_buffer(), f), [w, h]);
             ctx.wait();
             // Round 0 compiles and uploads: not counted.
             if round > 0 {
