@@ -479,7 +479,8 @@ fn trace(t: &TraceDoc) -> Res<TraceSettings> {
     };
     let (shadows, soft) = match setting {
         ShadowSetting::Mode(m) => (m, false),
-        // Picked once the scene is whole and its overrides applied (`Scene::resolve_soft`).
+        // Picked once the scene is whole and its overrides applied (`ShadowSetting::resolve`,
+        // by the command that loads it).
         ShadowSetting::Soft => (ShadowMode::Hard, true),
     };
     Ok(TraceSettings {

@@ -191,8 +191,8 @@ pub struct TraceSettings {
     /// How light visibility is found (docs/shadows.md).
     pub shadows: ShadowMode,
     /// The scene file asked for `soft`: the mode is to be picked for the scene as it will be
-    /// traced, after any overrides (`ShadowSetting::Soft`, resolved by `resolve_soft`); until
-    /// then `shadows` is hard.
+    /// traced, after any overrides (`ShadowSetting::Soft`, resolved by the command that loads
+    /// the scene, with `ShadowSetting::resolve`); until then `shadows` is hard.
     pub soft: bool,
 }
 
