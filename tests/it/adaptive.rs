@@ -40,6 +40,26 @@ fn orbit(degrees: f64, seconds: f64) -> CameraPath {
     CameraPath::parse_str(&keys, "orbit").unwrap()
 }
 
+/// A session of `settings` over `sc` after a whole pass and `slices` slices, the camera moving
+/// along `path` by `dt` seconds a slice.
+fn moved(
+    ctx: &GpuContext,
+    sc: &Scene,
+    settings: Settings,
+    path: &CameraPath,
+    slices: u32,
+    dt: f64,
+) -> Session {
+    let (w, h) = (sc.camera.width, sc.camera.height);
+    let mut s = Session::new(ctx, sc, settings).unwrap();
+    s.complete_pass(ctx);
+    for k in 0..slices {
+        s.set_camera(ctx, &path.camera_at(k as f64 * dt, w, h));
+        s.step(ctx);
+    }
+    s
+}
+
 fn image_of(ctx: &GpuContext, s: &mut Session, camera: &Camera) -> Image {
     s.set_camera(ctx, camera);
     s.complete_pass(ctx);
@@ -139,12 +159,7 @@ fn at_rest_the_adaptive_order_converges_to_the_hilbert_picture() {
     let path = orbit(30.0, 1.0);
     let picture = |order| {
         let settings = Settings { mode: frameless(order, 256), max_samples: 3, ..Settings::default() };
-        let mut s = Session::new(&ctx, &sc, settings).unwrap();
-        s.complete_pass(&ctx);
-        for k in 0..6 {
-            s.set_camera(&ctx, &path.camera_at(k as f64 * 0.2, w, h));
-            s.step(&ctx);
-        }
+        let mut s = moved(&ctx, &sc, settings, &path, 6, 0.2);
         let mut steps = 0;
         while !s.step(&ctx).idle {
             steps += 1;
@@ -170,12 +185,7 @@ fn the_blit_fills_stale_pixels_as_the_replay_measures_them() {
     let sc = scene(w, h);
     let path = orbit(30.0, 1.0);
     let settings = Settings { mode: frameless(ADAPTIVE, 512), max_samples: 1, ..Settings::default() };
-    let mut s = Session::new(&ctx, &sc, settings).unwrap();
-    s.complete_pass(&ctx);
-    for k in 0..8 {
-        s.set_camera(&ctx, &path.camera_at(k as f64 * 0.05, w, h));
-        s.step(&ctx);
-    }
+    let mut s = moved(&ctx, &sc, settings, &path, 8, 0.05);
     let raw = s.read_image(&ctx);
     let shown = s.try_read_shown(&ctx).unwrap();
     let filled = (0..raw.pixels.len()).filter(|&p| raw.pixels[p] != shown.pixels[p]).count();
