@@ -202,6 +202,16 @@ fn shell_cell(d: vec3f, n: u32) -> u32 {
     return face * n * n + i.y * n + i.x;
 }
 
+// The depth slab of a shadow segment `dist` long (`scene::Slabs::of`); `slabs` is the section's
+// `[count, near (f32), 1 / log2(ratio) (f32), 0]`.
+fn shell_slab(dist: f32, slabs: vec4u) -> u32 {
+    let near = bitcast<f32>(slabs.y);
+    if slabs.x <= 1u || dist <= near {
+        return 0u;
+    }
+    return u32(clamp(ceil(log2(dist / near) * bitcast<f32>(slabs.z)), 0.0, f32(slabs.x - 1u)));
+}
+
 // Object `at` of a light-buffer list (object indices, four per texel from `list`).
 fn shell_listed(list: u32, at: u32) -> u32 {
     return texel(list + at / 4u)[at % 4u];
@@ -216,13 +226,14 @@ fn shell_combine(s: f32, sigma: f32, product: bool) -> f32 {
 // centre. Whether the segment passes through a mesh comes from its triangles, tested in the
 // object loop for a small mesh and by a walk of the grid for a large one (spheres and cones need
 // no test: their shells know from the distance alone); every shell object of this light
-// (`section`: its first texel, see layout.rs) listed in the light-buffer cell of the ray's
-// direction gives σ and `s` combines them, each object once (objects not listed there give 1).
-// A cell lists its spheres, then its cones, then its meshes, each with the run of its contour
-// edges that segments in the cell can come near, and each kind has a loop of its own: lavapipe
-// runs the whole body of a loop at every iteration (LAVAPIPE.md), so one loop would pay for the
-// mesh code at every sphere. Once `s` is 0 no object can raise it (min or product of σ ∈ [0, 1]):
-// the loops stop there, all lanes' alike (a group's loop ends with its last lane).
+// (`section`: its first texel, see layout.rs) listed for the ray gives σ and `s` combines them,
+// each object once (objects not listed give 1). The light-buffer cell of the ray's direction
+// lists its meshes, each with the run of its contour edges that segments in the cell can come
+// near; the cell's depth slab of the ray's length lists its spheres, then its cones. Each kind
+// has a loop of its own: lavapipe runs the whole body of a loop at every iteration
+// (LAVAPIPE.md), so one loop would pay for the mesh code at every sphere. Once `s` is 0 no
+// object can raise it (min or product of σ ∈ [0, 1]): the loops stop there, all lanes' alike (a
+// group's loop ends with its last lane).
 fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) -> f32 {
     let to = c - o;
     let dist = length(to);
@@ -236,9 +247,10 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     var s = 1.0;
     let head = texel(section);
     let list = head.z;
-    // [first, first cone, first mesh, end] in the cell's list.
+    // [first mesh, end, first slab texel, 0] and the slab's [first, first cone, end, 0].
     let cell = texel(head.y + shell_cell(-l, head.w));
-    let objects = section + 1u;
+    let slab = texel(cell.z + shell_slab(dist, texel(section + 1u)));
+    let objects = section + SHELL_HEADER_TEXELS;
     // Only meshes of more than SHELL_DIRECT_TRIANGLES triangles use the walk's answer; the
     // variant compiles it out where there are none (`Variant::shell_walk`). A hit on one lies
     // inside its bounding sphere, so the walk covers only the part of the segment inside the
@@ -247,7 +259,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
     if HAS_TRIANGLES && SHELL_WALK {
         var lo = dist;
         var hi = 0.0;
-        for (var j = cell.z; j < cell.w; j += 3u) {
+        for (var j = cell.x; j < cell.y; j += 3u) {
             loop_tick(LOOP_CANDIDATES);
             let k = shell_listed(list, j);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
@@ -272,14 +284,14 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         }
     }
     if HAS_SPHERES {
-        for (var j = cell.x; j < cell.y && s > 0.0; j++) {
+        for (var j = slab.x; j < slab.y && s > 0.0; j++) {
             loop_tick(LOOP_CANDIDATES);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * shell_listed(list, j));
             s = shell_combine(s, sphere_shell(f, o, l, dist, light_r, bound.xyz, bound.w).x, product);
         }
     }
     if HAS_CONES {
-        for (var j = cell.y; j < cell.z && s > 0.0; j++) {
+        for (var j = slab.y; j < slab.z && s > 0.0; j++) {
             loop_tick(LOOP_CANDIDATES);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * shell_listed(list, j));
             let cn = load_cone(prim_index(rec.x));
@@ -287,7 +299,7 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
         }
     }
     if HAS_TRIANGLES {
-        for (var j = cell.z; j < cell.w && s > 0.0; j += 3u) {
+        for (var j = cell.x; j < cell.y && s > 0.0; j += 3u) {
             loop_tick(LOOP_CANDIDATES);
             let k = shell_listed(list, j);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);

@@ -213,6 +213,15 @@ fn t_shell_cell(i: u32) {
     out_buf[i] = vec4f(bitcast<f32>(shell_cell(test_in[i].xyz, u32(test_in[i].w))), 0.0, 0.0, 0.0);
 }
 
+// in: (segment length, slab count, near, 1 / log2(ratio)) -> (shell_slab as f32 bits, 0, 0, 0)
+@compute @workgroup_size(64, 1, 1)
+fn k_shell_slab(@builtin(global_invocation_id) g: vec3u) { if g.x < launch.rect.z { t_shell_slab(g.x); } }
+fn t_shell_slab(i: u32) {
+    let v = test_in[i];
+    let slabs = vec4u(u32(v.y), bitcast<u32>(v.z), bitcast<u32>(v.w), 0u);
+    out_buf[i] = vec4f(bitcast<f32>(shell_slab(v.x, slabs)), 0.0, 0.0, 0.0);
+}
+
 // in: (node index, 0, 0, 0) -> (lo, link bits), (hi, 0): a compact BVH node of the uploaded
 // scene as the stackless walk decodes it (a scene packed for `--accel bvh`).
 @compute @workgroup_size(64, 1, 1)

@@ -18,7 +18,7 @@ pub use motion::{
 };
 pub use shadows::{bundle_samples, pixel_hash, Combine, Falloff, ShadowMode, MAX_BUNDLE, SHADOW_MODE_SYNTAX};
 pub use shells::{
-    light_shells, scene_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape,
+    light_shells, scene_shells, shell_cell, shells_walk_grid, LightShells, ShellObject, ShellShape, Slabs,
     SHELL_CELL_GAIN, SHELL_CELL_LOAD, SHELL_CELL_RES_MAX, SHELL_CELL_RES_MIN, SHELL_DIRECT_TRIANGLES,
 };
 pub use soft::{choose_soft, pilot, Estimate, ShadowSetting, SoftChoice, SOFT_COST_BUDGET};

@@ -42,30 +42,117 @@ pub struct LightShells {
     /// from [`SHELL_CELL_RES_MIN`] to [`SHELL_CELL_RES_MAX`], chosen per light.
     pub res: u32,
     /// A light buffer (Haines & Greenberg 1986): the directions from the light's centre cut into
-    /// the cells of a cube (`res`² per face), each listing the objects (indices into `objects`)
-    /// whose shell a shadow segment in that direction can reach. An object left out of a cell
-    /// gives σ = 1 exactly to every segment in it, so skipping it changes no result: the list is
-    /// only a way to visit fewer objects.
+    /// the cells of a cube (`res`² per face). Each cell lists the meshes (indices into
+    /// `objects`) whose shell a shadow segment in that direction can reach. An object left out of
+    /// a cell gives σ = 1 exactly to every segment in it, so skipping it changes no result: the
+    /// lists are only a way to visit fewer objects.
     pub cells: Vec<Vec<u32>>,
     /// Per cell, the contour edges (indices into `edges`, in order, so grouped by mesh) that a
     /// shadow segment in that direction can pass within the light's radius of. An edge farther
     /// than that from the segment is never a mesh's nearest within the shell's width `b < r`,
     /// where σ is 0 or 1 whichever edge is nearest, so leaving it out changes no result either.
     pub cell_edges: Vec<Vec<u32>>,
+    /// The depth slabs that cut each cell's spheres and cones by the shadow segment's length.
+    pub slabs: Slabs,
+    /// Per cell and slab (`cell * slabs.count + slab`), the spheres and cones (indices into
+    /// `objects`) whose shell a segment in that direction, of a length in that slab, can reach:
+    /// the shell's width `b = r t / D` narrows towards the segment's origin, and an object
+    /// wholly beyond the origin (farther from the light than the segment is long) has none
+    /// ([`Slabs`]).
+    pub slab_cells: Vec<Vec<u32>>,
+}
+
+/// Depth slabs of a light buffer (docs/shadows.md, "Light buffer"): slab 0 holds the shadow
+/// segments of length at most `near`, slab `k` those in `(near ratioᵏ⁻¹, near ratioᵏ]`, the last
+/// every longer one. A sphere or cone is listed in a slab for the width its shell can have there:
+/// a segment of length `D` from `p` passes a point at distance `s` from the light's centre at
+/// `t = D − s` from `p`, where the shell is `b = r t / D = r (1 − s / D)` wide; so an occluder
+/// piece whose nearest point lies `s_min` from the light needs the light's radius grown only by
+/// `r (1 − s_min / D_far)` (`D_far` the slab's longest segment), and none at all when
+/// `s_min ≥ D_far` (it lies wholly beyond every segment's origin, where `t ≤ 0`). Small occluders
+/// near the receiver (a sphereflake's, a tree's) thus drop out of the lists of the rays that
+/// pass them at a distance their shells cannot reach.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slabs {
+    pub count: u32,
+    pub near: f64,
+    pub ratio: f64,
+}
+
+impl Default for Slabs {
+    fn default() -> Self {
+        Slabs { count: 1, near: 0.0, ratio: 2.0 }
+    }
+}
+
+/// Depth slabs of a light buffer with spheres or cones ([`Slabs`]): the longest segment a
+/// scene's shading points can cast reaches `ratio^(count - 2)` times the shortest slab's.
+pub const SHELL_SLABS: u32 = 16;
+/// The shortest slab ends at least this fraction of the way to the farthest occluder: nearer
+/// segments are few (the light is inside the scene) and share one slab.
+const SHELL_SLAB_NEAREST: f64 = 1.0 / 16.0;
+
+impl Slabs {
+    /// Slabs spanning the distances `[nearest, farthest]` from the light of the scene's
+    /// occluders; one slab (no cut) where there are none.
+    fn spanning(nearest: f64, farthest: f64) -> Self {
+        let near = nearest.max(farthest * SHELL_SLAB_NEAREST);
+        if !(near > 0.0 && farthest.is_finite()) {
+            return Slabs::default();
+        }
+        let ratio = (farthest / near).powf(1.0 / (SHELL_SLABS - 2) as f64).max(1.0 + 1e-3);
+        Slabs { count: SHELL_SLABS, near, ratio }
+    }
+
+    /// `1 / log2(ratio)`, as the shader gets it.
+    pub fn inv_log2_ratio(&self) -> f64 {
+        1.0 / self.ratio.log2()
+    }
+
+    /// The slab of a shadow segment `dist` long; the shader's `shell_slab` is the same formula.
+    pub fn of(&self, dist: f64) -> u32 {
+        if self.count <= 1 || dist <= self.near {
+            return 0;
+        }
+        ((dist / self.near).log2() * self.inv_log2_ratio()).ceil().clamp(0.0, (self.count - 1) as f64) as u32
+    }
+
+    /// The longest segment slab `k` holds, grown by 10⁻³ for the f32 rounding of the GPU's
+    /// slab; unbounded for the last.
+    fn far(&self, k: u32) -> f64 {
+        if k + 1 >= self.count {
+            return f64::INFINITY;
+        }
+        self.near * self.ratio.powi(k as i32) * (1.0 + 1e-3)
+    }
+
+    /// `piece` (centre, radius) grown by as much of the light's radius `r` as a shell can have
+    /// in slab `k` (seen from `light`), or `None` where it lies beyond every segment's origin.
+    fn grown(&self, k: u32, light: DVec3, (q, radius): (DVec3, f64), r: f64) -> Option<(DVec3, f64)> {
+        let far = self.far(k);
+        let s_min = (q.distance(light) - radius - r).max(0.0);
+        if s_min >= far {
+            return None;
+        }
+        let reach = if far.is_finite() { r * (1.0 - s_min / far) } else { r };
+        Some((q, radius + reach))
+    }
 }
 
 /// Fewest and most cells per side of a light buffer's face ([`light_shells`] picks per light).
 pub const SHELL_CELL_RES_MIN: u32 = 16;
 pub const SHELL_CELL_RES_MAX: u32 = 128;
 
-/// The light buffer's resolution is raised (doubled) while the mean list a listed entry shares
-/// its cell with (Σ n² / Σ n over the cells' objects and edges) is longer than this, and each
-/// doubling shortens it by at least [`SHELL_CELL_GAIN`]: a shadow ray visits the list of its
+/// The light buffer's resolution is the coarsest whose mean list a listed entry shares its cell
+/// with (Σ n² / Σ n over the cells' objects and edges) is at most this, or else the one a finer
+/// resolution no longer shortens by [`SHELL_CELL_GAIN`]: a shadow ray visits the list of its
 /// cell, and rays gather where the occluders are (docs/shadows.md, "What a shell ray costs").
 pub const SHELL_CELL_LOAD: f64 = 4.0;
 /// See [`SHELL_CELL_LOAD`]: a doubling that shortens the lists by less (occluders larger than
-/// the cells, listed in all of them anyway) is not worth four times the cells.
-pub const SHELL_CELL_GAIN: f64 = 0.75;
+/// the cells, listed in all of them anyway) is not worth four times the cells. The load
+/// understates what a doubling saves the rays: on SPD balls_s3, 64 to 128 cells a side shortens
+/// it to 0.79 and the spheres a pilot frame's shell rays visit to 0.58 (0.75 kept 64).
+pub const SHELL_CELL_GAIN: f64 = 0.85;
 /// Most list entries (objects and edges, over all cells) of one light's buffer.
 const SHELL_CELL_ENTRIES: usize = 1 << 22;
 
@@ -348,8 +435,20 @@ pub fn light_shells(scene: &Scene, light: DVec3, light_radius: f64) -> LightShel
     shells_for(scene, &Occluders::new(scene), light, light_radius)
 }
 
+/// One resolution's lists ([`LightShells`]' fields), their load ([`SHELL_CELL_LOAD`]) and
+/// their entries.
+struct Buffer {
+    cells: Vec<Vec<u32>>,
+    cell_edges: Vec<Vec<u32>>,
+    slab_cells: Vec<Vec<u32>>,
+    load: f64,
+    stored: usize,
+}
+
 fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: f64) -> LightShells {
     let mut out = LightShells::default();
+    // Each object's pieces, ungrown: spheres and cones (by depth slab), then meshes (in every
+    // slab alike: a mesh's σ comes from its nearest edge, which no narrower list may change).
     let mut pieces: Vec<Vec<(DVec3, f64)>> = vec![];
     for (i, s) in scene.spheres.iter().enumerate() {
         out.objects.push(ShellObject {
@@ -357,15 +456,16 @@ fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: 
             radius: s.radius,
             shape: ShellShape::Sphere(i as u32),
         });
-        pieces.push(vec![(s.center, s.radius + light_radius)]);
+        pieces.push(vec![(s.center, s.radius)]);
     }
     for (i, c) in scene.cones.iter().enumerate() {
         let center = (c.base + c.apex) / 2.0;
         let widest = c.base_radius.max(c.apex_radius);
         let radius = (c.apex - c.base).length() / 2.0 + widest;
         out.objects.push(ShellObject { center, radius, shape: ShellShape::Cone(i as u32) });
-        pieces.push(capsule(c.base, c.apex, widest + light_radius));
+        pieces.push(capsule(c.base, c.apex, widest));
     }
+    let solids = pieces.len();
     let mut first = 0u32;
     for m in &scene.meshes {
         let end = first + m.indices.len() as u32;
@@ -386,31 +486,71 @@ fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: 
     }
     let edge_pieces: Vec<Vec<(DVec3, f64)>> =
         out.edges.iter().map(|e| capsule(e[0], e[1], light_radius)).collect();
-    let build = |res: u32| -> (Vec<Vec<u32>>, Vec<Vec<u32>>, f64, usize) {
+    // The slabs span from the nearest sphere or cone (no shorter segment lists any) to the
+    // farthest shading point, which lies on some object.
+    let reach = |o: &ShellObject| {
+        let d = o.center.distance(light);
+        ((d - o.radius).max(0.0), d + o.radius)
+    };
+    let nearest = out.objects[..solids].iter().map(|o| reach(o).0).fold(f64::INFINITY, f64::min);
+    let farthest = out.objects.iter().map(|o| reach(o).1).fold(0.0, f64::max);
+    let slabs = if solids > 0 { Slabs::spanning(nearest, farthest) } else { Slabs::default() };
+    let build = |res: u32| -> Buffer {
         let cells = 6 * res as usize * res as usize;
-        let mut lists = (vec![vec![]; cells], vec![vec![]; cells]);
-        for (k, p) in pieces.iter().enumerate() {
-            cover(light, p, res, &mut |c| lists.0[c as usize].push(k as u32));
+        let n_slabs = slabs.count as usize;
+        let mut b = Buffer {
+            cells: vec![vec![]; cells],
+            cell_edges: vec![vec![]; cells],
+            slab_cells: vec![vec![]; cells * n_slabs],
+            load: 0.0,
+            stored: 0,
+        };
+        for (k, p) in pieces.iter().enumerate().skip(solids) {
+            cover(light, p, res, &mut |c| b.cells[c as usize].push(k as u32));
         }
         for (k, p) in edge_pieces.iter().enumerate() {
-            cover(light, p, res, &mut |c| lists.1[c as usize].push(k as u32));
+            cover(light, p, res, &mut |c| b.cell_edges[c as usize].push(k as u32));
         }
-        let n = |c: usize| (lists.0[c].len() + lists.1[c].len()) as f64;
-        let entries: f64 = (0..cells).map(n).sum();
-        let load = (0..cells).map(|c| n(c) * n(c)).sum::<f64>() / entries.max(1.0);
-        (lists.0, lists.1, load, entries as usize)
+        for (k, p) in pieces.iter().enumerate().take(solids) {
+            for slab in 0..slabs.count {
+                let grown: Vec<(DVec3, f64)> =
+                    p.iter().filter_map(|&q| slabs.grown(slab, light, q, light_radius)).collect();
+                if !grown.is_empty() {
+                    let at = |c: u32| c as usize * n_slabs + slab as usize;
+                    cover(light, &grown, res, &mut |c| b.slab_cells[at(c)].push(k as u32));
+                }
+            }
+        }
+        // A ray visits its cell's meshes and edges and its slab's spheres and cones; each part's
+        // load is taken on its own (a floor's few long edges in every cell would hide a crowd of
+        // small spheres in a few).
+        let load = |n: &mut dyn Iterator<Item = f64>| {
+            let (sum, squares) = n.fold((0.0, 0.0), |(s, q), n| (s + n, q + n * n));
+            squares / f64::max(sum, 1.0)
+        };
+        let meshes = load(&mut (0..cells).map(|c| (b.cells[c].len() + b.cell_edges[c].len()) as f64));
+        b.load = meshes.max(load(&mut b.slab_cells.iter().map(|l| l.len() as f64)));
+        b.stored = b.cells.iter().chain(&b.cell_edges).chain(&b.slab_cells).map(Vec::len).sum();
+        b
     };
-    let mut res = SHELL_CELL_RES_MIN;
-    let mut best = build(res);
-    while best.2 > SHELL_CELL_LOAD && res < SHELL_CELL_RES_MAX {
-        let finer = build(2 * res);
-        if finer.2 > SHELL_CELL_GAIN * best.2 || finer.3 > SHELL_CELL_ENTRIES {
+    // Finer buffers are tried up to the finest, not only while each doubling pays: a scene
+    // small and far from its light sits in one coarse cell until the cells are smaller than it
+    // (SPD tree's lights are 50 away from a tree 3 across: 16 and 32 cells a side list it whole).
+    let (mut res, mut best) = (SHELL_CELL_RES_MIN, build(SHELL_CELL_RES_MIN));
+    let mut finer_res = res;
+    while best.load > SHELL_CELL_LOAD && finer_res < SHELL_CELL_RES_MAX {
+        finer_res *= 2;
+        let finer = build(finer_res);
+        if finer.stored > SHELL_CELL_ENTRIES {
             break;
         }
-        (res, best) = (2 * res, finer);
+        if finer.load <= SHELL_CELL_GAIN * best.load {
+            (res, best) = (finer_res, finer);
+        }
     }
     out.res = res;
-    (out.cells, out.cell_edges) = (best.0, best.1);
+    out.slabs = slabs;
+    (out.cells, out.cell_edges, out.slab_cells) = (best.cells, best.cell_edges, best.slab_cells);
     out
 }
 
@@ -460,7 +600,8 @@ mod tests {
         let sh = light_shells(&s, light, r);
         // One object: the lists are as short as they get at the coarsest resolution.
         assert_eq!(sh.res, SHELL_CELL_RES_MIN);
-        let listed = sh.cells.iter().filter(|c| !c.is_empty()).count();
+        let listed =
+            sh.slab_cells.chunks(sh.slabs.count as usize).filter(|c| c.iter().any(|l| !l.is_empty())).count();
         // Its grown cap (5.4°) plus a cell's radius (up to ~5°) covers about 15 of the 1536
         // cells (measured: 15); everywhere would be a broken buffer.
         assert!(listed <= 20, "a small far sphere in {listed} cells");
@@ -489,10 +630,89 @@ mod tests {
             }
             assert!(checked > 20, "only {checked} directions near the sphere");
             if res == SHELL_CELL_RES_MIN {
-                let want: Vec<bool> = sh.cells.iter().map(|c| c == &vec![0]).collect();
+                // The last depth slab lists with the light's whole radius.
+                let n = sh.slabs.count as usize;
+                let want: Vec<bool> = sh.slab_cells.chunks(n).map(|c| c[n - 1] == vec![0]).collect();
                 assert_eq!(cells, want, "cover() and light_shells() list the same cells");
             }
         }
+    }
+
+    /// Every sphere and cone whose shell a shadow segment reaches (σ < 1 by the reference's own
+    /// functions) is listed in the segment's cell and depth slab; and a cluster of small
+    /// occluders, shadowing points among and below them, is listed far less often than with the
+    /// light's whole radius (the last slab's lists, as the buffer was without slabs).
+    #[test]
+    fn the_depth_slabs_list_every_shell_a_segment_reaches() {
+        use crate::reference::shadows::{cone_shell, sphere_shell};
+        use crate::scene::{Cone, Falloff, Sphere};
+        let mut s = default_scene();
+        s.meshes.clear();
+        // A hash-spread cluster 2 across at height 1..3, and two thin branches.
+        let h = |i: u32, k: u32| (crate::scene::pixel_hash(i * 3 + k) as f64 / u32::MAX as f64) * 2.0 - 1.0;
+        s.spheres = (0..300)
+            .map(|i| Sphere {
+                center: DVec3::new(h(i, 0), 2.0 + h(i, 1), h(i, 2)),
+                radius: 0.05,
+                material: 0,
+            })
+            .collect();
+        s.cones = vec![
+            Cone {
+                base: DVec3::ZERO,
+                base_radius: 0.08,
+                apex: DVec3::new(0.3, 2.0, 0.1),
+                apex_radius: 0.03,
+                material: 0,
+            },
+            Cone {
+                base: DVec3::new(0.3, 2.0, 0.1),
+                base_radius: 0.03,
+                apex: DVec3::new(-0.8, 2.9, 0.5),
+                apex_radius: 0.02,
+                material: 0,
+            },
+        ];
+        let (light, r) = (DVec3::new(3.0, 12.0, 4.0), 0.5);
+        let sh = light_shells(&s, light, r);
+        assert_eq!(sh.slabs.count, SHELL_SLABS);
+        let n = sh.slabs.count as usize;
+        let (mut listed, mut unsliced, mut reached) = (0usize, 0usize, 0usize);
+        for i in 0..4000u32 {
+            // Points among the cluster and on the ground below it.
+            let y = if i % 2 == 0 { 0.0 } else { 2.0 + h(i, 4) };
+            let p = DVec3::new(1.5 * h(i, 5), y, 1.5 * h(i, 6));
+            let dist = p.distance(light);
+            let l = (light - p) / dist;
+            let cell = shell_cell(-l, sh.res) as usize;
+            let list = &sh.slab_cells[cell * n + sh.slabs.of(dist) as usize];
+            (listed, unsliced) = (listed + list.len(), unsliced + sh.slab_cells[cell * n + n - 1].len());
+            for (k, o) in sh.objects.iter().enumerate() {
+                let sigma = match o.shape {
+                    ShellShape::Sphere(j) => {
+                        let b = &s.spheres[j as usize];
+                        sphere_shell(Falloff::Disc, p, l, dist, r, b.center, b.radius)
+                    }
+                    ShellShape::Cone(j) => {
+                        let c = &s.cones[j as usize];
+                        cone_shell(Falloff::Disc, p, l, dist, r, c.base, c.base_radius, c.apex, c.apex_radius)
+                    }
+                    ShellShape::Mesh { .. } => continue,
+                };
+                if sigma < 1.0 {
+                    reached += 1;
+                    assert!(
+                        list.contains(&(k as u32)),
+                        "segment from {p}: object {k} (σ {sigma}) not listed"
+                    );
+                }
+            }
+        }
+        assert!(reached > 1000, "only {reached} shells reached");
+        // Measured: 0.46 (30.4 listed a segment against 66.2 unsliced, of which 1.3 reach it: the
+        // rest are in the cell's cone of directions, not near the segment itself).
+        let ratio = listed as f64 / unsliced as f64;
+        assert!(ratio < 0.6, "the slabs list {ratio:.2} of the unsliced lists");
     }
 
     /// A long thin cylinder is listed along its length only (its capsule's pieces), far fewer

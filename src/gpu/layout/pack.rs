@@ -34,15 +34,17 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 /// - cells: `[start0, count0, start1, count1]`; refs: four `PrimRef`s; macro bits: four words.
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
 /// - shell sections (shell mode only), one per light (`scene::scene_shells`):
-///   `[objects, first cell texel, first list texel, cells per face side]`,
-///   then per object `[bound centre.xyz, bound radius]`, `[prim, a, 0, 0]` where `prim` is the
+///   `[objects, first cell texel, first list texel, cells per face side]`, the depth slabs
+///   (`scene::Slabs`) `[count, near (f32), 1 / log2(ratio) (f32), 0]`, then per object `[bound centre.xyz, bound radius]`, `[prim, a, 0, 0]` where `prim` is the
 ///   `PrimRef` of a sphere or cone (its record is the bound for spheres) or of a mesh's first
 ///   triangle, with `a` its end triangle; then the edge pool: for each cell and each mesh it
 ///   lists, that mesh's contour edges listed in the cell, `[a.xyz, 0]`, `[b.xyz, 0]`; then the
-///   light buffer's cells (`scene::shell_cell`), `[first, cones, meshes, end]` into the list
-///   (its spheres from `first`, its cones from `cones` on, its meshes from `meshes` to `end`), and
-///   the list, four words per texel: sphere and cone object indices, and per mesh three words,
-///   its object index and the first and end texel of its run in the edge pool.
+///   light buffer's cells (`scene::shell_cell`), `[meshes, end, slabs, 0]`: its meshes from
+///   `meshes` to `end` in the list, and the texel of its first depth slab; then the slabs, a
+///   shared block of empty ones and `count` for each cell that lists a sphere or cone,
+///   `[first, cones, end, 0]` (spheres from `first`, cones from `cones` to `end`); then the
+///   list, four words per texel: sphere and cone object indices, and per mesh three words, its
+///   object index and the first and end texel of its run in the edge pool.
 ///
 /// With a BVH (`accel`), its nodes ([`BvhNode`], [`bvh_nodes`]) and references (four per texel)
 /// take the place of the cells, references and macro bits.
@@ -179,13 +181,21 @@ fn push_shells(t: &mut Vec<[u32; 4]>, sh: &LightShells, origin: DVec3) {
             sh.cells[c].iter().filter(|&&k| is_mesh(k)).map(|&k| mesh_edges(c, k).len() as u32).sum::<u32>()
         })
         .sum();
-    let listed: usize =
-        sh.cells.iter().map(|c| c.len() + 2 * c.iter().filter(|&&k| is_mesh(k)).count()).sum();
-    let edge_base = section + 1 + SHELL_OBJECT_TEXELS * sh.objects.len() as u32;
+    let n_slabs = sh.slabs.count as usize;
+    // A cell with no sphere or cone in any slab points at one shared block of empty slabs.
+    let solid_cells: Vec<bool> =
+        sh.slab_cells.chunks(n_slabs).map(|c| c.iter().any(|l| !l.is_empty())).collect();
+    let slab_texels = n_slabs * (1 + solid_cells.iter().filter(|&&x| x).count());
+    let listed: usize = sh.cells.iter().map(|c| 3 * c.len()).sum::<usize>()
+        + sh.slab_cells.iter().map(Vec::len).sum::<usize>();
+    let edge_base = section + SHELL_HEADER_TEXELS + SHELL_OBJECT_TEXELS * sh.objects.len() as u32;
     let cell_base = edge_base + SHELL_EDGE_TEXELS * pool;
-    let list_base = cell_base + sh.cells.len() as u32;
+    let slab_base = cell_base + sh.cells.len() as u32;
+    let list_base = slab_base + slab_texels as u32;
     t.reserve_exact((list_base - section) as usize + listed.div_ceil(4));
     t.push([sh.objects.len() as u32, cell_base, list_base, sh.res]);
+    let f32_word = |x: f64| (x as f32).to_bits();
+    t.push([sh.slabs.count, f32_word(sh.slabs.near), f32_word(sh.slabs.inv_log2_ratio()), 0]);
     for o in &sh.objects {
         t.push(f32_bits(o.center - origin, (o.radius as f32).to_bits()));
         t.push(match o.shape {
@@ -212,24 +222,34 @@ fn push_shells(t: &mut Vec<[u32; 4]>, sh: &LightShells, origin: DVec3) {
         }
     }
     debug_assert_eq!(at, cell_base, "the edge pool ends where the cells begin");
-    // A cell's list holds its spheres, then its cones (object indices), then its meshes (each
-    // three words: object index, its edges' first and end texel), each kind visited by a loop
-    // of its own.
+    // A cell: `[meshes, end, slabs, 0]`, its meshes (each three words: object index, its edges'
+    // first and end texel) in the list from `meshes` to `end`, and the texel of its first slab.
+    // A slab: `[first, cones, end, 0]`, its spheres from `first`, its cones from `cones` to
+    // `end` (object indices). Each kind is visited by a loop of its own.
     let mut list: Vec<u32> = Vec::with_capacity(listed);
     let mut runs = runs.into_iter();
-    for cell in &sh.cells {
+    let mut slab_at = slab_base + n_slabs as u32;
+    for (cell, &solid) in sh.cells.iter().zip(&solid_cells) {
         debug_assert!(cell.windows(2).all(|w| w[0] < w[1]), "a cell's list in object order");
         let first = list.len() as u32;
-        let kind = |k: &u32| sh.objects[*k as usize].shape;
-        list.extend(cell.iter().filter(|k| matches!(kind(k), ShellShape::Sphere(_))));
-        let cones_from = list.len() as u32;
-        list.extend(cell.iter().filter(|k| matches!(kind(k), ShellShape::Cone(_))));
-        let meshes_from = list.len() as u32;
         for _ in cell.iter().filter(|&&k| is_mesh(k)) {
             list.extend(runs.next().expect("a run per listed mesh"));
         }
-        t.push([first, cones_from, meshes_from, list.len() as u32]);
+        t.push([first, list.len() as u32, if solid { slab_at } else { slab_base }, 0]);
+        slab_at += if solid { n_slabs as u32 } else { 0 };
     }
+    t.extend(std::iter::repeat_n([0u32; 4], n_slabs));
+    for (slabs, _) in sh.slab_cells.chunks(n_slabs).zip(&solid_cells).filter(|(_, &solid)| solid) {
+        for slab in slabs {
+            let kind = |k: &u32| sh.objects[*k as usize].shape;
+            let first = list.len() as u32;
+            list.extend(slab.iter().filter(|k| matches!(kind(k), ShellShape::Sphere(_))));
+            let cones_from = list.len() as u32;
+            list.extend(slab.iter().filter(|k| matches!(kind(k), ShellShape::Cone(_))));
+            t.push([first, cones_from, list.len() as u32, 0]);
+        }
+    }
+    debug_assert_eq!(t.len() as u32, list_base, "the slabs end where the list begins");
     for chunk in list.chunks(4) {
         let mut texel = [0u32; 4];
         texel[..chunk.len()].copy_from_slice(chunk);

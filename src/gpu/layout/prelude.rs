@@ -18,6 +18,7 @@ pub fn wgsl_constants() -> String {
     s += &c("NORMAL_TEXELS", NORMAL_TEXELS);
     s += &c("MATERIAL_TEXELS", MATERIAL_TEXELS);
     s += &c("CONE_TEXELS", CONE_TEXELS);
+    s += &c("SHELL_HEADER_TEXELS", SHELL_HEADER_TEXELS);
     s += &c("SHELL_OBJECT_TEXELS", SHELL_OBJECT_TEXELS);
     s += &c("SHELL_EDGE_TEXELS", SHELL_EDGE_TEXELS);
     s += &c("SHELL_DIRECT_TRIANGLES", crate::scene::SHELL_DIRECT_TRIANGLES);
