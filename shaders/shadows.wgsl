@@ -93,30 +93,35 @@ fn edge_shell(f: u32, inside: bool, d: vec2f, dist: f32, light_r: f32) -> f32 {
     return straddle(f, select(d.x, -d.x, inside), b);
 }
 
-// Nearest of three edges to the segment o + t l, t in [0, dist]: (distance, t).
-fn triangle_edges(o: vec3f, l: vec3f, dist: f32, p0: vec3f, p1: vec3f, p2: vec3f) -> vec2f {
-    var best = segment_distance(o, l, dist, p0, p1);
-    let e1 = segment_distance(o, l, dist, p1, p2);
-    let e2 = segment_distance(o, l, dist, p2, p0);
-    best = select(best, e1, e1.x < best.x);
-    return select(best, e2, e2.x < best.x);
+// `d` = (distance, t) of an edge from `segment_distance`: its distance in units of the shell's
+// width there (d / b, b = r t / D; BIG where b = 0), the key of `nearest_edge` (reference).
+fn edge_reach(d: vec2f, dist: f32, light_r: f32) -> f32 {
+    return select(BIG, d.x * dist / (light_r * d.y), d.y > 0.0);
 }
 
 // Transparency of a lone triangle's shell (a mesh of one triangle: its contour is its three
 // edges) and the t of closest approach; `inside`: the segment hits the triangle.
 fn triangle_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, inside: bool, p0: vec3f, p1: vec3f, p2: vec3f) -> vec2f {
-    let best = triangle_edges(o, l, dist, p0, p1, p2);
+    var best = segment_distance(o, l, dist, p0, p1);
+    let e1 = segment_distance(o, l, dist, p1, p2);
+    let e2 = segment_distance(o, l, dist, p2, p0);
+    best = select(best, e1, edge_reach(e1, dist, light_r) < edge_reach(best, dist, light_r));
+    best = select(best, e2, edge_reach(e2, dist, light_r) < edge_reach(best, dist, light_r));
     return vec2f(edge_shell(f, inside, best, dist, light_r), best.y);
 }
 
 // Transparency of a mesh's shell from its contour edges (texels [first, end), two per edge:
-// end points a, b) seen from the light; `inside`: the segment hits the mesh.
+// end points a, b) seen from the light, by the edge whose penumbra reaches the segment most
+// (`nearest_edge`, reference); `inside`: the segment hits the mesh.
 fn mesh_shell(f: u32, o: vec3f, l: vec3f, dist: f32, light_r: f32, inside: bool, first: u32, end: u32) -> f32 {
     var best = vec2f(BIG, 0.0);
+    var key = BIG;
     for (var e = first; e < end; e += SHELL_EDGE_TEXELS) {
         loop_tick(LOOP_CANDIDATES);
         let d = segment_distance(o, l, dist, ftexel(e).xyz, ftexel(e + 1u).xyz);
-        best = select(best, d, d.x < best.x);
+        let k = edge_reach(d, dist, light_r);
+        best = select(best, d, k < key);
+        key = min(key, k);
     }
     return edge_shell(f, inside, best, dist, light_r);
 }

@@ -64,20 +64,32 @@ pub fn edge_shell(f: Falloff, inside: bool, (d, t): (f64, f64), dist: f64, light
     straddle(f, if inside { -d } else { d }, b)
 }
 
-/// Nearest of a triangle's three edges to the segment `p + t l`, `t ∈ [0, dist]`: (distance, t).
-pub fn triangle_edges(p: DVec3, l: DVec3, dist: f64, tri: [DVec3; 3]) -> (f64, f64) {
-    let mut best = (f64::INFINITY, 0.0);
-    for i in 0..3 {
-        let e = segment_distance(p, l, dist, tri[i], tri[(i + 1) % 3]);
-        if e.0 < best.0 {
-            best = e;
+/// Of `edges`, the one whose penumbra reaches the segment `p + t l`, `t ∈ [0, dist]`, the most:
+/// the least distance in units of the shell's width at its closest point (`d / b`, `b = r t /
+/// D`), as `(d, t)`. σ depends on `d / b` alone, so two edges tied on it give the same σ, and an
+/// edge beyond its own width changes nothing while another is within its own. The plain nearest
+/// edge would take a near one where the cone is thin over a farther one that casts the
+/// penumbra (docs/shadows.md, Shell objects).
+pub fn nearest_edge(
+    p: DVec3,
+    l: DVec3,
+    dist: f64,
+    light_r: f64,
+    edges: impl IntoIterator<Item = [DVec3; 2]>,
+) -> (f64, f64) {
+    let (mut best, mut key) = ((f64::INFINITY, 0.0), f64::INFINITY);
+    for [a, b] in edges {
+        let e = segment_distance(p, l, dist, a, b);
+        let k = if e.1 > 0.0 { e.0 * dist / (light_r * e.1) } else { f64::INFINITY };
+        if k < key {
+            (best, key) = (e, k);
         }
     }
     best
 }
 
-/// Transparency of a lone triangle's shell (a mesh of one triangle); `inside`: the segment hits
-/// it.
+/// Transparency of a lone triangle's shell (a mesh of one triangle: its contour is its three
+/// edges); `inside`: the segment hits it.
 pub fn triangle_shell(
     f: Falloff,
     p: DVec3,
@@ -87,11 +99,12 @@ pub fn triangle_shell(
     inside: bool,
     tri: [DVec3; 3],
 ) -> f64 {
-    edge_shell(f, inside, triangle_edges(p, l, dist, tri), dist, light_r)
+    let edges = [[tri[0], tri[1]], [tri[1], tri[2]], [tri[2], tri[0]]];
+    edge_shell(f, inside, nearest_edge(p, l, dist, light_r, edges), dist, light_r)
 }
 
-/// Transparency of a mesh's shell from its contour `edges` seen from the light; `inside`: the
-/// segment hits the mesh.
+/// Transparency of a mesh's shell from its contour `edges` seen from the light ([`nearest_edge`]);
+/// `inside`: the segment hits the mesh.
 pub fn mesh_shell(
     f: Falloff,
     p: DVec3,
@@ -101,14 +114,7 @@ pub fn mesh_shell(
     inside: bool,
     edges: &[[DVec3; 2]],
 ) -> f64 {
-    let mut best = (f64::INFINITY, 0.0);
-    for [a, b] in edges {
-        let e = segment_distance(p, l, dist, *a, *b);
-        if e.0 < best.0 {
-            best = e;
-        }
-    }
-    edge_shell(f, inside, best, dist, light_r)
+    edge_shell(f, inside, nearest_edge(p, l, dist, light_r, edges.iter().copied()), dist, light_r)
 }
 
 /// Transparency of a cone's shell (docs/shadows.md, Cone). From the closest approach of the
@@ -208,6 +214,26 @@ pub fn stratified_disc(i: u32, j: u32, n: u32) -> DVec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A shadow ray from the origin up to a light 10 away (radius 1): an edge 0.05 beside it at
+    /// height 0.1, where the shell is 0.01 wide, and one 0.3 beside it at height 5, where it is
+    /// 0.5 wide. The first is nearer but its penumbra does not reach the ray; the second's does,
+    /// and is the one that shadows it.
+    #[test]
+    fn the_edge_whose_penumbra_reaches_furthest_is_taken() {
+        let (p, l, dist, r) = (DVec3::ZERO, DVec3::Y, 10.0, 1.0);
+        let low = [DVec3::new(0.05, 0.1, -1.0), DVec3::new(0.05, 0.1, 1.0)];
+        let high = [DVec3::new(0.3, 5.0, -1.0), DVec3::new(0.3, 5.0, 1.0)];
+        let (d, t) = nearest_edge(p, l, dist, r, [low, high]);
+        assert!((d - 0.3).abs() < 1e-12 && (t - 5.0).abs() < 1e-12, "({d}, {t})");
+        let sigma = mesh_shell(Falloff::Disc, p, l, dist, r, false, &[low, high]);
+        assert!(sigma > 0.6 && sigma < 0.9, "σ {sigma}: the high edge's partial shadow");
+        // Nearest by distance alone it would have been the low edge: fully lit.
+        assert_eq!(
+            edge_shell(Falloff::Disc, false, segment_distance(p, l, dist, low[0], low[1]), dist, r),
+            1.0
+        );
+    }
 
     #[test]
     fn frame_is_orthonormal() {
