@@ -49,8 +49,9 @@ pub struct LightShells {
     pub cells: Vec<Vec<u32>>,
     /// Per cell, the contour edges (indices into `edges`, in order, so grouped by mesh) that a
     /// shadow segment in that direction can pass within the light's radius of. An edge farther
-    /// than that from the segment is never a mesh's nearest within the shell's width `b < r`,
-    /// where σ is 0 or 1 whichever edge is nearest, so leaving it out changes no result either.
+    /// than that from the segment is beyond the shell's width `b < r`, where a mesh's σ is 0 or
+    /// 1 unless a nearer edge is within its own (`reference::shadows::nearest_edge`), so leaving
+    /// it out changes no result either.
     pub cell_edges: Vec<Vec<u32>>,
     /// The depth slabs that cut each cell's spheres and cones by the shadow segment's length.
     pub slabs: Slabs,
@@ -447,8 +448,8 @@ struct Buffer {
 
 fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: f64) -> LightShells {
     let mut out = LightShells::default();
-    // Each object's pieces, ungrown: spheres and cones (by depth slab), then meshes (in every
-    // slab alike: a mesh's σ comes from its nearest edge, which no narrower list may change).
+    // Each object's pieces: spheres and cones ungrown (each depth slab grows them by what it
+    // needs), then meshes grown by the light's whole radius, one list per cell for every slab.
     let mut pieces: Vec<Vec<(DVec3, f64)>> = vec![];
     for (i, s) in scene.spheres.iter().enumerate() {
         out.objects.push(ShellObject {
