@@ -217,6 +217,18 @@ fn shell_slab(dist: f32, slabs: vec4u) -> u32 {
     return u32(clamp(ceil(log2(dist / near) * bitcast<f32>(slabs.z)), 0.0, f32(slabs.x - 1u)));
 }
 
+// The part (entry, exit) of the segment o + t l, t in [lo, hi], inside the box c ± half; entry >
+// exit where it misses (`ShellObject::crosses_box`). A zero component of l is taken as 1e-20
+// (the same side of each slab, without 0 × inf).
+fn segment_box(o: vec3f, l: vec3f, lo: f32, hi: f32, c: vec3f, half: vec3f) -> vec2f {
+    let inv = 1.0 / select(l, vec3f(1.0e-20), l == vec3f(0.0));
+    let t0 = (c - half - o) * inv;
+    let t1 = (c + half - o) * inv;
+    let near = min(t0, t1);
+    let far = max(t0, t1);
+    return vec2f(max(lo, max(near.x, max(near.y, near.z))), min(hi, min(far.x, min(far.y, far.z))));
+}
+
 // Object `at` of a light-buffer list (object indices, four per texel from `list`).
 fn shell_listed(list: u32, at: u32) -> u32 {
     return texel(list + at / 4u)[at % 4u];
@@ -309,15 +321,17 @@ fn shell_visibility(o: vec3f, c: vec3f, light_r: f32, gap: f32, section: u32) ->
             let k = shell_listed(list, j);
             let bound = ftexel(objects + SHELL_OBJECT_TEXELS * k);
             let rec = texel(objects + 1u + SHELL_OBJECT_TEXELS * k);
-            // Its shell lies within its bounding sphere grown by the light's radius (and a
-            // segment through one of its triangles passes within its bound). A small mesh's
-            // triangles are tested here, a large one's hit comes from the walk.
+            // Its shell lies within its bounding sphere grown by the light's radius, and a
+            // segment through one of its triangles passes through its bounding box. A small
+            // mesh's triangles are tested here where the segment crosses its box (a floor under
+            // the light: never for the points above it), a large one's hit comes from the walk.
             let first = prim_index(rec.x);
             let direct = rec.y - first <= SHELL_DIRECT_TRIANGLES;
             var inside = !direct && hit_tri >= first && hit_tri < rec.y;
             let tc = clamp(dot(bound.xyz - o, l), 0.0, dist);
             let near = length(bound.xyz - (o + tc * l)) < bound.w + light_r;
-            for (var i = first; i < select(first, rec.y, direct && near); i++) {
+            let span = segment_box(o, l, 0.0, dist - gap, bound.xyz, ftexel(objects + 2u + SHELL_OBJECT_TEXELS * k).xyz);
+            for (var i = first; i < select(first, rec.y, direct && span.x <= span.y); i++) {
                 loop_tick(LOOP_CANDIDATES);
                 let tri = load_triangle(i);
                 inside = inside || intersect_triangle(o, l, tri.p0, tri.p1, tri.p2, 0.0, dist - gap).x != MISS;

@@ -28,6 +28,10 @@ pub enum ShellShape {
 pub struct ShellObject {
     pub center: DVec3,
     pub radius: f64,
+    /// A mesh's bounding box, `center ± half` (zero for spheres and cones): a segment that does
+    /// not pass through it hits none of the mesh's triangles, so the GPU tests a small mesh's
+    /// triangles only where it does (a floor under the light: never for the points above it).
+    pub half: DVec3,
     pub shape: ShellShape,
 }
 
@@ -137,6 +141,26 @@ impl Slabs {
         }
         let reach = if far.is_finite() { r * (1.0 - s_min / far) } else { r };
         Some((q, radius + reach))
+    }
+}
+
+impl ShellObject {
+    /// Whether the segment `p + t l`, `t ∈ [0, len]`, passes through the object's bounding box
+    /// (a mesh's; the shader's `segment_box` is the same test, its box grown for f32 rounding).
+    pub fn crosses_box(&self, p: DVec3, l: DVec3, len: f64) -> bool {
+        let (mut a, mut b) = (0.0f64, len);
+        for k in 0..3 {
+            let (lo, hi) = (self.center[k] - self.half[k] - p[k], self.center[k] + self.half[k] - p[k]);
+            if l[k] == 0.0 {
+                if lo > 0.0 || hi < 0.0 {
+                    return false;
+                }
+                continue;
+            }
+            let (t0, t1) = (lo / l[k], hi / l[k]);
+            (a, b) = (a.max(t0.min(t1)), b.min(t0.max(t1)));
+        }
+        a <= b
     }
 }
 
@@ -455,6 +479,7 @@ fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: 
         out.objects.push(ShellObject {
             center: s.center,
             radius: s.radius,
+            half: DVec3::ZERO,
             shape: ShellShape::Sphere(i as u32),
         });
         pieces.push(vec![(s.center, s.radius)]);
@@ -463,7 +488,12 @@ fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: 
         let center = (c.base + c.apex) / 2.0;
         let widest = c.base_radius.max(c.apex_radius);
         let radius = (c.apex - c.base).length() / 2.0 + widest;
-        out.objects.push(ShellObject { center, radius, shape: ShellShape::Cone(i as u32) });
+        out.objects.push(ShellObject {
+            center,
+            radius,
+            half: DVec3::ZERO,
+            shape: ShellShape::Cone(i as u32),
+        });
         pieces.push(capsule(c.base, c.apex, widest));
     }
     let solids = pieces.len();
@@ -480,7 +510,8 @@ fn shells_for(scene: &Scene, occluders: &Occluders, light: DVec3, light_radius: 
         let radius = m.positions.iter().map(|p| p.distance(center)).fold(0.0, f64::max);
         let shape = ShellShape::Mesh { triangles: [first, end], edges: [edge_first, out.edges.len() as u32] };
         if end > first {
-            out.objects.push(ShellObject { center, radius, shape });
+            let half = if m.positions.is_empty() { DVec3::ZERO } else { (hi - lo) / 2.0 };
+            out.objects.push(ShellObject { center, radius, half, shape });
             pieces.push(vec![(center, radius + light_radius)]);
         }
         first = end;

@@ -200,7 +200,7 @@ pub fn pilot(scene: &Scene, shells: Option<&[LightShells]>) -> Vec<Estimate> {
                 counts[2] += 1.0;
                 counts[3] += walk;
                 if let Some(sh) = shells {
-                    for (a, b) in counts[4..].iter_mut().zip(shell_ray_counts(&sh[i], l, dist, walk)) {
+                    for (a, b) in counts[4..].iter_mut().zip(shell_ray_counts(&sh[i], so, l, dist, walk)) {
                         *a += b;
                     }
                 }
@@ -228,10 +228,11 @@ pub fn pilot(scene: &Scene, shells: Option<&[LightShells]>) -> Vec<Estimate> {
         .collect()
 }
 
-/// What a shell ray `dist` long in direction `l` to the light (from the light: `-l`) visits in
-/// `sh`'s light buffer: [rays, spheres, cones, meshes, contour edges, triangles tested, walk];
-/// `walk` is what the hard ray's walk visited (a mesh the GPU walks costs that), its weight 1.
-fn shell_ray_counts(sh: &LightShells, l: DVec3, dist: f64, walk: f64) -> [f64; 7] {
+/// What a shell ray from `p`, `dist` long in direction `l` to the light (from the light: `-l`)
+/// visits in `sh`'s light buffer: [rays, spheres, cones, meshes, contour edges, triangles tested
+/// (a small mesh's, where the ray crosses its box), walk]; `walk` is what the hard ray's walk
+/// visited (a mesh the GPU walks costs that), its weight 1.
+fn shell_ray_counts(sh: &LightShells, p: DVec3, l: DVec3, dist: f64, walk: f64) -> [f64; 7] {
     let c = shell_cell(-l, sh.res) as usize;
     let mut n = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
     let mut walks = false;
@@ -245,7 +246,7 @@ fn shell_ray_counts(sh: &LightShells, l: DVec3, dist: f64, walk: f64) -> [f64; 7
                 n[4] += sh.cell_edges[c].iter().filter(|&&e| e >= e0 && e < e1).count() as f64;
                 let direct = b - a <= SHELL_DIRECT_TRIANGLES;
                 walks |= !direct;
-                if direct {
+                if direct && sh.objects[k as usize].crosses_box(p, l, dist) {
                     n[5] += (b - a) as f64;
                 }
             }

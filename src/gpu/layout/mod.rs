@@ -43,8 +43,8 @@ pub const MATERIAL_TEXELS: u32 = 2;
 pub const CONE_TEXELS: u32 = 3;
 /// A light's shell section (shell shadow mode) starts with its header and its depth slabs.
 pub const SHELL_HEADER_TEXELS: u32 = 2;
-/// A shell object (shell shadow mode): bounding sphere, record.
-pub const SHELL_OBJECT_TEXELS: u32 = 2;
+/// A shell object (shell shadow mode): bounding sphere, record, a mesh's bounding box.
+pub const SHELL_OBJECT_TEXELS: u32 = 3;
 /// A mesh's contour edge (shell shadow mode): its two end points.
 pub const SHELL_EDGE_TEXELS: u32 = 2;
 pub const UV_TEXELS: u32 = 2;

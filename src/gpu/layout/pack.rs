@@ -37,7 +37,8 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 ///   `[objects, first cell texel, first list texel, cells per face side]`, the depth slabs
 ///   (`scene::Slabs`) `[count, near (f32), 1 / log2(ratio) (f32), 0]`, then per object `[bound centre.xyz, bound radius]`, `[prim, a, 0, 0]` where `prim` is the
 ///   `PrimRef` of a sphere or cone (its record is the bound for spheres) or of a mesh's first
-///   triangle, with `a` its end triangle; then the edge pool: for each cell and each mesh it
+///   triangle, with `a` its end triangle, `[half.xyz, 0]` a mesh's bounding box about the
+///   bound's centre (zero for spheres and cones); then the edge pool: for each cell and each mesh it
 ///   lists, that mesh's contour edges listed in the cell, `[a.xyz, 0]`, `[b.xyz, 0]`; then the
 ///   light buffer's cells (`scene::shell_cell`), `[meshes, end, slabs, 0]`: its meshes from
 ///   `meshes` to `end` in the list, and the texel of its first depth slab; then the slabs, a
@@ -205,6 +206,12 @@ fn push_shells(t: &mut Vec<[u32; 4]>, sh: &LightShells, origin: DVec3) {
                 [PrimRef::new(PrimKind::Triangle, triangles[0]).0, triangles[1], 0, 0]
             }
         });
+        // The box's half extent, grown by 10⁻⁶ of its size and distance from the origin (f32
+        // rounding of camera-relative positions is 6·10⁻⁸ of them), well within the 10⁻⁴ by
+        // which shadow rays start off their surface.
+        let pad = 1e-6 * ((o.center - origin).abs().max_element() + o.half.max_element());
+        let half = if o.half == DVec3::ZERO { o.half } else { o.half + pad };
+        t.push(f32_bits(half, 0));
     }
     // The edge pool: each cell's edges of each mesh it lists, one run per (cell, mesh).
     let mut runs = vec![];
