@@ -341,3 +341,29 @@ impl Blit {
         pass.draw(0..3, 0..1);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    /// [`BlitUniform`] and the shader's `Blit` have the same members at the same offsets.
+    #[test]
+    fn the_uniform_matches_the_shaders_struct() {
+        let module = naga::front::wgsl::parse_str(&shader()).expect("the blit shader parses");
+        let ty = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("Blit")).expect("struct Blit").1;
+        let naga::TypeInner::Struct { members, span } = &ty.inner else { panic!("Blit is not a struct") };
+        let got: Vec<(&str, u32)> =
+            members.iter().map(|m| (m.name.as_deref().unwrap_or(""), m.offset)).collect();
+        let want = [
+            ("render", offset_of!(BlitUniform, render)),
+            ("window", offset_of!(BlitUniform, window)),
+            ("encode_srgb", offset_of!(BlitUniform, encode_srgb)),
+            ("blocks_x", offset_of!(BlitUniform, blocks_x)),
+            ("_pad0", offset_of!(BlitUniform, _pad0)),
+            ("_pad1", offset_of!(BlitUniform, _pad1)),
+        ];
+        assert_eq!(got, want.map(|(n, o)| (n, o as u32)));
+        assert_eq!(*span as usize, size_of::<BlitUniform>());
+    }
+}

@@ -267,7 +267,8 @@ pub fn choose_soft(scene: &Scene) -> SoftChoice {
         return SoftChoice { mode: ShadowMode::Hard, estimates: vec![], why: "point lights only".into() };
     }
     // Where even the finest light buffer would list scores of shells per cell, skip building
-    // it (balls_s5's would take a minute; a shell frame there costs 101x a hard one, with the depth slabs).
+    // it (balls_s5's would take a minute; a shell frame there costs 101x a hard one, depth
+    // slabs and all).
     let crowd = crowded(scene);
     let shells = if crowd.is_none() { Some(scene_shells(scene)) } else { None };
     let estimates = pilot(scene, shells.as_deref());

@@ -508,7 +508,7 @@ fn shell_cells_match_the_host() {
 /// The depth slab of a shadow segment's length, GPU against `scene::Slabs::of`, for slabs as
 /// lights get them (near and ratio of SPD tree's and balls' lights, and a light inside its
 /// scene): the same slab except within 1e-5 of a boundary (the host grows each slab's longest
-/// segment by 1e-3 for that), and never a shorter slab than the host's by more than that.
+/// segment by 1e-3 for that).
 #[test]
 fn shell_slabs_match_the_host() {
     let ctx = gpu();

@@ -35,10 +35,11 @@ pub fn sphere_anchor(center: DVec3, radius: f64, eye: DVec3) -> DVec3 {
 /// - shadow-bundle points (bundle mode only): `[x0, y0, x1, y1]` on the unit disc.
 /// - shell sections (shell mode only), one per light (`scene::scene_shells`):
 ///   `[objects, first cell texel, first list texel, cells per face side]`, the depth slabs
-///   (`scene::Slabs`) `[count, near (f32), 1 / log2(ratio) (f32), 0]`, then per object `[bound centre.xyz, bound radius]`, `[prim, a, 0, 0]` where `prim` is the
-///   `PrimRef` of a sphere or cone (its record is the bound for spheres) or of a mesh's first
-///   triangle, with `a` its end triangle, `[half.xyz, 0]` a mesh's bounding box about the
-///   bound's centre (zero for spheres and cones); then the edge pool: for each cell and each mesh it
+///   (`scene::Slabs`) `[count, near (f32), 1 / log2(ratio) (f32), 0]`, then per object
+///   `[bound centre.xyz, bound radius]`, `[prim, a, 0, 0]` where `prim` is the `PrimRef` of a
+///   sphere or cone (its record is the bound for spheres) or of a mesh's first triangle, with
+///   `a` its end triangle, and `[half.xyz, 0]`, a mesh's bounding box about the bound's centre
+///   (zero for spheres and cones); then the edge pool: for each cell and each mesh it
 ///   lists, that mesh's contour edges listed in the cell, `[a.xyz, 0]`, `[b.xyz, 0]`; then the
 ///   light buffer's cells (`scene::shell_cell`), `[meshes, end, slabs, 0]`: its meshes from
 ///   `meshes` to `end` in the list, and the texel of its first depth slab; then the slabs, a
