@@ -11,6 +11,7 @@ pub mod app;
 pub mod dist;
 mod error;
 pub mod farm;
+pub mod fault;
 pub mod gpu;
 pub mod image;
 pub mod io;

@@ -43,6 +43,14 @@ pub enum GpuError {
     WorkTooLarge { bytes: u64, size: u64 },
     #[error("a scene texture that became layered needs a recompiled kernel")]
     LayeredRebind,
+    #[error(
+        "a {width}x{height} frame is more than this device's frame buffers hold ({most} pixels, its \
+         largest storage binding in vec4s): the interactive modes trace at most that many pixels at \
+         once (irt render traces larger pictures in pieces)"
+    )]
+    FrameTooLarge { width: u32, height: u32, most: u64 },
+    #[error(transparent)]
+    Device(#[from] super::failure::DeviceFailure),
     #[error(transparent)]
     Vulkan(#[from] VkError),
 }
@@ -117,17 +125,22 @@ impl<T> DeviceScene<T> {
 
 /// A compiled kernel bound to a scene, on some device path: what runs recordings.
 pub trait BoundKernel {
-    /// What fails on this path (`Infallible` for wgpu, whose errors surface as device loss).
-    type Error: std::error::Error + Send + Sync + Into<GpuError> + 'static;
+    /// What fails on this path.
+    type Error: std::error::Error + Send + Sync + Into<GpuError> + From<GpuError> + 'static;
     /// Zeroes the ray counters.
     fn reset_counts(&self) -> Result<(), Self::Error>;
     /// Runs `d` and waits for it.
     fn dispatch(&self, d: &super::recording::Dispatch) -> Result<(), Self::Error>;
-    /// `read` of the output buffer and the ray counters, where the device left them (no copy).
-    fn read_output_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, Self::Error>;
+    /// `read` of the first `len` vec4s of the output buffer (clamped to it) and the ray
+    /// counters, where the device left them (no copy).
+    fn read_output_with<T>(
+        &self,
+        len: u64,
+        read: impl FnOnce(&[[f32; 4]], RayCounts) -> T,
+    ) -> Result<T, Self::Error>;
     /// A copy of the output buffer, and the ray counters.
     fn read_output(&self) -> Result<(Vec<[f32; 4]>, RayCounts), Self::Error> {
-        self.read_output_with(|out, rays| (out.to_vec(), rays))
+        self.read_output_with(u64::MAX, |out, rays| (out.to_vec(), rays))
     }
     /// Restarts the tile queue.
     fn reset_queue(&self) -> Result<(), Self::Error>;
@@ -162,7 +175,7 @@ pub trait BoundKernel {
 /// updating in place are the provided methods, the same on every path.
 pub trait Device {
     /// What a dispatch or readback can fail with.
-    type Error: std::error::Error + Send + Sync + Into<GpuError> + 'static;
+    type Error: std::error::Error + Send + Sync + Into<GpuError> + From<GpuError> + 'static;
     /// The path's scene texture and frame-constant buffer.
     type Texture;
     /// A compiled kernel bound to a scene and its buffers.
@@ -193,6 +206,10 @@ pub trait Device {
     fn has_f64(&self) -> bool;
     /// The largest 2D texture side, and the most array layers.
     fn texture_limits(&self) -> (u32, u32);
+    /// The most bytes one storage buffer binding may cover (the device's largest storage
+    /// binding, and largest buffer): what the output, frame and work buffers are sized within
+    /// (a picture past it is traced in pieces, `render::pieces`).
+    fn max_binding_bytes(&self) -> u64;
     /// A scene texture of `extent`, its frame constants `params`; nothing written yet.
     fn allocate_texture(&self, extent: &SceneExtent, params: &Params) -> Result<Self::Texture, GpuError>;
     /// Writes `texels` (consumed: freed band by band as they reach the device) into the rows of

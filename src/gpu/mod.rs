@@ -12,6 +12,7 @@
 pub mod adapter;
 pub mod bindings;
 pub mod device;
+pub mod failure;
 pub mod instance;
 pub mod layout;
 pub mod output;
@@ -25,6 +26,7 @@ pub mod wgpu;
 pub use self::wgpu::{CacheSetting, Dispatcher, GpuContext, GpuScene};
 pub use adapter::AdapterChoice;
 pub use device::{Backend, BoundKernel, Device, DeviceScene, GpuError, ModeBuffers};
+pub use failure::{DeviceFailure, FailureKind};
 pub use instance::vulkan_instance;
 pub use output::{RayCounts, SimdCount};
 pub use recording::{Command, Dispatch, Recording};

@@ -139,8 +139,12 @@ impl BoundKernel for VkBound<'_> {
     fn dispatch(&self, d: &Dispatch) -> Result<(), VkError> {
         self.0.run(&d.entry, d.launch, d.groups)
     }
-    fn read_output_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, VkError> {
-        self.0.read_with(read)
+    fn read_output_with<T>(
+        &self,
+        len: u64,
+        read: impl FnOnce(&[[f32; 4]], RayCounts) -> T,
+    ) -> Result<T, VkError> {
+        self.0.read_with(len, read)
     }
     fn reset_queue(&self) -> Result<(), VkError> {
         self.0.reset_queue()
@@ -179,6 +183,9 @@ impl Device for VkContext {
     }
     fn texture_limits(&self) -> (u32, u32) {
         (self.shared.caps.max_texture_dimension_2d, self.shared.caps.max_texture_array_layers)
+    }
+    fn max_binding_bytes(&self) -> u64 {
+        self.shared.caps.max_binding_bytes
     }
     fn allocate_texture(&self, extent: &SceneExtent, params: &Params) -> Result<SceneImage, GpuError> {
         Ok(SceneImage::new(self, extent, params)?)

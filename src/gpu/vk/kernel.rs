@@ -602,9 +602,14 @@ impl VkDispatcher {
         })
     }
 
-    /// `read` of the output buffer and the ray counters, in the mapped readback memory.
-    pub fn read_with<T>(&self, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> Result<T, VkError> {
-        let out_bytes = self.out_len * 16;
+    /// `read` of the first `len` vec4s of the output buffer (clamped to it) and the ray
+    /// counters, in the mapped readback memory.
+    pub fn read_with<T>(
+        &self,
+        len: u64,
+        read: impl FnOnce(&[[f32; 4]], RayCounts) -> T,
+    ) -> Result<T, VkError> {
+        let out_bytes = self.out_len.min(len) * 16;
         self.shared.submit("the readback", |d, cmd| {
             // SAFETY: recording into the command buffer `submit` began.
             unsafe {

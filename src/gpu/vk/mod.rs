@@ -40,6 +40,18 @@ pub enum VkError {
     Shader(String),
     #[error("{0}")]
     Other(String),
+    /// A failure the device-neutral layer found (a frame larger than the buffers).
+    #[error("{0}")]
+    Neutral(String),
+}
+
+impl From<crate::gpu::GpuError> for VkError {
+    fn from(e: crate::gpu::GpuError) -> Self {
+        match e {
+            crate::gpu::GpuError::Vulkan(v) => v,
+            other => VkError::Neutral(other.to_string()),
+        }
+    }
 }
 
 /// How the ash path opens its device and makes its pipelines: the raw-Vulkan levers of
@@ -103,6 +115,9 @@ pub(crate) struct Caps {
     pub zero_init_workgroup: bool,
     pub max_texture_dimension_2d: u32,
     pub max_texture_array_layers: u32,
+    /// The most bytes one storage buffer binding covers (`maxStorageBufferRange`, and Vulkan
+    /// 1.3's `maxBufferSize` where the device has it).
+    pub max_binding_bytes: u64,
     /// The levers the device was opened with ([`VkOptions`]).
     pub options: VkOptions,
     /// Timestamps and pipeline statistics, where `options.profile` asked and the device has them.
@@ -483,10 +498,19 @@ impl VkContext {
             let info = infos[index].clone();
             let props = instance.get_physical_device_properties(pd);
             let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+            let mut maintenance4 = vk::PhysicalDeviceMaintenance4Properties::default();
             if props.api_version >= vk::API_VERSION_1_1 {
                 let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup);
+                if props.api_version >= vk::API_VERSION_1_3 {
+                    p2 = p2.push_next(&mut maintenance4);
+                }
                 instance.get_physical_device_properties2(pd, &mut p2);
             }
+            // Vulkan 1.3's largest buffer; before it, only the allocation limit bounds one.
+            let max_buffer_size = match maintenance4.max_buffer_size {
+                0 => u64::MAX,
+                n => n,
+            };
             let subgroup_size = (subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
                 && subgroup
                     .supported_operations
@@ -545,6 +569,7 @@ impl VkContext {
                     .min(props.limits.max_framebuffer_width)
                     .min(props.limits.max_framebuffer_height),
                 max_texture_array_layers: props.limits.max_image_array_layers,
+                max_binding_bytes: (props.limits.max_storage_buffer_range as u64).min(max_buffer_size),
                 options,
                 queries,
                 subgroup_size,

@@ -4,7 +4,10 @@ use super::cache::{CacheSetting, DiskCache};
 use crate::gpu::adapter::{
     choose_adapter, mesa_version, AdapterChoice, AdapterFacts, ContextError, MIN_FAST_MESA,
 };
+use crate::gpu::failure::{DeviceFailure, FailureKind};
+use crate::gpu::GpuError;
 use std::fmt;
+use std::sync::{Arc, Mutex};
 
 /// An open device and queue, and what they are.
 pub struct GpuContext {
@@ -16,6 +19,9 @@ pub struct GpuContext {
     pub pipeline_cache: Option<DiskCache>,
     /// What the pipeline cache is doing, in words (`irt info`).
     pub cache_status: String,
+    /// The device's first failure (a validation error, an allocation it could not make, its
+    /// loss), as its error handlers caught it: once failed, every later call reports it.
+    failure: Arc<Mutex<Option<DeviceFailure>>>,
 }
 
 impl fmt::Debug for GpuContext {
@@ -104,7 +110,8 @@ impl GpuContext {
                 "off (this adapter lacks PIPELINE_CACHE; the driver's own shader cache still applies)".into()
             }
         };
-        let ctx = GpuContext { adapter, device, queue, info, pipeline_cache, cache_status };
+        let failure = catch_failures(&device);
+        let ctx = GpuContext { adapter, device, queue, info, pipeline_cache, cache_status, failure };
         if let Some(w) = ctx.old_driver_warning() {
             log::warn!("{w}");
         }
@@ -143,9 +150,72 @@ impl GpuContext {
         }
     }
 
-    /// Blocks until all submitted work is done.
+    /// Blocks until all submitted work is done; a device lost meanwhile is recorded (and
+    /// reported by [`GpuContext::check`]).
     pub fn wait(&self) {
-        // An error here means the device was lost; the next call reports it with context.
-        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+        if let Err(e) = self.device.poll(wgpu::PollType::wait_indefinitely()) {
+            self.fail(DeviceFailure::new(FailureKind::Lost, e.to_string()));
+        }
     }
+
+    /// The device's first failure, if it has failed.
+    pub fn failure(&self) -> Option<DeviceFailure> {
+        self.failure.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// `Err` once the device has failed: what every call on this path ends with, so that a
+    /// failure is reported where it happened instead of as garbage later.
+    pub fn check(&self) -> Result<(), GpuError> {
+        match self.failure() {
+            Some(f) => Err(GpuError::Device(f)),
+            None => Ok(()),
+        }
+    }
+
+    /// The slot failures are recorded in, for callbacks that outlive a borrow of the context.
+    pub(super) fn failure_slot(&self) -> Arc<Mutex<Option<DeviceFailure>>> {
+        self.failure.clone()
+    }
+
+    /// Records `f` unless an earlier failure is recorded.
+    pub(super) fn fail(&self, f: DeviceFailure) {
+        self.failure.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(f);
+    }
+
+    /// Test hook (`IRT_FAULT=device-lost`): destroys the device, as a driver reset would.
+    pub fn lose_device(&self) {
+        self.device.destroy();
+        self.fail(DeviceFailure::new(FailureKind::Lost, "destroyed (IRT_FAULT=device-lost)"));
+    }
+}
+
+/// Replaces wgpu's default error handler, which panics, with one that records the device's
+/// first failure (and its loss) for [`GpuContext::check`].
+fn catch_failures(device: &wgpu::Device) -> Arc<Mutex<Option<DeviceFailure>>> {
+    let slot: Arc<Mutex<Option<DeviceFailure>>> = Arc::new(Mutex::new(None));
+    let record = |slot: &Arc<Mutex<Option<DeviceFailure>>>, f: DeviceFailure| {
+        slot.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(f);
+    };
+    let s = slot.clone();
+    device.on_uncaptured_error(Arc::new(move |err: wgpu::Error| {
+        let f = match &err {
+            wgpu::Error::OutOfMemory { .. } => DeviceFailure::new(FailureKind::OutOfMemory, err.to_string()),
+            wgpu::Error::Validation { description, .. } => {
+                DeviceFailure::new(FailureKind::Validation, description)
+            }
+            wgpu::Error::Internal { description, .. } => {
+                DeviceFailure::new(FailureKind::Internal, description)
+            }
+        };
+        record(&s, f);
+    }));
+    let s = slot.clone();
+    device.set_device_lost_callback(move |reason, msg| {
+        // Dropping the device at the end of a run is no failure (a test's destroy records its
+        // own, `lose_device`).
+        if reason != wgpu::DeviceLostReason::Destroyed {
+            record(&s, DeviceFailure::new(FailureKind::Lost, format!("{reason:?}: {msg}")));
+        }
+    });
+    slot
 }

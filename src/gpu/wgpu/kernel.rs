@@ -4,6 +4,7 @@
 use super::{storage, uniform, view_dimension, GpuContext, GpuScene};
 use crate::gpu::bindings::{BindingKind, BINDINGS};
 use crate::gpu::device::KernelSpec;
+use crate::gpu::failure::{DeviceFailure, FailureKind};
 use crate::gpu::layout::Launch;
 use crate::gpu::output::{decode_output, RayCounts, STATS_BYTES};
 use crate::gpu::shaders::{self, Variant};
@@ -120,8 +121,13 @@ impl Dispatcher {
         let out_bytes = out_len * 16;
         use wgpu::BufferUsages as U;
         let input_bytes: &[u8] = if inputs.is_empty() { &[0; 16] } else { bytemuck::cast_slice(inputs) };
+        // The test hook of a failed allocation: a buffer past the device's largest.
+        let out_size = match crate::fault::armed("device-alloc") {
+            true => ctx.device.limits().max_buffer_size.saturating_add(1 << 20),
+            false => out_bytes,
+        };
         let buffers = Buffers {
-            out: storage(ctx, "out", out_bytes, U::COPY_SRC),
+            out: storage(ctx, "out", out_size, U::COPY_SRC),
             stats: storage(ctx, "stats", STATS_BYTES, U::COPY_SRC | U::COPY_DST),
             launch: uniform(ctx, "launch", bytemuck::bytes_of(&Launch::default())),
             inputs: {
@@ -194,11 +200,15 @@ impl Dispatcher {
     }
 
     /// Writes `data` at the start of the work buffer (boundary array or pixel order).
-    pub fn write_work(&self, ctx: &GpuContext, data: &[u32]) {
-        assert!(data.len() as u64 * 4 <= self.buffers.work.size(), "work buffer too small");
+    pub fn write_work(&self, ctx: &GpuContext, data: &[u32]) -> Result<(), GpuError> {
+        let (bytes, size) = (data.len() as u64 * 4, self.buffers.work.size());
+        if bytes > size {
+            return Err(GpuError::WorkTooLarge { bytes, size });
+        }
         if !data.is_empty() {
             ctx.queue.write_buffer(&self.buffers.work, 0, bytemuck::cast_slice(data));
         }
+        ctx.check()
     }
 
     /// Restarts the tile queue (takes effect before the next submitted dispatch).
@@ -208,7 +218,7 @@ impl Dispatcher {
 
     /// The tile queue's counter: chunks taken so far (past the last chunk once the queue is
     /// empty).
-    pub fn read_queue(&self, ctx: &GpuContext) -> u32 {
+    pub fn read_queue(&self, ctx: &GpuContext) -> Result<u32, GpuError> {
         self.read_back(ctx, &[(&self.buffers.queue, 0, 16)], |d| bytemuck::cast_slice::<u8, u32>(d)[0])
     }
 
@@ -219,7 +229,8 @@ impl Dispatcher {
         ctx: &GpuContext,
         copies: &[(&wgpu::Buffer, u64, u64)],
         read: impl FnOnce(&[u8]) -> T,
-    ) -> T {
+    ) -> Result<T, GpuError> {
+        ctx.check()?;
         let mut enc = ctx.device.create_command_encoder(&Default::default());
         let mut at = 0;
         for &(buf, offset, bytes) in copies {
@@ -230,15 +241,31 @@ impl Dispatcher {
         }
         ctx.queue.submit([enc.finish()]);
         let slice = self.readback.slice(..at.max(16));
-        slice.map_async(wgpu::MapMode::Read, |r| r.expect("mapping the readback buffer"));
+        let failure = ctx.failure_slot();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            if let Err(e) = r {
+                let f = DeviceFailure::new(FailureKind::Lost, format!("mapping the readback: {e}"));
+                failure.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(f);
+            }
+        });
         ctx.wait();
-        let out = read(&slice.get_mapped_range().expect("readback buffer is mapped")[..at as usize]);
+        ctx.check()?;
+        let mapped = slice.get_mapped_range().map_err(|e| {
+            GpuError::Device(DeviceFailure::new(FailureKind::Lost, format!("mapping the readback: {e}")))
+        })?;
+        let out = read(&mapped[..at as usize]);
+        drop(mapped);
         self.readback.unmap();
-        out
+        Ok(out)
     }
 
     /// Output vec4s `first..first + len` (clamped to the buffer), copied.
-    pub fn read_output_range(&self, ctx: &GpuContext, first: u64, len: u64) -> Vec<[f32; 4]> {
+    pub fn read_output_range(
+        &self,
+        ctx: &GpuContext,
+        first: u64,
+        len: u64,
+    ) -> Result<Vec<[f32; 4]>, GpuError> {
         let (first, len) = (first.min(self.out_len), len.min(self.out_len - first.min(self.out_len)));
         self.read_back(ctx, &[(&self.buffers.out, first * 16, len * 16)], bytemuck::pod_collect_to_vec)
     }
@@ -256,7 +283,14 @@ impl Dispatcher {
     }
 
     /// Runs `entry` over `groups` workgroups with `launch` as its uniform and waits for it.
-    pub fn run(&self, ctx: &GpuContext, entry: &str, launch: Launch, groups: [u32; 3]) {
+    pub fn run(
+        &self,
+        ctx: &GpuContext,
+        entry: &str,
+        launch: Launch,
+        groups: [u32; 3],
+    ) -> Result<(), GpuError> {
+        ctx.check()?;
         ctx.queue.write_buffer(&self.buffers.launch, 0, bytemuck::bytes_of(&launch));
         let pipeline = self.pipeline(ctx, entry);
         let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -268,10 +302,14 @@ impl Dispatcher {
         }
         ctx.queue.submit([enc.finish()]);
         ctx.wait();
+        if crate::fault::armed("device-lost") {
+            ctx.lose_device();
+        }
+        ctx.check()
     }
 
     /// Reads back the frame buffer.
-    pub fn read_frame(&self, ctx: &GpuContext) -> Vec<[f32; 4]> {
+    pub fn read_frame(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
         self.read_back(ctx, &[(&self.buffers.frame, 0, self.frame_len * 16)], |d| {
             bytemuck::cast_slice(d).to_vec()
         })
@@ -282,10 +320,15 @@ impl Dispatcher {
         ctx.queue.write_buffer(&self.buffers.stats, 0, &[0u8; STATS_BYTES as usize]);
     }
 
-    /// Reads back the output buffer and the ray counters: `read` gets them in the mapped
-    /// readback memory, which no copy precedes.
-    pub fn read_with<T>(&self, ctx: &GpuContext, read: impl FnOnce(&[[f32; 4]], RayCounts) -> T) -> T {
-        let out_bytes = self.out_len * 16;
+    /// Reads back the first `len` vec4s of the output buffer (clamped to it) and the ray
+    /// counters: `read` gets them in the mapped readback memory, which no copy precedes.
+    pub fn read_with<T>(
+        &self,
+        ctx: &GpuContext,
+        len: u64,
+        read: impl FnOnce(&[[f32; 4]], RayCounts) -> T,
+    ) -> Result<T, GpuError> {
+        let out_bytes = self.out_len.min(len) * 16;
         self.read_back(
             ctx,
             &[(&self.buffers.out, 0, out_bytes), (&self.buffers.stats, 0, STATS_BYTES)],

@@ -1,9 +1,0 @@
-//! Faults on purpose, for the tests that check a failing rank ends the job loudly rather than
-//! hanging it: `IRT_FAULT=panic` makes a worker panic at its first piece of work, and
-//! `IRT_FAULT=version` makes it claim another build. Set for one rank with mpirun's MPMD form
-//! (`mpirun -n 1 irt … : -n 1 env IRT_FAULT=panic irt …`); unset, nothing changes.
-
-/// Whether `fault` is among the comma-separated names in `$IRT_FAULT`.
-pub fn armed(fault: &str) -> bool {
-    std::env::var("IRT_FAULT").is_ok_and(|v| v.split(',').any(|f| f.trim() == fault))
-}
