@@ -92,11 +92,12 @@ fn dissolve_jump(s0: u32, k: u32, bits: u32) -> u32 {
 }
 
 // Conventional mode, once a frame is whole: its pixels (the output buffer) into the frame
-// buffer, one invocation per pixel of the launch.work.x pixels.
+// buffer, one invocation per pixel of the launch.work.x pixels from pixel launch.work.y on.
 @compute @workgroup_size(64, 1, 1)
 fn resolve_frame(@builtin(global_invocation_id) gid: vec3u) {
-    if gid.x >= launch.work.x {
+    let i = launch.work.y + gid.x;
+    if i >= launch.work.x {
         return;
     }
-    update_frame(gid.x, out_buf[gid.x].rgb);
+    update_frame(i, out_buf[i].rgb);
 }

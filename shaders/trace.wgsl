@@ -309,8 +309,9 @@ fn trace_pixel(x: u32, y: u32) {
     // Alpha carries 2 × the loop iterations (the most of any pass) + whether the eye ray hit;
     // the renderer checks the first against lavapipe's limit and counts the second for SPD.
     let meter = f32(2u * loop_iters + u32(eye_hit));
-    // The output at the pixel, or (OUT_COMPACT) at the slice position `out_slot`.
-    let o = select(pixel_id, out_slot, (flags & OUT_COMPACT) != 0u);
+    // The output at the pixel (less the output's base: a piece of a picture larger than the
+    // buffer), or (OUT_COMPACT) at the slice position `out_slot`.
+    let o = select(pixel_id - launch.sample.w, out_slot, (flags & OUT_COMPACT) != 0u);
     var total = c;
     if launch.pass_range.z != 0u {
         out_buf[o] = vec4f(c, meter);

@@ -8,14 +8,12 @@
 //! all — and the merge refuses while any tile is missing, or when tiles of another render are
 //! mixed in, and then writes nothing.
 
-use crate::dist::frame::HostFrame;
 use crate::dist::wire::{SceneMsg, State};
 use crate::gpu::device::Device;
 use crate::gpu::layout::TILE_H;
 use crate::image::Image;
-use crate::render::modes::{chunk_pixels, resolve_sample};
+use crate::render::frame::HostFrame;
 use crate::render::pieces::split_settings;
-use crate::render::schedule::tile_grid;
 use crate::render::{Mode, RenderError, Session, Settings};
 use crate::scene::Scene;
 use std::fmt;
@@ -219,9 +217,6 @@ fn tile_settings(settings: Settings) -> Result<Settings, FarmError> {
     split_settings(settings).map_err(FarmError::Unsupported)
 }
 
-/// The tiles of the frame's tile queue traced at once: a bounded dispatch and a progress step.
-const TILES_AT_ONCE: u32 = 4096;
-
 /// Renders tile `spec` of `scene` on `ctx`: the pixels of its rows exactly as the whole
 /// picture has them. `progress(done, total)` counts pixels traced.
 pub fn render_tile<D: Device>(
@@ -237,25 +232,14 @@ pub fn render_tile<D: Device>(
     let key = render_key(&scene, &settings)?;
     let samples = settings.max_samples.max(1);
     let mut session = Session::from_scene(ctx, scene, settings)?;
-    let [columns, _] = tile_grid(width, height);
-    let tiles = rows.start / TILE_H * columns..rows.end.div_ceil(TILE_H) * columns;
-    let base = rows.start * width;
     let mut frame = HostFrame::new(width, rows.len() as u32);
     let total = frame.sums.len() as u64 * samples as u64;
     let mut done = 0;
     for k in 0..samples {
-        let s = resolve_sample(k);
-        let mut first = tiles.start;
-        while first < tiles.end {
-            let end = (first + TILES_AT_ONCE).min(tiles.end);
-            let (values, _) = session.try_trace_tiles(ctx, first..end, k)?;
-            for (p, v) in chunk_pixels(first..end, columns, width, height).zip(&values) {
-                frame.update((p - base) as usize, *v, &s);
-            }
-            done += values.len() as u64;
+        session.trace_rows_as_tiles(ctx, rows.clone(), k, &mut frame, &mut |n| {
+            done += n;
             progress(done, total);
-            first = end;
-        }
+        })?;
     }
     Ok(Tile { key, spec, width, height, rows, pixels: frame.image().pixels })
 }

@@ -114,6 +114,9 @@ pub struct HudView<'a> {
     /// The resolution scale chosen, and the one in effect (lower while moving).
     pub scale: u32,
     pub effective_scale: u32,
+    /// The device's frame buffers hold this many pixels, fewer than the window at the scale
+    /// chosen: the scale in effect is lowered to fit (`viewer::fit_divisor`).
+    pub frame_limit: Option<u64>,
     pub lowres_moving: bool,
     pub samples: u32,
     pub max_samples: u32,
@@ -487,7 +490,16 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
                 ui.label(format!("{:.3} units/s", v.speed));
                 ui.end_row();
             });
-            if v.effective_scale != v.scale {
+            if let Some(most) = v.frame_limit {
+                ui.colored_label(
+                    egui::Color32::from_rgb(255, 200, 120),
+                    format!(
+                        "the device's frame buffers hold {:.1} Mpixel: {} res",
+                        most as f64 / 1e6,
+                        scale_name(v.effective_scale)
+                    ),
+                );
+            } else if v.effective_scale != v.scale {
                 ui.colored_label(
                     egui::Color32::from_rgb(120, 220, 255),
                     format!("moving: {} res", scale_name(v.effective_scale / v.scale)),
@@ -627,6 +639,7 @@ mod tests {
             window: [640, 480],
             scale: 1,
             effective_scale: 1,
+            frame_limit: None,
             lowres_moving: false,
             samples: 3,
             max_samples: 64,

@@ -171,6 +171,8 @@ struct Viewer<'a> {
     lowres_moving: bool,
     /// The divisor in effect (doubled while moving with `lowres_moving`).
     effective_scale: u32,
+    /// Pixels the device's frame buffers hold: the render size never exceeds it.
+    frame_most: u64,
     last_move: Option<Instant>,
     /// Settings the user asked for, applied at the next redraw.
     pending: Option<Settings>,
@@ -203,6 +205,21 @@ pub fn render_size(window: [u32; 2], div: u32) -> [u32; 2] {
     [window[0].div_ceil(div).max(1), window[1].div_ceil(div).max(1)]
 }
 
+/// The divisor a window of `window` pixels is traced at when `div` is asked for and the
+/// device's frame buffers hold `most` pixels: `div`, doubled until the frame fits (the
+/// interactive modes trace one frame buffer; a 5K window on lavapipe's 128 MiB bindings is
+/// traced at 1/2).
+pub fn fit_divisor(window: [u32; 2], div: u32, most: u64) -> u32 {
+    let mut d = div.max(1);
+    while {
+        let [w, h] = render_size(window, d);
+        w as u64 * h as u64 > most
+    } {
+        d *= 2;
+    }
+    d
+}
+
 fn same_view(a: &Camera, b: &Camera) -> bool {
     a.eye == b.eye && a.look_at == b.look_at && a.up == b.up && a.vfov_deg == b.vfov_deg
 }
@@ -224,7 +241,8 @@ impl<'a> Viewer<'a> {
             (true, Some(size)) => size,
             (true, None) => [scene.camera.width, scene.camera.height],
         };
-        let [rw, rh] = render_size(win, scale);
+        let frame_most = crate::render::session::buffer_rays(&ctx, &args.settings);
+        let [rw, rh] = render_size(win, fit_divisor(win, scale, frame_most));
         let mut traced = scene.clone();
         traced.camera.width = rw;
         traced.camera.height = rh;
@@ -280,6 +298,7 @@ impl<'a> Viewer<'a> {
             scale,
             lowres_moving: false,
             effective_scale: scale,
+            frame_most,
             last_move: None,
             pending: None,
             other_mode,
@@ -635,6 +654,7 @@ impl<'a> Viewer<'a> {
 
         // Render size.
         let div = if self.lowres_moving && moving { (self.scale * 2).min(8) } else { self.scale };
+        let div = fit_divisor([ww, wh], div, self.frame_most);
         self.effective_scale = div;
         let [rw, rh] = render_size([ww, wh], div);
         if [rw, rh] != self.source.size() {
@@ -759,6 +779,8 @@ impl<'a> Viewer<'a> {
             window,
             scale: self.scale,
             effective_scale: self.effective_scale,
+            frame_limit: (fit_divisor(window, self.scale, self.frame_most) > self.scale)
+                .then_some(self.frame_most),
             lowres_moving: self.lowres_moving,
             samples: self.source.samples(),
             max_samples: settings.max_samples,
@@ -812,6 +834,17 @@ mod tests {
                      neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.";
         assert_eq!(os_words(winit), "neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.");
         assert_eq!(os_words("the event loop is gone"), "the event loop is gone");
+    }
+
+    #[test]
+    fn a_window_past_the_frame_buffers_is_traced_at_a_scale_that_fits() {
+        let most = 134_217_728 / 16;
+        assert_eq!(fit_divisor([3840, 2160], 1, most), 1);
+        assert_eq!(fit_divisor([4096, 2160], 1, most), 2);
+        assert_eq!(fit_divisor([7680, 4320], 1, most), 2);
+        assert_eq!(fit_divisor([7680, 4320], 2, most), 2);
+        assert_eq!(fit_divisor([16384, 16384], 1, most), 8);
+        assert_eq!(fit_divisor([640, 480], 4, most), 4);
     }
 
     #[test]

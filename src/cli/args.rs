@@ -254,8 +254,8 @@ pub struct ModeArgs {
     /// docs/adaptive.md), random, or dissolve (an LFSR, no table).
     #[arg(long, value_name = "ORDER", default_value_t = PixelOrder::default())]
     pub order: PixelOrder,
-    /// Frameless: pixels per slice (one dispatch each, each with the newest camera). Default
-    /// 16384; `irt view` then adapts S so that a slice takes a quarter of a display refresh (or
+    /// Frameless: pixels per slice (one dispatch each, each with the newest camera; at most
+    /// 4194240, 65535 workgroups of 64). Default 16384; `irt view` then adapts S so that a slice takes a quarter of a display refresh (or
     /// three presents, where a present takes longer).
     #[arg(long, value_name = "S")]
     pub slice: Option<u32>,
@@ -285,8 +285,13 @@ impl ModeArgs {
                 bail!("--blend {a}: expected a weight in (0, 1]");
             }
         }
-        if self.slice == Some(0) {
-            bail!("--slice 0: a slice holds at least one pixel");
+        match self.slice {
+            Some(0) => bail!("--slice 0: a slice holds at least one pixel"),
+            Some(s) if s as u64 > irt::render::modes::MAX_SLICE => bail!(
+                "--slice {s}: a slice is one dispatch of at most 65535 workgroups of 64 pixels, so S is at most {}",
+                irt::render::modes::MAX_SLICE
+            ),
+            _ => {}
         }
         Ok(self.mode.map(|m| match m {
             ModeName::Conventional => self.conventional(),

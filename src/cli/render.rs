@@ -190,11 +190,12 @@ fn bands<D: Device>(
         ),
     );
     let bar = tracing_bar(h);
+    let how = if session.whole() { how.to_string() } else { format!("{how}{}", in_pieces(&session)) };
     let t = Instant::now();
     let frame = session.try_picture(ctx, &mut |done, _| bar.set_position(done as u64))?;
     let elapsed = t.elapsed();
     bar.finish_and_clear();
-    write(args, format, &frame.image, session.scene(), elapsed, ctx.adapter_name(), how)?;
+    write(args, format, &frame.image, session.scene(), elapsed, ctx.adapter_name(), &how)?;
     print_stats(args, &frame);
     Ok(())
 }
@@ -215,17 +216,25 @@ fn one_pass<D: Device>(
 ) -> Result<()> {
     let mode = settings.mode;
     let mut session = Session::new(ctx, scene, settings)?;
+    let pieces = if session.whole() { String::new() } else { in_pieces(&session) };
+    let bar = super::bar(0, "{spinner} tracing {pos}/{len} pixels [{bar:30}] {elapsed_precise}");
     let t = Instant::now();
-    while !session.converged() {
-        session.try_complete_pass(ctx)?;
-    }
+    let image = session.try_render_image(ctx, &mut |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    })?;
     let elapsed = t.elapsed();
-    let image = session.try_read_image(ctx)?;
+    bar.finish_and_clear();
     let how = match args.backend.backend {
-        Backend::Wgpu => mode.to_string(),
-        Backend::Ash => format!("{mode}, ash"),
+        Backend::Wgpu => format!("{mode}{pieces}"),
+        Backend::Ash => format!("{mode}{pieces}, ash"),
     };
     write(args, format, &image, scene, elapsed, ctx.adapter_name(), &how)
+}
+
+/// How a picture larger than the device's buffers was traced, for the report line.
+fn in_pieces<D: Device>(session: &Session<D>) -> String {
+    format!(", in pieces of at most {} pixels (the device's largest storage binding)", session.buffer_rays())
 }
 
 fn bands_settings(args: &RenderArgs) -> Settings {

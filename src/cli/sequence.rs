@@ -70,8 +70,9 @@ impl Job<'_> {
         let t0 = Instant::now();
         for k in frames.clone() {
             let update = session.set_time(ctx, k as f64 / fps).map_err(anyhow::Error::msg)?;
-            let trace = session.try_complete_pass(ctx)?;
-            let image = session.try_read_image(ctx)?;
+            let t = Instant::now();
+            let image = session.try_render_image(ctx, &mut |_, _| {})?;
+            let trace = t.elapsed();
             let path = pattern.path(k);
             image.save_as(&path, format).with_context(|| format!("writing {}", path.display()))?;
             cost.add(&update, trace);

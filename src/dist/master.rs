@@ -6,10 +6,10 @@
 //! named and the job ends.
 
 use super::cluster::{say, Cluster};
-use super::frame::HostFrame;
 use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
+use crate::render::frame::HostFrame;
 use crate::render::modes::{chunk_pixels, frameless_sample, resolve_sample, Slices};
-use crate::render::order::{Dissolve, PixelOrder};
+use crate::render::order::{order_pixels, Dissolve, PixelOrder};
 use crate::render::pieces::split_settings;
 use crate::render::schedule::tile_grid;
 use crate::render::{Mode, RenderError, Schedule, Settings, StepReport};
@@ -523,7 +523,7 @@ impl<'a> Master<'a> {
                 let visit = if current { work.sample } else { 0 };
                 let s = frameless_sample(visit, blend, jitter_pairs);
                 let pixels = (width * height) as u64;
-                let positions = positions(table.as_deref(), first, len, pixels);
+                let positions = order_pixels(table.as_deref(), first, len, pixels);
                 for (p, v) in positions.zip(&px.values) {
                     if let Some(p) = p {
                         self.frame.update(p as usize, *v, &s);
@@ -559,28 +559,6 @@ impl<'a> Master<'a> {
     /// Ends the job: `e` on stderr, every rank stopped.
     pub fn abort(&self, e: &MasterError) -> ! {
         self.cluster.abort(&e.to_string())
-    }
-}
-
-/// The pixels of positions `[first, first + len)` of the order (its table, or the dissolve over
-/// `pixels` pixels): `None` for the dissolve's values past the image.
-fn positions(
-    table: Option<&[u32]>,
-    first: u64,
-    len: u64,
-    pixels: u64,
-) -> Box<dyn Iterator<Item = Option<u32>> + '_> {
-    match table {
-        Some(t) => Box::new(t[first as usize..(first + len) as usize].iter().map(|&p| Some(p))),
-        None => {
-            let d = Dissolve::new(pixels);
-            let mut s = d.state_at(first);
-            Box::new((0..len).map(move |_| {
-                let v = s;
-                s = d.step(s);
-                (v as u64 <= pixels).then(|| v - 1)
-            }))
-        }
     }
 }
 
@@ -681,7 +659,7 @@ mod tests {
         let mut seen = vec![0; pixels as usize];
         for first in (0..period).step_by(50) {
             let len = 50.min(period - first);
-            for p in positions(None, first, len, pixels).flatten() {
+            for p in order_pixels(None, first, len, pixels).flatten() {
                 seen[p as usize] += 1;
             }
         }

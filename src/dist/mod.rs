@@ -8,8 +8,6 @@
 //! `--no-default-features` builds irt without MPI, and `--mpi` then says so).
 
 pub mod cluster;
-pub mod fault;
-pub mod frame;
 pub mod master;
 pub mod replay;
 pub mod wire;

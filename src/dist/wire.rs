@@ -8,7 +8,7 @@ use glam::DVec3;
 
 /// Bumped whenever a message's layout changes: ranks of another protocol or build refuse to
 /// work together ([`Hello`]).
-pub const PROTOCOL: u32 = 1;
+pub const PROTOCOL: u32 = 2;
 
 /// The MPI tag of each kind of message.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -370,6 +370,9 @@ fn put_settings(w: &mut Writer, s: &Settings) {
     w.opt(s.deal, |w, d| {
         w.u32(d);
     });
+    w.opt(s.max_buffer_rays, |w, m| {
+        w.u64(m);
+    });
 }
 
 fn get_settings(r: &mut Reader) -> Result<Settings, WireError> {
@@ -388,6 +391,7 @@ fn get_settings(r: &mut Reader) -> Result<Settings, WireError> {
         corner_rays: r.bool()?,
         max_scene_rows: r.opt(|r| r.u32())?,
         deal: r.opt(|r| r.u32())?,
+        max_buffer_rays: r.opt(|r| r.u64())?,
     })
 }
 
@@ -530,6 +534,7 @@ mod tests {
                 f64: true,
                 max_scene_rows: Some(5),
                 deal: Some(0),
+                max_buffer_rays: Some(1 << 17),
                 ..Settings::default()
             };
             let state = State { version: 9, camera: camera.clone(), settings, time: 1.5 };

@@ -23,7 +23,7 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
     let device = open();
     let hello = Hello {
         protocol: PROTOCOL,
-        version: match super::fault::armed("version") {
+        version: match crate::fault::armed("version") {
             true => format!("{}+another-build", build_id()),
             false => build_id(),
         },
@@ -63,7 +63,7 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
             }
             t if t == Tag::Work.code() => {
                 let work = Work::decode(&bytes).unwrap_or_else(|e| cluster.abort(&e.to_string()));
-                if super::fault::armed("panic") {
+                if crate::fault::armed("panic") {
                     panic!("IRT_FAULT=panic: the fault injected at work {}", work.id);
                 }
                 let (Some(s), Some(st)) = (&mut session, &state) else {

@@ -66,6 +66,17 @@ impl Recording {
         })
     }
 
+    /// This recording with every dispatch's output written from eye ray `base` on
+    /// ([`Launch::at_base`]): a piece of a picture larger than the output buffer.
+    pub fn at_base(mut self, base: u32) -> Recording {
+        for c in &mut self.commands {
+            if let Command::Dispatch(d) = c {
+                d.launch = d.launch.at_base(base);
+            }
+        }
+        self
+    }
+
     /// The readback kernels of the tests: `entry` over `items` items.
     pub fn readback(entry: &str, items: u32) -> Recording {
         Recording { commands: vec![Command::Dispatch(Dispatch::readback(entry, items))] }

@@ -21,6 +21,7 @@ pub mod animation;
 pub mod background;
 pub mod camera_path;
 pub mod fill;
+pub mod frame;
 pub mod host_loop;
 pub mod metrics;
 pub mod modes;
@@ -30,6 +31,7 @@ pub mod pieces;
 pub mod replay;
 pub mod schedule;
 pub mod session;
+mod steps;
 pub mod updates;
 
 pub use background::Adoption;
@@ -175,6 +177,10 @@ pub struct Settings {
     /// Deal the bands' rows of tiles to this many device threads (0 or 1: in order); `None`: the
     /// device's (`gpu::device::dealing_threads`).
     pub deal: Option<u32>,
+    /// Size the output, frame and work buffers for at most this many eye rays, fewer than the
+    /// device's largest storage binding allows (tests trace a picture's pieces with small
+    /// pictures; never below `session::MIN_BUFFER_RAYS`); `None`: the device's.
+    pub max_buffer_rays: Option<u64>,
 }
 
 impl Default for Settings {
@@ -194,6 +200,7 @@ impl Default for Settings {
             corner_rays: false,
             max_scene_rows: None,
             deal: None,
+            max_buffer_rays: None,
         }
     }
 }

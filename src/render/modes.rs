@@ -100,11 +100,18 @@ pub fn resolve_sample(k: u32) -> PixelSample {
     PixelSample { index: k, flags, ..Default::default() }
 }
 
-/// A whole conventional frame of `pixels` pixels, sample `k`, into the frame buffer.
+/// A whole conventional frame of `pixels` pixels, sample `k`, into the frame buffer: one
+/// dispatch per [`MAX_SLICE`] pixels (a dispatch has at most 65 535 workgroups).
 pub fn resolve(pixels: u32, k: u32) -> Recording {
-    let launch = Launch::resolve(pixels, resolve_sample(k));
-    let d = Dispatch { entry: "resolve_frame".into(), launch, groups: [pixels.div_ceil(64), 1, 1] };
-    Recording { commands: vec![Command::Dispatch(d)] }
+    let commands = (0..pixels)
+        .step_by(MAX_SLICE as usize)
+        .map(|first| {
+            let launch = Launch::resolve(first, pixels, resolve_sample(k));
+            let groups = [(pixels - first).min(MAX_SLICE as u32).div_ceil(64), 1, 1];
+            Command::Dispatch(Dispatch { entry: "resolve_frame".into(), launch, groups })
+        })
+        .collect();
+    Recording { commands }
 }
 
 /// Bands of whole rows of the eye-ray grid.
@@ -126,19 +133,26 @@ impl Bands {
     /// Sample `s` of the frame: bands of `band_pixels` eye rays, every pass of a band before the
     /// next, with a progress mark (rows done) after each band.
     pub fn recording(&self, s: PixelSample) -> Recording {
-        let [cols, rows] = self.grid_size;
+        self.recording_rows(s, 0..self.grid_size[1])
+    }
+
+    /// [`Bands::recording`] of the eye-ray rows `rows` alone, their output from vec4 0 on (a
+    /// piece of a picture larger than the output buffer; progress marks count the whole grid's
+    /// rows).
+    pub fn recording_rows(&self, s: PixelSample, rows: Range<u32>) -> Recording {
+        let [cols, all] = self.grid_size;
         let mut commands = Vec::new();
-        let mut y = 0;
-        while y < rows {
-            let band = (self.band_pixels / cols.max(1)).max(1).min(rows - y);
+        let mut y = rows.start;
+        while y < rows.end {
+            let band = (self.band_pixels / cols.max(1)).max(1).min(rows.end - y);
             for &pass in &self.passes {
                 let launch = Launch::bands([0, y, cols, band], pass, s);
                 commands.push(Command::Dispatch(Dispatch::dealt(launch, self.deal)));
             }
             y += band;
-            commands.push(Command::Progress { done: y, total: rows });
+            commands.push(Command::Progress { done: y, total: all });
         }
-        Recording { commands }
+        Recording { commands }.at_base(rows.start * cols)
     }
 }
 
@@ -219,6 +233,10 @@ pub fn chunk_pixels(tiles: Range<u32>, columns: u32, width: u32, height: u32) ->
     })
 }
 
+/// The most positions a frameless slice holds: one dispatch of `render_slice`'s 64-wide
+/// workgroups, of which a dispatch may have 65 535 (a longer piece is traced in parts).
+pub const MAX_SLICE: u64 = 65535 * 64;
+
 /// Frameless slices never straddle a pass of the order: positions `[first, first + len)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SliceSpan {
@@ -274,7 +292,7 @@ impl Slices {
     /// this visit since the change ends, so that all its pixels share one sample index.
     pub fn next_span(&self, slice: u32) -> SliceSpan {
         let to_visit_end = self.pass_len - self.since_change % self.pass_len;
-        let len = (slice.max(1) as u64).min(self.pass_len - self.cursor).min(to_visit_end);
+        let len = (slice.max(1) as u64).min(MAX_SLICE).min(self.pass_len - self.cursor).min(to_visit_end);
         SliceSpan { first: self.cursor, len }
     }
 
@@ -286,11 +304,24 @@ impl Slices {
 
     /// [`Slices::recording`] of any span of the pass (the dissolve's register worked out for
     /// its first position), its output compact (`OUT_COMPACT`: position i of the span in output
-    /// vec4 i) and no frame buffer written: what a distributed worker traces and returns.
-    pub fn compact_recording(&self, span: SliceSpan, passes: &[[u32; 4]], visit: u32) -> Recording {
+    /// vec4 i) and no frame buffer written: what a distributed worker traces and returns. A
+    /// table order's positions are read from the work buffer at `table_at` (the span's own
+    /// first position where the whole table is there, 0 where only the span's part is).
+    pub fn compact_recording(
+        &self,
+        span: SliceSpan,
+        passes: &[[u32; 4]],
+        visit: u32,
+        table_at: u64,
+    ) -> Recording {
         let state = self.dissolve.as_ref().map_or(0, |(d, _)| d.state_at(span.first));
         let s = PixelSample { flags: OUT_COMPACT, ..frameless_sample(visit, None, false) };
-        self.recording_from(span, passes, s, state)
+        self.recording_from(SliceSpan { first: table_at, ..span }, passes, s, state)
+    }
+
+    /// Whether the order reads its positions from a table (else the dissolve's register).
+    pub fn has_table(&self) -> bool {
+        self.dissolve.is_none()
     }
 
     fn recording_from(&self, span: SliceSpan, passes: &[[u32; 4]], s: PixelSample, state: u32) -> Recording {
@@ -501,6 +532,11 @@ mod tests {
         assert_eq!(frame_sample(3).jitter, refinement_jitter(3));
         let flags = |r: Recording| r.dispatches().next().unwrap().launch.sample[1];
         assert_eq!(flags(resolve(100, 0)), FRAME_WRITE);
+        // A frame past one dispatch's workgroups resolves in several, covering it once.
+        let big = resolve(3 * MAX_SLICE as u32 + 5, 0);
+        let starts: Vec<u32> = big.dispatches().map(|d| d.launch.work[1]).collect();
+        assert_eq!(starts, [0, 1, 2, 3].map(|i| i * MAX_SLICE as u32));
+        assert!(big.dispatches().all(|d| d.groups[0] <= 65535));
         assert_eq!(flags(resolve(100, 1)), FRAME_WRITE | FRAME_ACCUMULATE);
         assert_eq!(frameless_sample(0, None, false).flags, FRAME_WRITE);
         assert_eq!(frameless_sample(2, None, false).flags, FRAME_WRITE | FRAME_ACCUMULATE);

@@ -309,6 +309,28 @@ fn apply(cols: &[u32], s: u32) -> u32 {
     cols.iter().enumerate().filter(|(i, _)| s >> i & 1 == 1).fold(0, |acc, (_, &c)| acc ^ c)
 }
 
+/// The pixels of positions `[first, first + len)` of the order (its table, or the dissolve over
+/// `pixels` pixels): `None` for the dissolve's values past the image.
+pub fn order_pixels(
+    table: Option<&[u32]>,
+    first: u64,
+    len: u64,
+    pixels: u64,
+) -> Box<dyn Iterator<Item = Option<u32>> + '_> {
+    match table {
+        Some(t) => Box::new(t[first as usize..(first + len) as usize].iter().map(|&p| Some(p))),
+        None => {
+            let d = Dissolve::new(pixels);
+            let mut s = d.state_at(first);
+            Box::new((0..len).map(move |_| {
+                let v = s;
+                s = d.step(s);
+                (v as u64 <= pixels).then(|| v - 1)
+            }))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

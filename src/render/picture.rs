@@ -46,6 +46,24 @@ impl LoopMeter {
     }
 }
 
+impl LoopMeter {
+    /// The meter of a picture whose rows are this meter's `cells` eye rays and then `below`'s
+    /// `below_cells` (pieces of a picture traced one after another).
+    pub fn stacked(self, cells: u64, below: LoopMeter, below_cells: u64) -> LoopMeter {
+        let sum = |m: &LoopMeter, n: u64| m.mean * n as f64;
+        let executed = |m: &LoopMeter, n: u64| if m.occupancy > 0.0 { sum(m, n) / m.occupancy } else { 0.0 };
+        let (s, e) = (
+            sum(&self, cells) + sum(&below, below_cells),
+            executed(&self, cells) + executed(&below, below_cells),
+        );
+        LoopMeter {
+            mean: s / (cells + below_cells).max(1) as f64,
+            occupancy: if e > 0.0 { s / e } else { 1.0 },
+            max: self.max.max(below.max),
+        }
+    }
+}
+
 /// What a [`LoopMeter`] is made of, over a band of whole block rows, so that bands can be
 /// counted apart (on threads) and added.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

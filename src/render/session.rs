@@ -21,15 +21,12 @@ use super::picture::{OutputGrid, Picture};
 use super::schedule::{tile_grid, Schedule};
 use super::{Mode, RenderError, Settings};
 use crate::accel::{Accel, AccelKind, Grid};
-use crate::gpu::device::{
-    dealing_threads, infallible, BoundKernel, Device, DeviceScene, KernelSpec, ModeBuffers,
-};
-use crate::gpu::layout::{self, Prefix, LAVAPIPE_LOOP_LIMIT, OUT_COMPACT};
-use crate::gpu::recording::Recording;
+use crate::gpu::device::{dealing_threads, BoundKernel, Device, DeviceScene, KernelSpec, ModeBuffers};
+use crate::gpu::layout::{self, Prefix, LAVAPIPE_LOOP_LIMIT, TILE_H};
 use crate::gpu::shaders::Variant;
 use crate::gpu::{GpuContext, GpuError};
 use crate::image::Image;
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, Scene, MAX_IMAGE_SIDE};
 use glam::DVec3;
 use std::time::{Duration, Instant};
 
@@ -110,12 +107,21 @@ pub struct Session<D: Device = GpuContext> {
     pub(super) gpu_scene: DeviceScene<D::Texture>,
     pub(super) kernel: D::Kernel,
     pub variant: Variant,
-    /// Pixels the buffers hold (the render size never exceeds it).
+    /// The largest render size the buffers were made for (the render size never exceeds it).
     pub(super) capacity: [u32; 2],
+    /// Eye rays the output, frame and work buffers hold: the capacity's, or [`buffer_rays`]
+    /// where that is fewer. A picture of more is traced in pieces (`render::pieces`).
+    pub(super) buffer_rays: u64,
+    /// What the mode reads from the work buffer (a schedule's boundaries, a pixel order's
+    /// table, the dissolve's jumps), kept on the host: pieces write their own work there, and a
+    /// table too large for the buffer is written a slice at a time.
+    pub(super) mode_work: Vec<u32>,
+    /// The work buffer holds `mode_work` (pieces overwrite it; the next step writes it back).
+    pub(super) work_resident: bool,
     /// The `Launch::pass_range` of each pass over a pixel (one unless a bundle is split).
     pub(super) passes: Vec<[u32; 4]>,
     /// The bands' rows of tiles are dealt to this many device threads.
-    deal: u32,
+    pub(super) deal: u32,
     /// Bumped by every change that makes the frame buffer stale (camera, settings).
     pub(super) camera_version: u64,
     /// Samples (conventional frames, frameless passes) completed since the last change.
@@ -139,14 +145,14 @@ pub struct Session<D: Device = GpuContext> {
     /// What the grid's packing keeps for that BVH: only its section is written when it comes
     /// (`layout::swap_accel`); `None` when the whole scene is packed again (shell shadows).
     pub(super) prefix: Option<Prefix>,
-    timings: SetupTimings,
+    pub(super) timings: SetupTimings,
     /// The first frame has run (drivers that compile at the first dispatch have compiled).
-    compiled: bool,
+    pub(super) compiled: bool,
     /// The adaptive frameless order's state (`--order adaptive`); the slices' bookkeeping is
     /// in `state` as for any order.
-    adaptive: Option<Box<AdaptiveOrder>>,
+    pub(super) adaptive: Option<Box<AdaptiveOrder>>,
     /// The adaptive order's fill, as last computed (work space of `fill_blocks`).
-    fill: Vec<BlockFill>,
+    pub(super) fill: Vec<BlockFill>,
 }
 
 impl<D: Device> Session<D> {
@@ -222,6 +228,7 @@ impl<D: Device> Session<D> {
         let t1 = Instant::now();
         let capacity = [scene.camera.width, scene.camera.height];
         let kernel = compile(ctx, &gpu_scene, &settings, settings.variant(&scene), capacity)?;
+        let buffer_rays = buffers_hold(ctx, &settings, capacity);
         let timings = SetupTimings { accel_build, upload: t1 - t0 - accel_build, pipeline: t1.elapsed() };
         let mut s = Session {
             variant: D::variant(&kernel),
@@ -236,6 +243,9 @@ impl<D: Device> Session<D> {
             gpu_scene,
             kernel,
             capacity,
+            buffer_rays,
+            mode_work: Vec::new(),
+            work_resident: false,
             camera_version: 0,
             samples: 0,
             state: ModeState::Bands { band_pixels: u32::MAX },
@@ -339,19 +349,44 @@ impl<D: Device> Session<D> {
         }
     }
 
-    fn pixels(&self) -> u64 {
+    pub(super) fn pixels(&self) -> u64 {
         let [w, h] = self.size();
         w as u64 * h as u64
     }
 
+    /// Eye rays of the picture: its pixels, or one more row and column of them with corner
+    /// rays.
+    pub(super) fn eye_rays(&self) -> u64 {
+        let grid = self.gpu_scene.params.eye_grid;
+        grid[0] as u64 * grid[1] as u64
+    }
+
+    /// Whether the picture fits the device's buffers at once. A picture that does not is
+    /// traced in pieces (`irt render`, farm tiles, MPI workers: `render::pieces`); the
+    /// interactive modes' steps need it whole ([`GpuError::FrameTooLarge`]).
+    pub fn whole(&self) -> bool {
+        self.eye_rays() <= self.buffer_rays
+    }
+
+    /// Eye rays the session's buffers hold (see [`Session::whole`]).
+    pub fn buffer_rays(&self) -> u64 {
+        self.buffer_rays
+    }
+
+    /// The error of a step that needs the whole picture in the buffers.
+    pub(super) fn too_large(&self) -> GpuError {
+        let [width, height] = self.size();
+        GpuError::FrameTooLarge { width, height, most: self.buffer_rays }
+    }
+
     /// The bands of the current picture: its eye-ray grid in bands of `band_pixels`.
-    fn bands(&self, band_pixels: u32) -> Bands {
+    pub(super) fn bands(&self, band_pixels: u32) -> Bands {
         let grid = self.gpu_scene.params.eye_grid;
         Bands { grid_size: [grid[0], grid[1]], passes: self.passes.clone(), deal: self.deal, band_pixels }
     }
 
     /// How the output buffer is laid out.
-    fn output_grid(&self) -> OutputGrid {
+    pub(super) fn output_grid(&self) -> OutputGrid {
         let [width, height] = self.size();
         let grid = self.gpu_scene.params.eye_grid;
         OutputGrid { width, height, grid_size: [grid[0], grid[1]] }
@@ -385,6 +420,7 @@ impl<D: Device> Session<D> {
         {
             self.capacity = [width.max(self.capacity[0]), height.max(self.capacity[1])];
             self.kernel = compile(ctx, &self.gpu_scene, &self.settings, self.variant, self.capacity)?;
+            self.buffer_rays = buffers_hold(ctx, &self.settings, self.capacity);
         }
         self.scene.camera.width = width;
         self.scene.camera.height = height;
@@ -487,9 +523,12 @@ impl<D: Device> Session<D> {
         }
     }
 
-    /// The mode's state for the current size, and what it reads from the work buffer.
+    /// The mode's state for the current size, and what it reads from the work buffer (written
+    /// there now where it fits the buffer; a frameless table that does not is written a slice
+    /// at a time, `render::pieces`).
     pub(super) fn configure_mode(&mut self, ctx: &D) -> Result<(), RenderError> {
         let size = self.size();
+        let whole = self.whole();
         let (state, work) = match self.settings.mode {
             Mode::Bands => {
                 let band_pixels = if ctx.is_cpu() { BAND_PIXELS } else { GPU_BAND_PIXELS };
@@ -504,20 +543,38 @@ impl<D: Device> Session<D> {
                 (ModeState::Queue { queue, in_flight: false }, b)
             }
             Mode::Frameless { order, .. } => {
+                // The adaptive order follows the frame buffer on the device: a picture in
+                // pieces is traced in its first pass's order, Hilbert's.
+                let order = match order {
+                    PixelOrder::Adaptive { .. } if !whole => PixelOrder::default(),
+                    o => o,
+                };
                 let (slices, work) = Slices::new(order, size)?;
                 (ModeState::Slices(slices), work)
             }
         };
         self.adaptive = match self.settings.mode {
-            Mode::Frameless { order: PixelOrder::Adaptive { revisit }, .. } => {
+            Mode::Frameless { order: PixelOrder::Adaptive { revisit }, .. } if whole => {
                 Some(Box::new(AdaptiveOrder::new(size[0], size[1], revisit)))
             }
             _ => None,
         };
-        if !work.is_empty() {
-            self.bound(ctx).write_work(&work).map_err(Into::into)?;
+        self.mode_work = work;
+        self.work_resident = false;
+        let room = mode_buffers(ctx, &self.settings, self.capacity).work_len;
+        if self.mode_work.len() as u64 <= room {
+            self.restore_work(ctx).map_err(Into::into)?;
         }
         self.state = state;
+        Ok(())
+    }
+
+    /// Writes the mode's work back into the work buffer if pieces overwrote it.
+    pub(super) fn restore_work(&mut self, ctx: &D) -> Result<(), D::Error> {
+        if !self.work_resident && !self.mode_work.is_empty() {
+            self.bound(ctx).write_work(&self.mode_work)?;
+        }
+        self.work_resident = true;
         Ok(())
     }
 
@@ -526,46 +583,6 @@ impl<D: Device> Session<D> {
     pub fn converged(&self) -> bool {
         let max = if self.settings.mode == Mode::Bands { 1 } else { self.settings.max_samples };
         max > 0 && self.samples >= max
-    }
-
-    /// One unit of work: the bands' frame, a wave of the conventional frame, or one frameless
-    /// slice.
-    pub fn try_step(&mut self, ctx: &D) -> Result<StepReport, D::Error> {
-        if self.converged() {
-            return Ok(StepReport { idle: true, camera_version: self.camera_version, ..Default::default() });
-        }
-        if self.samples > 0 {
-            self.reorder(ctx, true);
-        }
-        let report = match self.state.clone() {
-            ModeState::Bands { band_pixels } => self.step_bands(ctx, band_pixels, &mut |_, _| {}),
-            ModeState::Queue { queue, in_flight } => self.step_queue(ctx, queue, in_flight),
-            ModeState::Slices(_) => self.step_frameless(ctx),
-        }?;
-        self.first_traced(ctx);
-        Ok(report)
-    }
-
-    /// Drivers that compile at the first dispatch (lavapipe) fill a pipeline cache only after
-    /// the first frame: it is saved then, once.
-    fn first_traced(&mut self, ctx: &D) {
-        if !self.compiled {
-            self.compiled = true;
-            ctx.pipelines_compiled();
-        }
-    }
-
-    /// Runs steps until the current frame or frameless pass is complete (or refinement
-    /// converged): one whole picture, what the headless commands write.
-    pub fn try_complete_pass(&mut self, ctx: &D) -> Result<Duration, D::Error> {
-        let mut t = Duration::ZERO;
-        loop {
-            let r = self.try_step(ctx)?;
-            t += r.trace_time;
-            if r.frame_done || r.idle {
-                return Ok(t);
-            }
-        }
     }
 
     /// Traces the first sample of the current camera again, whole (the current mode's frame or
@@ -579,6 +596,12 @@ impl<D: Device> Session<D> {
         }
         self.bound(ctx).reset_counts()?;
         match self.state.clone() {
+            ModeState::Bands { band_pixels } if !self.whole() && self.settings.mode == Mode::Bands => {
+                let picture = self.picture_in_pieces(ctx, band_pixels, progress)?;
+                self.first_traced(ctx);
+                return Ok(picture);
+            }
+            _ if !self.whole() => return Err(self.too_large().into()),
             ModeState::Bands { band_pixels } => {
                 self.step_bands(ctx, band_pixels, progress)?;
             }
@@ -594,9 +617,11 @@ impl<D: Device> Session<D> {
     pub fn try_read_picture(&mut self, ctx: &D) -> Result<Picture, D::Error> {
         let t = Instant::now();
         let grid = self.output_grid();
-        let mut picture = self.bound(ctx).read_output_with(|out, rays| {
-            grid.picture(&out[..(grid.grid_size[0] * grid.grid_size[1]) as usize], rays)
-        })?;
+        if !self.whole() {
+            return Err(self.too_large().into());
+        }
+        let rays = grid.grid_size[0] as u64 * grid.grid_size[1] as u64;
+        let mut picture = self.bound(ctx).read_output_with(rays, |out, counts| grid.picture(out, counts))?;
         picture.readback = t.elapsed();
         self.max_loop_iterations = picture.max_loop_iterations;
         Ok(picture)
@@ -622,174 +647,6 @@ impl<D: Device> Session<D> {
             v[v.len() / 2]
         };
         Ok((median(times), median(readbacks)))
-    }
-
-    /// Runs `rec` on the session's kernel.
-    fn run(&self, ctx: &D, rec: &Recording, progress: &mut dyn FnMut(u32, u32)) -> Result<(), D::Error> {
-        self.bound(ctx).run(rec, progress)
-    }
-
-    /// A frame in bands of rows: the bands mode's picture, or the conventional plain schedule's
-    /// frame (then resolved into the frame buffer).
-    fn step_bands(
-        &mut self,
-        ctx: &D,
-        band_pixels: u32,
-        progress: &mut dyn FnMut(u32, u32),
-    ) -> Result<StepReport, D::Error> {
-        let k = self.samples;
-        let bands = self.bands(band_pixels);
-        let t0 = Instant::now();
-        self.run(ctx, &bands.recording(modes::frame_sample(k)), progress)?;
-        if self.settings.mode != Mode::Bands {
-            return self.finish_frame(ctx, t0.elapsed());
-        }
-        self.samples += 1;
-        let [cols, rows] = bands.grid_size;
-        Ok(StepReport {
-            pixels: self.pixels(),
-            eye_rays: cols as u64 * rows as u64,
-            trace_time: t0.elapsed(),
-            frame_done: true,
-            camera_version: self.camera_version,
-            ..Default::default()
-        })
-    }
-
-    /// A wave of the conventional tile queue.
-    fn step_queue(&mut self, ctx: &D, queue: Queue, in_flight: bool) -> Result<StepReport, D::Error> {
-        let k = self.samples;
-        let sample = modes::frame_sample(k);
-        let split = self.passes.len() > 1;
-        let t0 = Instant::now();
-        let mut done = true;
-        for &pass in &self.passes {
-            let mut restart = split || !in_flight;
-            loop {
-                // One wave; the queue's counter carries over between waves. A split bundle's
-                // passes each walk the whole queue here (waves would interleave passes).
-                self.run(ctx, &queue.wave(pass, sample, restart), &mut |_, _| {})?;
-                done = self.bound(ctx).read_queue()? >= queue.chunks;
-                if done || !split {
-                    break;
-                }
-                restart = false;
-            }
-        }
-        self.state = ModeState::Queue { queue, in_flight: !done };
-        if done {
-            return self.finish_frame(ctx, t0.elapsed());
-        }
-        Ok(StepReport { trace_time: t0.elapsed(), camera_version: self.camera_version, ..Default::default() })
-    }
-
-    /// A conventional frame is whole: into the frame buffer (a first sample replaces, later
-    /// ones add).
-    fn finish_frame(&mut self, ctx: &D, trace_time: Duration) -> Result<StepReport, D::Error> {
-        let k = self.samples;
-        let t1 = Instant::now();
-        self.run(ctx, &modes::resolve(self.pixels() as u32, k), &mut |_, _| {})?;
-        self.samples += 1;
-        let pixels = self.pixels();
-        Ok(StepReport {
-            pixels,
-            eye_rays: pixels,
-            trace_time: trace_time + t1.elapsed(),
-            frame_done: true,
-            camera_version: self.camera_version,
-            ..Default::default()
-        })
-    }
-
-    /// One frameless slice.
-    fn step_frameless(&mut self, ctx: &D) -> Result<StepReport, D::Error> {
-        let Mode::Frameless { slice, blend, jitter_pairs, .. } = self.settings.mode else {
-            unreachable!("a frameless state has a frameless mode")
-        };
-        if self.adaptive.is_some() {
-            return self.step_adaptive(ctx, slice, blend, jitter_pairs);
-        }
-        let ModeState::Slices(slices) = &self.state else { unreachable!("step_frameless is for slices") };
-        let span = slices.next_span(slice);
-        let sample = modes::frameless_sample(slices.visit(), blend, jitter_pairs);
-        let rec = slices.recording(span, &self.passes, sample);
-        let t0 = Instant::now();
-        self.run(ctx, &rec, &mut |_, _| {})?;
-        let trace_time = t0.elapsed();
-        let ModeState::Slices(slices) = &mut self.state else { unreachable!() };
-        let (pixels, pass_done, visit_done) = slices.advance(span);
-        if visit_done {
-            self.samples += 1;
-        }
-        Ok(StepReport {
-            pixels,
-            eye_rays: pixels * if jitter_pairs { 2 } else { 1 },
-            trace_time,
-            frame_done: pass_done,
-            slice: Some(span),
-            camera_version: self.camera_version,
-            idle: false,
-        })
-    }
-
-    /// A slice of the adaptive order (`render::adaptive`): dealt by its estimates until every
-    /// block has been dealt since the change (each slice's samples read back to update them),
-    /// then the Hilbert order's passes for refinement. Either way the host writes the slice's
-    /// pixels at the start of the work buffer.
-    fn step_adaptive(
-        &mut self,
-        ctx: &D,
-        slice: u32,
-        blend: Option<f32>,
-        jitter_pairs: bool,
-    ) -> Result<StepReport, D::Error> {
-        let ModeState::Slices(slices) = &mut self.state else { unreachable!("adaptive is frameless") };
-        let a = self.adaptive.as_mut().expect("step_adaptive is for the adaptive order");
-        let covering = a.covering();
-        let span = (!covering).then(|| slices.next_span(slice));
-        let pixels = match span {
-            None => a.deal(slice),
-            Some(span) => a.traced_in_order(span.first, span.len),
-        };
-        let len = pixels.len() as u64;
-        let mut sample = modes::frameless_sample(slices.visit(), blend, jitter_pairs);
-        if covering {
-            sample.flags |= OUT_COMPACT;
-        }
-        let at = SliceSpan { first: 0, len };
-        let rec = slices.recording(at, &self.passes, sample);
-        let bound = ctx.bind(&self.kernel);
-        bound.write_work(pixels)?;
-        let t0 = Instant::now();
-        bound.run(&rec, &mut |_, _| {})?;
-        let trace_time = t0.elapsed();
-        let (frame_done, visit_done) = match span {
-            None => {
-                a.learn(&bound.read_output_range(0, len)?);
-                let done = !a.covering();
-                if done {
-                    // Every pixel shows the change: the refinement passes follow.
-                    slices.first_visit_done();
-                }
-                (done, done)
-            }
-            Some(span) => {
-                let (_, pass_done, visit_done) = slices.advance(span);
-                (pass_done, visit_done)
-            }
-        };
-        if visit_done {
-            self.samples += 1;
-        }
-        Ok(StepReport {
-            pixels: len,
-            eye_rays: len * if jitter_pairs { 2 } else { 1 },
-            trace_time,
-            frame_done,
-            slice: Some(at),
-            camera_version: self.camera_version,
-            idle: false,
-        })
     }
 
     /// The pixels the last frameless slice traced, where the order is not a fixed permutation
@@ -837,6 +694,9 @@ impl<D: Device> Session<D> {
     /// What is on screen: the frame buffer as an image (each pixel the mean of its samples); in
     /// the bands mode, the picture in the output buffer.
     pub fn try_read_image(&mut self, ctx: &D) -> Result<Image, D::Error> {
+        if !self.whole() {
+            return Err(self.too_large().into());
+        }
         if self.settings.mode == Mode::Bands {
             return Ok(self.try_read_picture(ctx)?.image);
         }
@@ -852,6 +712,9 @@ impl<D: Device> Session<D> {
     /// The raw output buffer of the last traced pixels (rgb radiance, alpha 2 × loop
     /// iterations + eye hit), one vec4 an eye ray, for tests that compare modes bit for bit.
     pub fn try_read_output(&mut self, ctx: &D) -> Result<Vec<[f32; 4]>, D::Error> {
+        if !self.whole() {
+            return Err(self.too_large().into());
+        }
         let [cols, rows] = self.output_grid().grid_size;
         let (out, _) = self.bound(ctx).read_output()?;
         let out = out[..(cols * rows) as usize].to_vec();
@@ -866,32 +729,32 @@ impl<D: Device> Session<D> {
     }
 }
 
-/// The wgpu path, whose dispatches cannot fail (its errors surface as device loss): the values
-/// without a `Result`, and the frame buffer the window blits.
+/// The wgpu path's plain forms, for tests and examples: a device failure panics with its words
+/// (the commands use the `try_` forms and report it).
 impl Session<GpuContext> {
     /// [`Session::try_step`].
     pub fn step(&mut self, ctx: &GpuContext) -> StepReport {
-        infallible(self.try_step(ctx))
+        ok(self.try_step(ctx))
     }
 
     /// [`Session::try_complete_pass`].
     pub fn complete_pass(&mut self, ctx: &GpuContext) -> Duration {
-        infallible(self.try_complete_pass(ctx))
+        ok(self.try_complete_pass(ctx))
     }
 
     /// [`Session::try_picture`].
     pub fn picture(&mut self, ctx: &GpuContext, progress: &mut dyn FnMut(u32, u32)) -> Picture {
-        infallible(self.try_picture(ctx, progress))
+        ok(self.try_picture(ctx, progress))
     }
 
     /// [`Session::try_read_image`].
     pub fn read_image(&mut self, ctx: &GpuContext) -> Image {
-        infallible(self.try_read_image(ctx))
+        ok(self.try_read_image(ctx))
     }
 
     /// [`Session::try_read_output`].
     pub fn read_output(&mut self, ctx: &GpuContext) -> Vec<[f32; 4]> {
-        infallible(self.try_read_output(ctx))
+        ok(self.try_read_output(ctx))
     }
 
     /// The frame buffer the window blits: `size()[0] × size()[1]` vec4s, row-major, rgb the sum
@@ -901,10 +764,38 @@ impl Session<GpuContext> {
     }
 }
 
-/// The kernel `settings` trace with, for a scene of `variant` in buffers of `capacity` pixels:
-/// the bands compile only the `render` entry point (their output is the eye-ray grid, one more
-/// column and row with corner rays); the other modes the queue, slice and resolve entry points
-/// with their work and frame buffers.
+/// The value of a wgpu call, or a panic with the device's failure in words.
+fn ok<T>(r: Result<T, GpuError>) -> T {
+    r.unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The fewest eye rays a session's buffers are made for, whatever a setting asks: two rows of
+/// tiles of the widest picture, or two rows of its corner rays, so that a piece is whole rows.
+pub const MIN_BUFFER_RAYS: u64 = 1 << 16;
+const _: () = assert!(
+    2 * TILE_H as u64 * MAX_IMAGE_SIDE as u64 <= MIN_BUFFER_RAYS
+        && 2 * (MAX_IMAGE_SIDE as u64 + 1) <= MIN_BUFFER_RAYS
+);
+
+/// The most eye rays one of `ctx`'s buffers may hold for `settings`: as many vec4s as its
+/// largest storage binding covers (128 MiB on lavapipe: 8 388 608), or fewer where
+/// `Settings::max_buffer_rays` says.
+pub fn buffer_rays(ctx: &impl Device, settings: &Settings) -> u64 {
+    let asked = settings.max_buffer_rays.unwrap_or(u64::MAX).max(MIN_BUFFER_RAYS);
+    (ctx.max_binding_bytes() / 16).min(asked)
+}
+
+/// Eye rays the buffers of a session made for `capacity` hold.
+fn buffers_hold(ctx: &impl Device, settings: &Settings, capacity: [u32; 2]) -> u64 {
+    let extra = (settings.mode == Mode::Bands && settings.corner_rays) as u64;
+    ((capacity[0] as u64 + extra) * (capacity[1] as u64 + extra)).min(buffer_rays(ctx, settings))
+}
+
+/// The kernel `settings` trace with, for a scene of `variant` in buffers for pictures of up to
+/// `capacity` pixels (and at most [`buffer_rays`] eye rays): the bands compile only the
+/// `render` entry point (their output is the eye-ray grid, one more column and row with corner
+/// rays); the other modes the queue, slice and resolve entry points with their work and frame
+/// buffers.
 pub(super) fn compile<D: Device>(
     ctx: &D,
     scene: &DeviceScene<D::Texture>,
@@ -912,17 +803,20 @@ pub(super) fn compile<D: Device>(
     variant: Variant,
     capacity: [u32; 2],
 ) -> Result<D::Kernel, GpuError> {
-    let pixels = capacity[0] as u64 * capacity[1] as u64;
-    if settings.mode == Mode::Bands {
-        let extra = settings.corner_rays as u64;
-        let out_len = (capacity[0] as u64 + extra) * (capacity[1] as u64 + extra);
-        return ctx.compile(scene, KernelSpec::render(variant, out_len));
+    let held = buffers_hold(ctx, settings, capacity);
+    match settings.mode {
+        Mode::Bands => ctx.compile(scene, KernelSpec::render(variant, held)),
+        _ => ctx.compile(scene, KernelSpec::modes(variant, held, mode_buffers(ctx, settings, capacity))),
     }
+}
+
+/// The interactive modes' work and frame buffers for pictures of up to `capacity` pixels.
+pub(super) fn mode_buffers(ctx: &impl Device, settings: &Settings, capacity: [u32; 2]) -> ModeBuffers {
+    let held = buffers_hold(ctx, settings, capacity);
+    let pixels = capacity[0] as u64 * capacity[1] as u64;
     let [tx, ty] = tile_grid(capacity[0], capacity[1]);
     let dissolve = super::order::Dissolve::new(pixels).jumps().len() as u64;
-    let work_len = pixels.max(tx as u64 * ty as u64 + 1).max(dissolve);
-    let modes = ModeBuffers { work_len, frame_len: pixels };
-    ctx.compile(scene, KernelSpec::modes(variant, pixels, modes))
+    ModeBuffers { work_len: held.max(tx as u64 * ty as u64 + 1).max(dissolve), frame_len: held }
 }
 
 impl Schedule {

@@ -29,13 +29,13 @@ fn counting_dispatcher(ctx: &irt::gpu::GpuContext, scene: &Scene, work: &[u32]) 
     let n = scene.camera.width as u64 * scene.camera.height as u64;
     let modes = ModeBuffers { work_len: work.len() as u64, frame_len: n };
     let d = ctx.compile(&gs, KernelSpec::modes(Variant::for_scene(scene, false), n, modes)).unwrap();
-    d.write_work(ctx, work);
+    d.write_work(ctx, work).unwrap();
     d.clear_frame(ctx);
     d
 }
 
 fn visit_counts(ctx: &irt::gpu::GpuContext, d: &Dispatcher) -> Vec<u32> {
-    d.read_frame(ctx).iter().map(|p| p[3] as u32).collect()
+    d.read_frame(ctx).unwrap().iter().map(|p| p[3] as u32).collect()
 }
 
 const COUNT: [u32; 4] = [0, FRAME_WRITE | FRAME_ACCUMULATE, 0, 0];
@@ -60,13 +60,13 @@ fn tile_queue_covers_every_pixel_once() {
                     let groups = wave_groups(tiles, waves);
                     let chunks = b.len() as u32 - 1;
                     let mut runs = 0;
-                    while d.read_queue(&ctx) < chunks {
+                    while d.read_queue(&ctx).unwrap() < chunks {
                         let tile = Launch {
                             work: [chunks, TILE_BUDGET, tx, budget],
                             sample: COUNT,
                             ..Launch::whole([0; 4])
                         };
-                        d.run(&ctx, "render_queue", tile, [groups, 1, 1]);
+                        d.run(&ctx, "render_queue", tile, [groups, 1, 1]).unwrap();
                         runs += 1;
                         assert!(runs <= tiles, "the queue makes no progress");
                     }
@@ -110,7 +110,7 @@ fn frameless_pass_covers_every_pixel_once() {
                         sample: [0, COUNT[1], state, 0],
                         ..Launch::whole([0; 4])
                     };
-                    d.run(&ctx, "render_slice", tile, [(len as u32).div_ceil(64), 1, 1]);
+                    d.run(&ctx, "render_slice", tile, [(len as u32).div_ceil(64), 1, 1]).unwrap();
                     first += len;
                 }
                 let counts = visit_counts(&ctx, &d);

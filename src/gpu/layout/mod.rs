@@ -210,7 +210,9 @@ pub struct Launch {
     /// [`Launch::slice`], [`Launch::resolve`].
     pub work: [u32; 4],
     /// The sample index, frame flags (`FRAME_*`), the dissolve's state at the slice's first
-    /// position, unused.
+    /// position, and the output's base: the eye ray (pixel) index that lands in output vec4 0,
+    /// so that a piece of a picture larger than the output buffer is traced into it
+    /// ([`Launch::at_base`]; compact outputs ignore it).
     pub sample: [u32; 4],
     /// Sub-pixel offset of this sample from the pixel centre (x, y), the blend weight α of new
     /// samples with [`FRAME_BLEND`], unused.
@@ -283,9 +285,18 @@ impl Launch {
         l
     }
 
-    /// `resolve_frame`: `work` = the pixels of the frame, their output into the frame buffer.
-    pub fn resolve(pixels: u32, s: PixelSample) -> Launch {
-        Launch { work: [pixels, 0, 0, 0], ..Self::with_sample([0; 4], s) }
+    /// This launch with its output written from eye ray `base` on: eye ray `i` lands in output
+    /// vec4 `i - base` (a piece of a large picture in an output buffer that holds only it).
+    pub fn at_base(self, base: u32) -> Launch {
+        let mut l = self;
+        l.sample[3] = base;
+        l
+    }
+
+    /// `resolve_frame`: `work` = the pixels of the frame and the first this dispatch resolves,
+    /// their output into the frame buffer.
+    pub fn resolve(first: u32, pixels: u32, s: PixelSample) -> Launch {
+        Launch { work: [pixels, first, 0, 0], ..Self::with_sample([0; 4], s) }
     }
 }
 

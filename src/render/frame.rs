@@ -1,5 +1,6 @@
-//! The master's frame buffer: the pixels the workers return, written as a device's frame buffer
-//! would write them (shaders/trace.wgsl, `update_frame`): per pixel the sum of its samples and
+//! A frame buffer on the host: the pixels of a picture's pieces (what MPI workers return, a farm
+//! tile's, the pieces of a picture larger than the device's buffers), written as a device's
+//! frame buffer would write them (shaders/trace.wgsl, `update_frame`): per pixel the sum of its samples and
 //! their count, never cleared between frameless slices. The additions are the same f32 additions
 //! in the same order, so a still picture refined over N samples is bit for bit what one process
 //! shows.
