@@ -339,11 +339,3 @@ pub fn dealing_threads(device: &impl Device) -> u32 {
         .and_then(|v| v.trim().parse().ok())
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get() as u32))
 }
-
-/// The value of a result that cannot fail.
-pub fn infallible<T>(r: Result<T, Infallible>) -> T {
-    match r {
-        Ok(v) => v,
-        Err(never) => match never {},
-    }
-}

@@ -28,6 +28,7 @@ pub mod modes;
 pub mod order;
 pub mod picture;
 pub mod pieces;
+mod readout;
 pub mod replay;
 pub mod schedule;
 pub mod session;

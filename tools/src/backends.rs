@@ -8,7 +8,7 @@
 //! code on each): the wall time per slice, dispatch + submit + wait included, and the pixels per
 //! second it leaves.
 
-use irt::gpu::device::{infallible, Device, KernelSpec};
+use irt::gpu::device::{Device, KernelSpec};
 use irt::gpu::recording::dispatch_overhead;
 use irt::gpu::vk::VkContext;
 use irt::gpu::{AdapterChoice, GpuContext};
@@ -67,7 +67,7 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
         let t = Instant::now();
         a.try_picture(&vk, &mut |_, _| {})?;
         frame_a.push(t.elapsed());
-        disp_w.push(infallible(dispatch_overhead(&kw, "k_fresnel", per_round)));
+        disp_w.push(dispatch_overhead(&kw, "k_fresnel", per_round)?);
         disp_a.push(dispatch_overhead(&ka, "k_fresnel", per_round)?);
     }
     println!(

@@ -35,7 +35,7 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
     session.picture(&ctx, &mut |_, _| {});
     let first = t.elapsed();
     let total = start.elapsed();
-    let (frame, _) = irt::gpu::device::infallible(session.try_median_picture_times(&ctx, 3));
+    let (frame, _) = session.try_median_picture_times(&ctx, 3)?;
     let peak = peak_mib();
     let device_mib = session.device_scene().bytes as f64 / (1 << 20) as f64;
     let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
