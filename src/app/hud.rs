@@ -115,7 +115,7 @@ pub struct HudView<'a> {
     pub scale: u32,
     pub effective_scale: u32,
     /// The device's frame buffers hold this many pixels, fewer than the window at the scale
-    /// chosen: the scale in effect is lowered to fit (`viewer::fit_divisor`).
+    /// chosen: the scale in effect is lowered to fit (`scale::fit_divisor`).
     pub frame_limit: Option<u64>,
     pub lowres_moving: bool,
     pub samples: u32,

@@ -7,11 +7,13 @@
 
 pub mod blit;
 pub mod camera;
+mod display;
 pub mod edit;
 pub mod hud;
 pub mod input;
 pub mod keys;
 pub mod present;
+pub mod scale;
 pub mod source;
 pub mod viewer;
 

@@ -7,7 +7,7 @@ use super::hud::{self, HudRequest, HudView};
 use super::ViewOptions;
 use crate::gpu::{AdapterChoice, CacheSetting, GpuContext};
 use anyhow::{anyhow, Context as _, Result};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use winit::dpi::PhysicalSize;
 use winit::event_loop::ActiveEventLoop;
@@ -35,7 +35,6 @@ pub struct Presenter {
     pub egui: Egui,
     /// The surface had no image to give: try again at this time.
     pub retry_at: Option<Instant>,
-    gpu_error: Arc<Mutex<Option<String>>>,
 }
 
 /// What a present did.
@@ -77,22 +76,6 @@ impl Presenter {
             &choice,
             &CacheSetting::from_flag_or_env(args.no_cache),
         )?;
-        let gpu_error = Arc::new(Mutex::new(None));
-        {
-            let e = gpu_error.clone();
-            ctx.device.on_uncaptured_error(Arc::new(move |err: wgpu::Error| {
-                e.lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .get_or_insert_with(|| format!("GPU error: {err}"));
-            }));
-            let e = gpu_error.clone();
-            ctx.device.set_device_lost_callback(move |reason, msg| {
-                e.lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .get_or_insert_with(|| format!("the GPU device was lost ({reason:?}): {msg}"));
-            });
-        }
-
         let size = window.inner_size();
         let config = surface_config(&surface, &ctx.adapter, size.width.max(1), size.height.max(1))?;
         let minimised = size.width == 0 || size.height == 0;
@@ -133,17 +116,8 @@ impl Presenter {
             blit,
             egui: Egui { ctx: egui_ctx, state, renderer, rect: None, format },
             retry_at: None,
-            gpu_error,
         };
         Ok((presenter, ctx))
-    }
-
-    /// The first error the device reported since the last look, if any.
-    pub fn check_gpu(&self) -> Result<()> {
-        match self.gpu_error.lock().unwrap_or_else(|p| p.into_inner()).take() {
-            Some(msg) => Err(anyhow!(msg)),
-            None => Ok(()),
-        }
     }
 
     /// The window's size in pixels (as configured).
@@ -200,7 +174,7 @@ impl Presenter {
                 None
             }
             wgpu::CurrentSurfaceTexture::Validation => {
-                self.check_gpu()?;
+                ctx.check()?;
                 return Err(anyhow!("the window's surface could not give an image (validation error)"));
             }
         };
@@ -299,7 +273,7 @@ impl Presenter {
         // The software present copies the image: wait for it here so that the trace time of the
         // next step does not include it.
         ctx.wait();
-        self.check_gpu()?;
+        ctx.check()?;
         if suboptimal {
             self.surface.configure(device, &self.config);
         }

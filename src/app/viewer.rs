@@ -5,11 +5,13 @@
 //! and nothing moves (then the loop waits for events). Keys are [`super::keys`]' table.
 
 use super::camera::{camera_toml, scene_bounds, CameraController};
+use super::display::{os_words, wayland_reachable};
 use super::edit::{self, screenshot_name, Picker, Playback, Selection};
 use super::hud::{EditView, HudRequest, HudView, Stats, SCALES, SHADOW_CHOICES};
 use super::input::{ButtonIntent, Input};
 use super::keys::{self, Action};
 use super::present::Presenter;
+use super::scale::{fit_divisor, render_size};
 use super::source::{Distributed, Local, Source};
 use super::ViewOptions;
 use crate::dist::cluster::Cluster;
@@ -67,30 +69,6 @@ pub fn run(args: ViewOptions, scene: Scene, cluster: Option<(&Cluster, Deadlines
         Some(e) => Err(e),
         None => Ok(()),
     }
-}
-
-/// winit's message without the place in winit's source where it was raised (`os error at
-/// …/winit-0.30.13/src/…/mod.rs:765: …`): a path on the build machine says nothing to a user.
-fn os_words(message: &str) -> String {
-    match message.strip_prefix("os error at ").and_then(|rest| rest.split_once(": ")) {
-        Some((_, words)) => words.to_string(),
-        None => message.to_string(),
-    }
-}
-
-/// Whether a Wayland compositor's socket is there: `$WAYLAND_SOCKET`, or `$WAYLAND_DISPLAY` as
-/// an absolute path or under `$XDG_RUNTIME_DIR`.
-fn wayland_reachable() -> bool {
-    let var = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty());
-    if var("WAYLAND_SOCKET").is_some() {
-        return true;
-    }
-    let Some(display) = var("WAYLAND_DISPLAY") else { return false };
-    let path = std::path::Path::new(&display);
-    if path.is_absolute() {
-        return path.exists();
-    }
-    var("XDG_RUNTIME_DIR").is_some_and(|dir| std::path::Path::new(&dir).join(path).exists())
 }
 
 struct App<'a> {
@@ -198,26 +176,6 @@ struct Viewer<'a> {
     /// An animated scene's clock (`None` for a still), and when it last advanced.
     playback: Option<Playback>,
     last_play: Instant,
-}
-
-/// Frame-buffer size for a window of `window` pixels at divisor `div`.
-pub fn render_size(window: [u32; 2], div: u32) -> [u32; 2] {
-    [window[0].div_ceil(div).max(1), window[1].div_ceil(div).max(1)]
-}
-
-/// The divisor a window of `window` pixels is traced at when `div` is asked for and the
-/// device's frame buffers hold `most` pixels: `div`, doubled until the frame fits (the
-/// interactive modes trace one frame buffer; a 5K window on lavapipe's 128 MiB bindings is
-/// traced at 1/2).
-pub fn fit_divisor(window: [u32; 2], div: u32, most: u64) -> u32 {
-    let mut d = div.max(1);
-    while {
-        let [w, h] = render_size(window, d);
-        w as u64 * h as u64 > most
-    } {
-        d *= 2;
-    }
-    d
 }
 
 fn same_view(a: &Camera, b: &Camera) -> bool {
@@ -335,8 +293,9 @@ impl<'a> Viewer<'a> {
         Ok(v)
     }
 
+    /// The device's failure, if it failed (its words say what to do).
     fn check_gpu(&self) -> Result<()> {
-        self.out.check_gpu()
+        Ok(self.ctx.check()?)
     }
 
     /// Seconds since the window opened: the host loop's clock.
@@ -820,37 +779,5 @@ impl<'a> Viewer<'a> {
             }
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn window_errors_name_no_source_path() {
-        let winit =
-            "os error at /root/.cargo/registry/src/x/winit-0.30.13/src/platform_impl/linux/mod.rs:765: \
-                     neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.";
-        assert_eq!(os_words(winit), "neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.");
-        assert_eq!(os_words("the event loop is gone"), "the event loop is gone");
-    }
-
-    #[test]
-    fn a_window_past_the_frame_buffers_is_traced_at_a_scale_that_fits() {
-        let most = 134_217_728 / 16;
-        assert_eq!(fit_divisor([3840, 2160], 1, most), 1);
-        assert_eq!(fit_divisor([4096, 2160], 1, most), 2);
-        assert_eq!(fit_divisor([7680, 4320], 1, most), 2);
-        assert_eq!(fit_divisor([7680, 4320], 2, most), 2);
-        assert_eq!(fit_divisor([16384, 16384], 1, most), 8);
-        assert_eq!(fit_divisor([640, 480], 4, most), 4);
-    }
-
-    #[test]
-    fn render_sizes_round_up_and_never_vanish() {
-        assert_eq!(render_size([640, 480], 1), [640, 480]);
-        assert_eq!(render_size([641, 481], 2), [321, 241]);
-        assert_eq!(render_size([1, 1], 4), [1, 1]);
     }
 }

@@ -28,9 +28,10 @@ impl HostFrame {
         self.sums[i] = if s.flags & FRAME_ACCUMULATE != 0 {
             [old[0] + c[0], old[1] + c[1], old[2] + c[2], old[3] + 1.0]
         } else if s.flags & FRAME_BLEND != 0 && old[3] > 0.0 {
+            // WGSL's mix(x, y, a) = x(1 - a) + ya, rounded as the shader's `update_frame` does.
             let a = s.alpha;
-            let m = |k: usize| old[k] / old[3];
-            [m(0) + (c[0] - m(0)) * a, m(1) + (c[1] - m(1)) * a, m(2) + (c[2] - m(2)) * a, 1.0]
+            let mix = |k: usize| (old[k] / old[3]) * (1.0 - a) + c[k] * a;
+            [mix(0), mix(1), mix(2), 1.0]
         } else {
             [c[0], c[1], c[2], 1.0]
         };

@@ -307,15 +307,17 @@ impl Slices {
     /// vec4 i) and no frame buffer written: what a distributed worker traces and returns. A
     /// table order's positions are read from the work buffer at `table_at` (the span's own
     /// first position where the whole table is there, 0 where only the span's part is).
+    /// `sample` ([`frameless_sample`]) says where in the pixel the rays go: its jitter, or the
+    /// jitter pairs' two positions; how it lands in a frame is the caller's.
     pub fn compact_recording(
         &self,
         span: SliceSpan,
         passes: &[[u32; 4]],
-        visit: u32,
+        sample: PixelSample,
         table_at: u64,
     ) -> Recording {
         let state = self.dissolve.as_ref().map_or(0, |(d, _)| d.state_at(span.first));
-        let s = PixelSample { flags: OUT_COMPACT, ..frameless_sample(visit, None, false) };
+        let s = PixelSample { flags: OUT_COMPACT | (sample.flags & FRAME_JITTER_PAIRS), ..sample };
         self.recording_from(SliceSpan { first: table_at, ..span }, passes, s, state)
     }
 

@@ -157,7 +157,11 @@ impl<D: Device> Session<D> {
         let ModeState::Slices(slices) = &self.state else { unreachable!("checked by try_trace_slice") };
         let table_part = slices.has_table() && !self.work_resident;
         let table_at = if table_part { 0 } else { span.first };
-        let rec = slices.compact_recording(span, &self.passes, visit, table_at);
+        let Mode::Frameless { blend, jitter_pairs, .. } = self.settings.mode else {
+            unreachable!("slices are the frameless mode's")
+        };
+        let sample = frameless_sample(visit, blend, jitter_pairs);
+        let rec = slices.compact_recording(span, &self.passes, sample, table_at);
         let bound = self.bound(ctx);
         if table_part {
             let part = &self.mode_work[span.first as usize..(span.first + span.len) as usize];

@@ -174,13 +174,18 @@ fn signal(pid: u32, sig: &str) {
 /// Renders `args` in one process and as an MPI job of a master and two workers; both files
 /// must be the same bytes.
 fn assert_same_as_one_process(name: &str, args: &[&str]) {
+    assert_same_as_one_process_at(name, args, &SMALL);
+}
+
+/// [`assert_same_as_one_process`] at `size` (`["--size", "WxH"]`).
+fn assert_same_as_one_process_at(name: &str, args: &[&str], size: &[&str]) {
     let one = dir().join(format!("{name}-one.png"));
     let mpi = dir().join(format!("{name}-mpi.png"));
-    let out = Command::new(IRT).arg("render").args(args).args(SMALL).arg("--out").arg(&one).output().unwrap();
+    let out = Command::new(IRT).arg("render").args(args).args(size).arg("--out").arg(&one).output().unwrap();
     assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
     let mut job_args = vec!["render", "--mpi", "--out", mpi.to_str().unwrap()];
     job_args.extend(args);
-    job_args.extend(SMALL);
+    job_args.extend(size);
     let mut job = Job::start(&[ranks(3, &job_args)]);
     let status = job.wait(Duration::from_secs(240));
     let err = job.stderr();
@@ -204,12 +209,56 @@ fn the_picture_is_one_process_s_bit_for_bit() {
         "frameless",
         &["--mode", "frameless", "--samples", "2", "--shadows", "bundle:8"],
     );
+    // The paper's jitter pairs (two sub-pixel positions a visit, the workers trace both) and a
+    // blend, applied on rank 0 as the shader's mix rounds it.
+    assert_same_as_one_process(
+        "frameless-jitter-blend",
+        &["--mode", "frameless", "--samples", "2", "--jitter-pairs", "--order", "dissolve"],
+    );
+    assert_same_as_one_process(
+        "frameless-blend",
+        &["--mode", "frameless", "--samples", "3", "--blend", "0.3"],
+    );
     // An animated scene posed at a time by every rank.
     let animated = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/animated.toml");
     assert_same_as_one_process(
         "animated",
         &[animated, "--time", "0.7", "--mode", "frameless", "--samples", "2"],
     );
+}
+
+#[test]
+fn a_picture_past_the_device_s_buffers_is_one_process_s_bit_for_bit() {
+    // 4096×2304 is more than lavapipe's 128 MiB bindings hold: one process traces it in pieces,
+    // the workers their tiles of it (each of which fits).
+    let big = ["--size", "4096x2304"];
+    assert_same_as_one_process_at("big-bands", &[], &big);
+    assert_same_as_one_process_at("big-conventional", &["--mode", "conventional"], &big);
+    assert_same_as_one_process_at("big-frameless", &["--mode", "frameless"], &big);
+}
+
+#[test]
+fn a_worker_whose_device_fails_names_itself_and_ends_the_job() {
+    // A lost device mid-job (after the worker's first dispatch), and an allocation the device
+    // refuses while the worker sets the scene up.
+    for (fault, words) in [
+        ("device-lost", ["irt rank 1", "the device was lost"]),
+        ("device-alloc", ["rank 1 could not set the scene up", "the device refused irt's work"]),
+    ] {
+        let out = dir().join(format!("{fault}.png"));
+        let args = endless(&out);
+        let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        let mut job = Job::start(&[
+            ranks(1, &args),
+            Ranks { n: 1, env: &[("IRT_FAULT", fault)], args: ranks(1, &args).args },
+        ]);
+        let err = assert_fails_loudly(&mut job, Duration::from_secs(120), &words);
+        assert!(
+            !err.contains("panicked") && !err.contains(".rs:"),
+            "{fault}: a panic or a source path:\n{err}"
+        );
+        assert!(!out.exists(), "{fault}: a picture was written");
+    }
 }
 
 /// A job that must fail: it ends non-zero within `limit`, its stderr says `words`, and nothing

@@ -63,6 +63,30 @@ fn every_split_merges_to_the_whole_render_bit_for_bit() {
 }
 
 #[test]
+fn a_picture_past_the_device_s_buffers_merges_from_its_tiles_in_every_mode() {
+    // 4096² is twice what lavapipe's 128 MiB bindings hold: the whole render is traced in
+    // pieces, each quarter whole; the pieces' seams must not show in the merge.
+    assert_tiles_merge_to_the_render("big-bands", &size(4096, 4096), 4, "png");
+    let mut conventional = size(4096, 4096);
+    conventional.extend(["--mode", "conventional", "--samples", "2"].map(String::from));
+    assert_tiles_merge_to_the_render("big-conventional", &conventional, 4, "png");
+    // A farm cuts no frameless pass into tiles (it renders stills); the frameless picture in
+    // pieces is the bands' picture, so it must be the merge of the bands' tiles.
+    let frameless = dir("big-frameless").join("whole.png");
+    let size = size(4096, 4096);
+    ok(&[
+        &["render", "--mode", "frameless", "--out", frameless.to_str().unwrap()],
+        &[size[0].as_str(), &size[1]][..],
+    ]
+    .concat());
+    let merged = Path::new(env!("CARGO_TARGET_TMPDIR")).join("farm/big-bands/merged.png");
+    assert!(
+        std::fs::read(&frameless).unwrap() == std::fs::read(&merged).unwrap(),
+        "frameless: not the bands' merge"
+    );
+}
+
+#[test]
 fn the_merge_refuses_missing_or_foreign_tiles_and_writes_nothing() {
     let d = dir("refuse");
     let tiles = d.join("tiles");

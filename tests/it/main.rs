@@ -28,6 +28,7 @@ mod bvh;
 mod cli;
 mod common;
 mod convert;
+mod device_failures;
 mod distributed;
 #[cfg(feature = "embree")]
 mod embree_peer;
@@ -45,6 +46,7 @@ mod motion;
 mod native_peer;
 mod obj;
 mod output_format;
+mod pieces;
 mod pipeline_cache;
 mod ply;
 mod replay;
