@@ -31,7 +31,10 @@ pub struct SceneArgs {
     /// Scene file (.toml, .gltf, .glb, .nff, .obj, .ply); the built-in default scene when omitted.
     #[arg(help_heading = None)]
     pub scene: Option<PathBuf>,
-    /// Image size in pixels, WxH (default: the scene camera's).
+    /// Image size in pixels, WxH (default: the scene camera's): up to 16384 a side and 67108864
+    /// pixels (64 Mpixel, e.g. 8192x8192). A picture larger than the device's frame buffers
+    /// (lavapipe's: 8388608 pixels, about 2896x2896) is traced in pieces; the host holds the
+    /// whole picture, about 30-40 bytes a pixel at peak (2.6 GB at the limit; docs/large-models.md).
     #[arg(long, value_name = "WxH", value_parser = parse_size, allow_hyphen_values = true)]
     pub size: Option<[u32; 2]>,
     /// Shadow mode (overrides the scene's [trace] shadows): soft (picks shell, a bundle or hard
@@ -344,6 +347,18 @@ mod tests {
         let command = SceneArgs::augment_args(clap::Command::new("t"));
         let scene = command.get_arguments().find(|a| a.get_id() == "scene").unwrap();
         assert!(scene.get_help().unwrap().to_string().contains(SCENE_FILES));
+    }
+
+    #[test]
+    fn the_size_help_states_the_limits() {
+        let command = SceneArgs::augment_args(clap::Command::new("t"));
+        let size = command.get_arguments().find(|a| a.get_id() == "size").unwrap();
+        let help = size.get_long_help().or(size.get_help()).unwrap().to_string();
+        let side = irt::scene::MAX_IMAGE_SIDE;
+        assert!(help.contains(&format!("up to {side} a side")), "{help}");
+        assert!(help.contains(&irt::scene::MAX_PIXELS.to_string()), "{help}");
+        let root = (irt::scene::MAX_PIXELS as f64).sqrt() as u32;
+        assert!(help.contains(&format!("{root}x{root}")), "{help}");
     }
 
     #[test]

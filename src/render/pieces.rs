@@ -221,8 +221,8 @@ impl<D: Device> Session<D> {
     /// (one sample for the bands): what `irt render` writes. A picture that fits the buffers is
     /// traced as the mode traces a frame; a larger one in pieces — the bands in bands of rows,
     /// the conventional frame as tiles of its queue, the frameless pass as slices of its order
-    /// — into a frame on the host, the same picture bit for bit. `progress(done, total)`
-    /// counts eye rays.
+    /// — into a frame on the host, the same picture bit for bit. Traced anew on every call.
+    /// `progress(done, total)` counts eye rays.
     pub fn try_render_image(
         &mut self,
         ctx: &D,
@@ -237,6 +237,9 @@ impl<D: Device> Session<D> {
                 .map_err(Into::into)?;
             return Ok(picture.image);
         }
+        // From the first sample, whatever the session traced before (a picture again is traced
+        // again, not read).
+        self.restart();
         let samples = self.settings.max_samples.max(1);
         let total = pixels * samples as u64;
         if self.whole() {
