@@ -246,12 +246,7 @@ fn a_worker_whose_device_fails_names_itself_and_ends_the_job() {
         ("device-alloc", ["rank 1 could not set the scene up", "the device refused irt's work"]),
     ] {
         let out = dir().join(format!("{fault}.png"));
-        let args = endless(&out);
-        let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-        let mut job = Job::start(&[
-            ranks(1, &args),
-            Ranks { n: 1, env: &[("IRT_FAULT", fault)], args: ranks(1, &args).args },
-        ]);
+        let mut job = with_fault(&out, 1, fault);
         let err = assert_fails_loudly(&mut job, Duration::from_secs(120), &words);
         assert!(
             !err.contains("panicked") && !err.contains(".rs:"),
@@ -294,6 +289,14 @@ fn endless(out: &Path) -> Vec<String> {
     a
 }
 
+/// An [`endless`] job of `healthy` ranks and one more, last, with `IRT_FAULT=fault`.
+fn with_fault(out: &Path, healthy: u32, fault: &str) -> Job {
+    let args = endless(out);
+    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let env = [("IRT_FAULT", fault)];
+    Job::start(&[ranks(healthy, &args), Ranks { n: 1, env: &env, args: ranks(1, &args).args }])
+}
+
 /// An [`endless`] job of three ranks, once rank 0 says it is tracing.
 fn tracing(out: &Path) -> Job {
     let args = endless(out);
@@ -331,25 +334,13 @@ fn a_killed_worker_ends_the_job() {
 
 #[test]
 fn a_panicking_worker_ends_the_job_with_its_message() {
-    let out = dir().join("panic.png");
-    let args = endless(&out);
-    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-    let mut job = Job::start(&[
-        ranks(1, &args),
-        Ranks { n: 1, env: &[("IRT_FAULT", "panic")], args: ranks(1, &args).args },
-    ]);
+    let mut job = with_fault(&dir().join("panic.png"), 1, "panic");
     assert_fails_loudly(&mut job, Duration::from_secs(120), &["irt rank 1: panicked at", "IRT_FAULT=panic"]);
 }
 
 #[test]
 fn ranks_of_another_build_refuse_to_start() {
-    let out = dir().join("version.png");
-    let args = endless(&out);
-    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-    let mut job = Job::start(&[
-        ranks(2, &args),
-        Ranks { n: 1, env: &[("IRT_FAULT", "version")], args: ranks(1, &args).args },
-    ]);
+    let mut job = with_fault(&dir().join("version.png"), 2, "version");
     assert_fails_loudly(
         &mut job,
         Duration::from_secs(120),
