@@ -154,6 +154,7 @@ impl Picker {
                 textures: Vec::new(),
                 trace: TraceSettings::default(),
                 motions: Vec::new(),
+                particles: Vec::new(),
             };
             self.geometry = Some(Reference::new(&copy).into_geometry());
             self.scene = Some(copy);

@@ -11,6 +11,7 @@ pub mod ply;
 pub mod png;
 pub mod shapes;
 pub mod spd;
+pub mod stress_plate;
 pub mod stage;
 pub mod toml;
 pub mod toml_write;
@@ -27,6 +28,9 @@ pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
 /// Loader limits on counts, well inside what the GPU records can index (`PrimRef` has 30 bits),
 /// so that a typo (an icosphere in a loop, a runaway generator) is an error and not a hang.
 pub const MAX_SPHERES: usize = 1 << 24;
+/// Spheres a particle file (or all of a scene's together) may hold: past the paper's 35 million
+/// (PAPER.md §9), 2.7 GB of host spheres, well inside `PrimRef`'s 30 bits.
+pub const MAX_PARTICLES: usize = 1 << 26;
 pub const MAX_TRIANGLES: usize = 1 << 24;
 pub const MAX_VERTICES: usize = 1 << 24;
 pub const MAX_CONES: usize = 1 << 22;
@@ -147,6 +151,7 @@ fn gltf_model(bytes: &[u8], origin: &str) -> Result<stage::Model, LoadError> {
         materials: scene.materials,
         textures: scene.textures,
         motions: scene.motions,
+        ..Default::default()
     })
 }
 

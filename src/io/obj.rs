@@ -651,7 +651,7 @@ impl<'a> Obj<'a> {
                 material: *material,
             });
         }
-        Ok(Model { meshes, materials: materials.out, textures: materials.textures, motions: vec![] })
+        Ok(Model { meshes, materials: materials.out, textures: materials.textures, ..Default::default() })
     }
 
     fn warn_skipped(&mut self) {

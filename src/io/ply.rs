@@ -13,11 +13,15 @@
 //! Errors give `file:line:column` in the header and in an ASCII body, and `at byte N` in a binary
 //! body. Elements are counted from 0, as PLY's vertex indices are.
 
+mod points;
+pub use points::{write as write_points, PointTable};
+
 use super::shapes::{triangulate, MAX_POLYGON_VERTICES};
 use super::stage::{self, Model};
 use super::toml::DEFAULT_DIFFUSE_COLOR;
 use super::{LoadError, MAX_MATERIALS, MAX_TRIANGLES, MAX_VERTICES};
 use crate::image::srgb_to_linear;
+use crate::scene::particles::ParticleStyle;
 use crate::scene::{Material, MaterialKind, Mesh, Scene};
 use glam::{DVec2, DVec3};
 use std::io::{self, Write};
@@ -40,9 +44,13 @@ pub fn parse(bytes: &[u8], origin: &str) -> Result<Scene, LoadError> {
     Ok(scene)
 }
 
-/// The meshes and materials of a PLY file (`origin` names it in messages).
+/// The meshes and materials of a PLY file (`origin` names it in messages); a file of points
+/// alone gives particles drawn the default way ([`parse_particles`]).
 pub fn parse_model(bytes: &[u8], origin: &str) -> Result<Model, LoadError> {
     let header = Header::parse(bytes, origin)?;
+    if header.is_points() {
+        return read_points(&header, bytes, origin, &ParticleStyle::default());
+    }
     let mut reader = Reader::new(&header)?;
     match header.encoding {
         Encoding::Ascii => {
@@ -57,6 +65,33 @@ pub fn parse_model(bytes: &[u8], origin: &str) -> Result<Model, LoadError> {
         }
     }
     reader.finish()
+}
+
+/// The points of a PLY file with a `vertex` element and no `face` element, as spheres drawn
+/// by `style` (`src/io/ply/points.rs`).
+pub fn parse_particles(bytes: &[u8], origin: &str, style: &ParticleStyle) -> Result<Model, LoadError> {
+    let header = Header::parse(bytes, origin)?;
+    if !header.is_points() {
+        let what = if header.elements.iter().any(|e| e.name == "vertex") { "faces" } else { "no vertex element" };
+        return Err(LoadError::new(origin, format!("not a file of points: it has {what}; use [[model]] for a mesh")));
+    }
+    read_points(&header, bytes, origin, style)
+}
+
+fn read_points(header: &Header, bytes: &[u8], origin: &str, style: &ParticleStyle) -> Result<Model, LoadError> {
+    let h = header;
+    match h.encoding {
+        Encoding::Ascii => {
+            let text = super::utf8(bytes, origin)?;
+            points::read(h, &mut Ascii { src: text, origin, pos: h.body, line_end: h.body, last: 0 }, style)
+        }
+        Encoding::BinaryLittleEndian => {
+            points::read(h, &mut Binary::<false> { bytes, origin, pos: h.body, last: 0 }, style)
+        }
+        Encoding::BinaryBigEndian => {
+            points::read(h, &mut Binary::<true> { bytes, origin, pos: h.body, last: 0 }, style)
+        }
+    }
 }
 
 /// How a PLY body is stored.
@@ -239,6 +274,12 @@ fn words(line: &str, base: usize) -> Vec<(usize, &str)> {
 impl<'a> Header<'a> {
     fn error(&self, at: usize, message: impl Into<String>) -> LoadError {
         LoadError::at(self.origin, self.text, at, message)
+    }
+
+    /// Whether the file is points alone: a `vertex` element and no `face` element.
+    fn is_points(&self) -> bool {
+        let has = |name| self.elements.iter().any(|e| e.name == name);
+        has("vertex") && !has("face")
     }
 
     fn parse(bytes: &'a [u8], origin: &'a str) -> Result<Header<'a>, LoadError> {
@@ -803,8 +844,8 @@ impl<'h> Reader<'h> {
             return Err(h.error(
                 end_at,
                 format!(
-                    "the header declares no `{missing}` element; irt renders surfaces, which need vertices \
-                     and faces (a file of points alone is a point cloud)"
+                    "the header declares no `{missing}` element; irt renders surfaces (vertices and faces) \
+                     and particles (vertices alone)"
                 ),
             ));
         };
@@ -1113,8 +1154,7 @@ impl<'h> Reader<'h> {
             return Ok(Model {
                 meshes: vec![mesh],
                 materials: vec![Material::new("default", kind)],
-                textures: vec![],
-                motions: vec![],
+                ..Default::default()
             });
         }
         Ok(split_by_colour(mesh, &self.groups, &self.group_sums))
@@ -1234,7 +1274,7 @@ fn split_by_colour(mesh: Mesh, groups: &[u16], sums: &[([f64; 3], u64)]) -> Mode
     };
     let materials: Vec<Material> = used.iter().map(|&g| material(g)).collect();
     if used.len() == 1 {
-        return Model { meshes: vec![mesh], materials, textures: vec![], motions: vec![] };
+        return Model { meshes: vec![mesh], materials, ..Default::default() };
     }
     // Triangles by group (a counting sort keeps file order within a group).
     let mut start = vec![0usize; sums.len() + 1];
@@ -1280,7 +1320,7 @@ fn split_by_colour(mesh: Mesh, groups: &[u16], sums: &[([f64; 3], u64)]) -> Mode
             remap[v as usize] = u32::MAX;
         }
     }
-    Model { meshes, materials, textures: vec![], motions: vec![] }
+    Model { meshes, materials, ..Default::default() }
 }
 
 // ---- Writing ---------------------------------------------------------------------------------

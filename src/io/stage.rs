@@ -3,21 +3,26 @@
 //! (docs/formats.md, "Staging a model"): a camera that frames its bounding sphere, a light above
 //! and to the right of the eye, the two-colour ambient and a neutral background.
 
+use crate::scene::particles::Particles;
 use crate::scene::{
-    Ambient, Animated, Camera, Light, Material, Mesh, Scene, Stage, Target, Texture, TraceSettings,
+    Ambient, Animated, Camera, Light, Material, Mesh, Scene, Sphere, Stage, Target, Texture, TraceSettings,
 };
 use glam::{DAffine3, DMat3, DVec3};
 
 /// Geometry and materials without a stage: what a model loader returns and what a TOML scene's
 /// `[[model]]` places. Each mesh's `material` indexes `materials`; each material's `texture`
 /// indexes `textures`; `motions` animate meshes (a glTF file's animations; other formats have
-/// none), their targets indexing `meshes`.
+/// none), their targets indexing `meshes`. A particle file's model has spheres instead of
+/// meshes, and `particles` says what file they came from (`Particles::spheres` and `materials`
+/// index this model's lists until it is placed).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Model {
     pub meshes: Vec<Mesh>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub motions: Vec<Animated>,
+    pub spheres: Vec<Sphere>,
+    pub particles: Vec<Particles>,
 }
 
 impl Model {
@@ -41,6 +46,18 @@ impl Model {
                 *m = true;
             }
             a.motion.stages.insert(0, Stage::Fixed(placement));
+        }
+        // Spheres stay round: they scale by the largest factor (TOML's `[[particles]]` takes
+        // one factor, so there they are all the same).
+        let radius_scale = scale.abs().max_element();
+        for s in &mut self.spheres {
+            s.center = r * (s.center * scale) + translate;
+            s.radius *= radius_scale;
+        }
+        for p in &mut self.particles {
+            p.scale *= radius_scale;
+            p.rotate_deg = rotate_deg;
+            p.translate = translate;
         }
         for (mesh, _) in self.meshes.iter_mut().zip(moving).filter(|(_, moving)| !moving) {
             for p in &mut mesh.positions {
@@ -85,9 +102,17 @@ pub fn stage(model: Model) -> Scene {
 
 /// `model` with the given camera (else [`framing_camera`]) and lights (if none,
 /// [`headlight`]), the default ambient and background.
-pub fn stage_with(model: Model, camera: Option<Camera>, mut lights: Vec<Light>) -> Scene {
+pub fn stage_with(mut model: Model, camera: Option<Camera>, mut lights: Vec<Light>) -> Scene {
+    // Spheres are framed by the corners of their box, a mesh of points without triangles.
+    let proxy = !model.spheres.is_empty();
+    if proxy {
+        model.meshes.push(sphere_box_corners(&model.spheres));
+    }
     let (center, radius) = bounds(&model.meshes);
     let camera = camera.unwrap_or_else(|| framing_camera(&model.meshes));
+    if proxy {
+        model.meshes.pop();
+    }
     if lights.is_empty() {
         lights.push(headlight(&camera, center, radius));
     }
@@ -97,13 +122,24 @@ pub fn stage_with(model: Model, camera: Option<Camera>, mut lights: Vec<Light>) 
         ambient: Ambient { sky: DEFAULT_AMBIENT_SKY, ground: DEFAULT_AMBIENT_GROUND, up: DVec3::Y },
         background: DEFAULT_BACKGROUND,
         materials: model.materials,
-        spheres: vec![],
+        spheres: model.spheres,
         cones: vec![],
         meshes: model.meshes,
         textures: model.textures,
         trace: TraceSettings::default(),
         motions: model.motions,
+        particles: model.particles,
     }
+}
+
+/// The eight corners of the box around `spheres`, as the positions of a mesh with no triangles.
+fn sphere_box_corners(spheres: &[Sphere]) -> Mesh {
+    let (lo, hi) = spheres.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), s| {
+        (lo.min(s.center - s.radius), hi.max(s.center + s.radius))
+    });
+    let positions =
+        (0..8).map(|i| DVec3::new([lo.x, hi.x][i & 1], [lo.y, hi.y][i >> 1 & 1], [lo.z, hi.z][i >> 2 & 1]));
+    Mesh { positions: positions.collect(), normals: None, uvs: None, indices: vec![], material: 0 }
 }
 
 /// Centre and radius of the box around every vertex ([`bounding_box`]).

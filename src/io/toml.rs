@@ -351,6 +351,7 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
         textures,
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
         motions: Vec::new(),
+        particles: Vec::new(),
     };
     scene.motions = motions(doc)?;
     for m in &doc.model {

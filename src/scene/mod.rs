@@ -5,7 +5,9 @@
 //! reference read it. Units are arbitrary; colours are linear RGB.
 
 mod builtin;
+pub mod colour_map;
 mod motion;
+pub mod particles;
 mod shadows;
 mod shells;
 mod soft;
@@ -49,6 +51,9 @@ pub struct Scene {
     pub trace: TraceSettings,
     /// Objects that move over time; the tracers render [`Scene::at`] a time (empty: a still).
     pub motions: Vec<Animated>,
+    /// The particle files whose spheres are among `spheres` (what `irt convert` writes by
+    /// reference and the HUD's colour bar shows).
+    pub particles: Vec<particles::Particles>,
 }
 
 /// Pinhole camera. Rays go through pixel centres; `vfov_deg` is the full vertical angle

@@ -8,6 +8,7 @@ mod backends;
 mod deal;
 mod dispatch_floor;
 mod distributed;
+mod particles;
 mod pieces;
 mod ply_speed;
 mod scale;
@@ -19,7 +20,7 @@ use clap::Parser;
 /// (name, what it measures, the harness)
 type Harness = (&'static str, &'static str, fn(&[String]) -> anyhow::Result<()>);
 
-const HARNESSES: [Harness; 10] = [
+const HARNESSES: [Harness; 11] = [
     (
         "adaptive",
         "the adaptive frameless order against Hilbert on camera paths: dynamic error, latency, age (docs/adaptive.md)",
@@ -42,6 +43,7 @@ const HARNESSES: [Harness; 10] = [
         dispatch_floor::run,
     ),
     ("interactive", "the interactive modes' study: tables and plots of docs/interactive.md", interactive),
+    ("particles", "write the stress plate's nodes as a PLY file of particles (docs/large-models.md)", particles::run),
     ("pieces", "a picture traced whole against in 4 and 16 pieces, each mode (docs/large-models.md)", pieces::run),
     ("ply-speed", "the PLY reader's speed: write a terrain, read it back (docs/ply.md)", ply_speed::run),
     ("scale", "one row of the large-model scale table (docs/large-models.md)", scale::run),
