@@ -180,7 +180,12 @@ pub fn auto(scene: &Scene) -> AccelKind {
     let moving = scene.motions.iter().any(|m| !matches!(m.target, crate::scene::Target::Light(_)));
     let n = scene.primitive_count();
     let kind = auto_for(n, moving);
-    if kind == AccelKind::Grid {
+    if kind == AccelKind::Grid && n > AUTO_GRID_PRIMITIVES {
+        log::info!(
+            "--accel auto: the grid for this scene of {n} primitives: a BVH's scene texture would pass what \
+             one device allocation may hold (--accel bvh to try one anyway)"
+        );
+    } else if kind == AccelKind::Grid {
         log::info!(
             "--accel auto: the grid for this scene of {n} primitives, since some of them move: a BVH \
              would be rebuilt whole at every frame (--accel bvh to build one anyway)"
@@ -189,9 +194,17 @@ pub fn auto(scene: &Scene) -> AccelKind {
     kind
 }
 
+/// Past this many primitives (only particle files reach it) `--accel auto` takes the grid
+/// whether or not anything moves: with a BVH (up to 3 texels a primitive beside a sphere's 2) the
+/// scene texture of the paper's 35M spheres is 2.7 GiB, past the 2 GiB one Vulkan allocation may
+/// take on lavapipe (its `maxMemoryAllocationSize`), and its build alone is minutes; the grid's
+/// texture is 1.55 GiB and traces the evenly spread spheres at 512² in 0.84 s
+/// (docs/large-models.md, "Particles").
+pub const AUTO_GRID_PRIMITIVES: usize = 1 << 24;
+
 /// [`auto`] for a scene of `primitives`, some of them `moving` or not.
 pub fn auto_for(primitives: usize, moving: bool) -> AccelKind {
-    if primitives > AUTO_GRID_ABOVE && moving {
+    if primitives > AUTO_GRID_ABOVE && moving || primitives > AUTO_GRID_PRIMITIVES {
         AccelKind::Grid
     } else {
         AccelKind::Bvh(BvhWalk::default())

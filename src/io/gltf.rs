@@ -1030,7 +1030,13 @@ impl<'a> Builder<'a> {
             }
             camera = Some(c);
         }
-        let model = Model { meshes, materials: self.materials, textures: self.textures, motions, ..Default::default() };
+        let model = Model {
+            meshes,
+            materials: self.materials,
+            textures: self.textures,
+            motions,
+            ..Default::default()
+        };
         Ok(stage::stage_with(model, camera, lights))
     }
 

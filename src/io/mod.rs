@@ -11,8 +11,8 @@ pub mod ply;
 pub mod png;
 pub mod shapes;
 pub mod spd;
-pub mod stress_plate;
 pub mod stage;
+pub mod stress_plate;
 pub mod toml;
 pub mod toml_write;
 

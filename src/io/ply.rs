@@ -72,13 +72,22 @@ pub fn parse_model(bytes: &[u8], origin: &str) -> Result<Model, LoadError> {
 pub fn parse_particles(bytes: &[u8], origin: &str, style: &ParticleStyle) -> Result<Model, LoadError> {
     let header = Header::parse(bytes, origin)?;
     if !header.is_points() {
-        let what = if header.elements.iter().any(|e| e.name == "vertex") { "faces" } else { "no vertex element" };
-        return Err(LoadError::new(origin, format!("not a file of points: it has {what}; use [[model]] for a mesh")));
+        let what =
+            if header.elements.iter().any(|e| e.name == "vertex") { "faces" } else { "no vertex element" };
+        return Err(LoadError::new(
+            origin,
+            format!("not a file of points: it has {what}; use [[model]] for a mesh"),
+        ));
     }
     read_points(&header, bytes, origin, style)
 }
 
-fn read_points(header: &Header, bytes: &[u8], origin: &str, style: &ParticleStyle) -> Result<Model, LoadError> {
+fn read_points(
+    header: &Header,
+    bytes: &[u8],
+    origin: &str,
+    style: &ParticleStyle,
+) -> Result<Model, LoadError> {
     let h = header;
     match h.encoding {
         Encoding::Ascii => {

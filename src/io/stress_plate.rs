@@ -90,7 +90,10 @@ mod tests {
         let p = plate(100_000);
         let n = p.positions.len();
         assert!((90_000..110_000).contains(&n), "{n}");
-        assert!(p.positions.iter().all(|q| (q[0] * q[0] + q[1] * q[1]) as f64 >= HOLE_RADIUS * HOLE_RADIUS * 0.999));
+        assert!(p
+            .positions
+            .iter()
+            .all(|q| (q[0] * q[0] + q[1] * q[1]) as f64 >= HOLE_RADIUS * HOLE_RADIUS * 0.999));
         assert!(p.fields.iter().all(|(_, v)| v.len() == n));
     }
 }

@@ -9,6 +9,8 @@
 
 #[path = "toml_motion.rs"]
 mod motion;
+#[path = "toml_particles.rs"]
+mod particles;
 
 use super::shapes::{self, Geometry, MAX_ICOSPHERE_SUBDIVISIONS};
 use super::{
@@ -41,7 +43,7 @@ pub const DEFAULT_ICOSPHERE_SUBDIVISIONS: u32 = 2;
 /// filter byte per row and chunk headers; this leaves room for that and no more.
 pub const MAX_TEXTURE_FILE_BYTES: u64 = MAX_TEXTURE_PIXELS * 8 + (16 << 20);
 pub const EMPTY_SCENE: &str =
-    "scene has nothing to render: add a [[sphere]], [[mesh]], [[cone]] or [[model]]";
+    "scene has nothing to render: add a [[sphere]], [[mesh]], [[cone]], [[model]] or [[particles]]";
 
 /// Parses and validates a scene; `origin` names the source in error messages, and texture
 /// `file`s are found relative to its directory (for a `<built-in …>` origin: the current one).
@@ -88,6 +90,8 @@ struct Doc {
     cone: Vec<Spanned<ConeDoc>>,
     #[serde(default)]
     model: Vec<Spanned<ModelDoc>>,
+    #[serde(default)]
+    particles: Vec<Spanned<particles::ParticlesDoc>>,
 }
 
 /// A model file placed in the scene: its meshes and materials (or `material` for all of them),
@@ -356,6 +360,9 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
     scene.motions = motions(doc)?;
     for m in &doc.model {
         place_model(&mut scene, m.get_ref(), &m.span(), origin, &names)?;
+    }
+    for p in &doc.particles {
+        particles::place(&mut scene, p.get_ref(), &p.span(), origin)?;
     }
     Ok(scene)
 }

@@ -11,6 +11,7 @@
 //! the text alone, for a caller that names (and writes) the texture files itself.
 
 use super::png;
+use crate::scene::particles::{Particles, Radius};
 use crate::scene::{Channel, Interpolation, MaterialKind, Motion, Rotation, Scene, Stage, Target, Trs};
 use glam::{DQuat, DVec2, DVec3};
 use std::collections::HashSet;
@@ -88,6 +89,8 @@ enum Value<'a> {
     Int(u64),
     Str(&'a str),
     Vec3(DVec3),
+    /// `[a, b]` on one line.
+    Pair([f64; 2]),
     /// One vector per line (mesh positions and normals).
     Vec3s(&'a [DVec3]),
     /// One `[u, v]` per line (mesh texture coordinates).
@@ -156,7 +159,18 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
         e.push(("filter", Value::Str(t.filter.name())));
         table(&mut out, "[[texture]]", &e);
     }
-    for (m, name) in scene.materials.iter().zip(&names) {
+    // A particle file's spheres and levels are written as its `[[particles]]` table.
+    let of_particles = |range: fn(&Particles) -> &std::ops::Range<usize>, i: usize| {
+        scene.particles.iter().any(|p| range(p).contains(&i))
+    };
+    for (m, name) in scene
+        .materials
+        .iter()
+        .zip(&names)
+        .enumerate()
+        .filter(|(i, _)| !of_particles(|p| &p.materials, *i))
+        .map(|(_, m)| m)
+    {
         let mut e = vec![("name", Value::Str(name))];
         match &m.kind {
             MaterialKind::Diffuse { color } => {
@@ -186,6 +200,9 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
     }
     let material = |index: u32| Value::Str(names.get(index as usize).map_or("", String::as_str));
     for (i, s) in scene.spheres.iter().enumerate() {
+        if of_particles(|p| &p.spheres, i) {
+            continue;
+        }
         #[rustfmt::skip]
         table(&mut out, "[[sphere]]", &[
             ("center", Value::Vec3(s.center)),
@@ -220,7 +237,35 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
         table(&mut out, "[[mesh]]", &e);
         motion(&mut out, "mesh", Target::Mesh(i as u32));
     }
+    for p in &scene.particles {
+        write_particles(&mut out, p);
+    }
     out
+}
+
+/// A `[[particles]]` table: the file by its absolute path (the TOML may be written anywhere),
+/// and the style with the field and range it resolved to, so that the file is drawn as it was.
+fn write_particles(out: &mut String, p: &Particles) {
+    let file = std::fs::canonicalize(&p.file).map_or(p.file.clone(), |f| f.display().to_string());
+    let mut e = vec![("file", Value::Str(&file))];
+    match &p.style.radius {
+        Radius::Auto => {}
+        Radius::Value(r) => e.push(("radius", Value::Float(*r))),
+        Radius::Field(f) => e.push(("radius", Value::Str(f))),
+    }
+    if let Some(l) = &p.legend {
+        e.extend([("field", Value::Str(&l.field)), ("map", Value::Str(l.map.name()))]);
+        // A field of one value has no rising range to write; it is found again from the file.
+        if l.lo < l.hi {
+            e.push(("range", Value::Pair([l.lo, l.hi])));
+        }
+    }
+    e.extend([
+        ("scale", Value::Float(p.scale)),
+        ("rotate", Value::Vec3(p.rotate_deg)),
+        ("translate", Value::Vec3(p.translate)),
+    ]);
+    table(out, "[[particles]]", &e);
 }
 
 /// `[[kind.motion]]` stages: a fixed stage as its `matrix`, a keyed one with its held values
@@ -354,6 +399,13 @@ fn write_value(out: &mut String, v: &Value) {
         Value::Int(n) => write!(out, "{n}").unwrap(),
         Value::Str(s) => string(out, s),
         Value::Vec3(v) => vec3(out, *v),
+        Value::Pair([a, b]) => {
+            out.push('[');
+            float(out, *a);
+            out.push_str(", ");
+            float(out, *b);
+            out.push(']');
+        }
         Value::Vec3s(vs) => lines(out, vs, |out, v| vec3(out, *v)),
         Value::Vec2s(vs) => lines(out, vs, |out, v| {
             out.push('[');

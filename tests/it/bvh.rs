@@ -303,6 +303,11 @@ fn auto_picks_the_bvh_unless_a_large_scene_moves() {
     let (n, big) = (AUTO_GRID_ABOVE, AUTO_GRID_ABOVE + 1);
     assert_eq!([auto_for(n, true), auto_for(big, false)], [bvh, bvh]);
     assert_eq!(auto_for(big, true), AccelKind::Grid);
+    // Past AUTO_GRID_PRIMITIVES (particle files) the grid, moving or not: a BVH's scene texture
+    // would not fit one device allocation.
+    use irt::accel::AUTO_GRID_PRIMITIVES;
+    assert_eq!(auto_for(AUTO_GRID_PRIMITIVES, false), bvh);
+    assert_eq!(auto_for(AUTO_GRID_PRIMITIVES + 1, false), AccelKind::Grid);
     assert_eq!(AccelChoice::default(), AccelChoice::Auto);
     // A scene past the limit: moving spheres and a mesh keep it on the grid, a moving light
     // alone does not, and neither does a still of it (what `irt render --time` traces).

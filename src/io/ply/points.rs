@@ -30,7 +30,9 @@ pub(super) fn read<B: Body>(h: &Header, body: &mut B, style: &ParticleStyle) -> 
     let vertex = h.elements.iter().position(|e| e.name == "vertex").expect("checked by the caller");
     let e = &h.elements[vertex];
     if e.count > MAX_PARTICLES as u64 {
-        return Err(h.error(e.count_at, format!("{} points; irt's limit is {MAX_PARTICLES} particles", e.count)));
+        return Err(
+            h.error(e.count_at, format!("{} points; irt's limit is {MAX_PARTICLES} particles", e.count))
+        );
     }
     let mut plan = vec![Slot::Skip; e.properties.len()];
     let scalar = |name: &str, role: &str| -> Result<Option<usize>, LoadError> {
@@ -59,7 +61,9 @@ pub(super) fn read<B: Body>(h: &Header, body: &mut B, style: &ParticleStyle) -> 
         h.error(e.at, format!("the points have no {what} `{name}`; their fields are {known}"))
     };
     let radius_property = match &style.radius {
-        Radius::Field(name) => Some((scalar(name, "a radius")?.ok_or_else(|| missing("radius field", name))?, name.clone())),
+        Radius::Field(name) => {
+            Some((scalar(name, "a radius")?.ok_or_else(|| missing("radius field", name))?, name.clone()))
+        }
         Radius::Auto => {
             let named = RADIUS_NAMES.iter().find(|n| fields.contains(n));
             named.map(|n| (e.property(&[n]).expect("listed").0, n.to_string()))
@@ -159,7 +163,11 @@ pub struct PointTable {
 }
 
 /// Writes `points` as a PLY file of one `vertex` element: `float x y z`, then each field.
-pub fn write(points: &PointTable, encoding: super::Encoding, out: impl std::io::Write) -> std::io::Result<()> {
+pub fn write(
+    points: &PointTable,
+    encoding: super::Encoding,
+    out: impl std::io::Write,
+) -> std::io::Result<()> {
     use super::Encoding::*;
     use std::io::Write;
     let mut w = std::io::BufWriter::with_capacity(1 << 20, out);
