@@ -753,6 +753,7 @@ pub(in crate::accel) mod tests {
             textures: vec![],
             trace: TraceSettings::default(),
             motions: Vec::new(),
+            particles: Vec::new(),
         }
     }
 

@@ -32,6 +32,7 @@ fn scene(eye: DVec3, look_at: DVec3, materials: Vec<MaterialKind>) -> Scene {
         textures: vec![],
         trace: TraceSettings::default(),
         motions: Vec::new(),
+        particles: Vec::new(),
     }
 }
 

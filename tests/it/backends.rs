@@ -678,6 +678,7 @@ fn a_background_bvh_written_into_the_ash_scene_image_draws_what_wgpu_draws() {
         materials: vec![material("terrain", irt::scene::MaterialKind::Diffuse { color: DVec3::splat(0.8) })],
         textures: vec![],
         motions: vec![],
+        ..Default::default()
     };
     let mut scene = irt::io::stage::stage(model);
     (scene.camera.width, scene.camera.height) = (40, 30);

@@ -179,6 +179,7 @@ fn a_viewer_traces_the_grid_until_its_background_bvh_is_built() {
         )],
         textures: vec![],
         motions: vec![],
+        ..Default::default()
     };
     let scene = sized(stage(model), 40, 30);
     assert!(scene.primitive_count() > BACKGROUND_BVH_ABOVE);

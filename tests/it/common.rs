@@ -105,6 +105,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
         textures: vec![],
         trace: TraceSettings::default(),
         motions: Vec::new(),
+        particles: Vec::new(),
     }
 }
 

@@ -387,6 +387,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                     textures,
                     trace,
                     motions: Vec::new(),
+                    particles: Vec::new(),
                 },
             )
     })

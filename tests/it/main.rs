@@ -46,6 +46,7 @@ mod motion;
 mod native_peer;
 mod obj;
 mod output_format;
+mod particles;
 mod pieces;
 mod pipeline_cache;
 mod ply;

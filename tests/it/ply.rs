@@ -19,7 +19,7 @@ use std::path::PathBuf;
 
 /// One value of a row, with its PLY type.
 #[derive(Clone, Copy, Debug)]
-enum V {
+pub(crate) enum V {
     I8(i8),
     U8(u8),
     I16(i16),
@@ -67,14 +67,14 @@ impl V {
     }
 }
 
-const ASCII: &str = "ascii";
-const LE: &str = "binary_little_endian";
-const BE: &str = "binary_big_endian";
-const ENCODINGS: [&str; 3] = [ASCII, LE, BE];
+pub(crate) const ASCII: &str = "ascii";
+pub(crate) const LE: &str = "binary_little_endian";
+pub(crate) const BE: &str = "binary_big_endian";
+pub(crate) const ENCODINGS: [&str; 3] = [ASCII, LE, BE];
 
 /// A PLY file: `header` holds its element and property lines; each row is one element
 /// instance (a list is its count followed by its items), one line in ASCII.
-fn ply(format: &str, header: &str, rows: &[Vec<V>]) -> Vec<u8> {
+pub(crate) fn ply(format: &str, header: &str, rows: &[Vec<V>]) -> Vec<u8> {
     let mut out =
         format!("ply\nformat {format} 1.0\ncomment made by tests/ply.rs\n{header}end_header\n").into_bytes();
     for row in rows {
@@ -634,8 +634,9 @@ fn what_irt_needs_is_checked_in_the_header() {
         1,
         &["lists floats", "integers"],
     );
-    // A point cloud: points but no faces. Refused from the header, pointing at its end.
-    fails_at(&plain(vertices), 7, 1, &["no `face` element", "point cloud"]);
+    // Points but no faces are particles (tests/it/particles.rs); none at all is an error at
+    // the count.
+    fails_at(&plain(vertices), 3, 16, &["holds no points"]);
     fails_at(&plain(faces), 5, 1, &["no `vertex` element"]);
 }
 
