@@ -419,6 +419,8 @@ fn si(x: f64) -> String {
 /// Draws the HUD into `ctx`; returns the changes asked for and the HUD's rectangle (points).
 pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>) {
     let mut req = HudRequest::default();
+    let legends: Vec<_> = v.edit.base.particles.iter().filter_map(|p| p.legend.as_ref()).collect();
+    super::colour_bar::draw(ctx, &legends);
     if !v.panel {
         let rect = compact(ctx, v, &mut req);
         return (req, Some(rect));

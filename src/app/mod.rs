@@ -7,6 +7,7 @@
 
 pub mod blit;
 pub mod camera;
+mod colour_bar;
 mod display;
 pub mod edit;
 pub mod hud;
