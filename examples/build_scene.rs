@@ -43,6 +43,7 @@ fn main() -> anyhow::Result<()> {
             ..Default::default()
         },
         motions: vec![],
+        particles: Vec::new(),
     };
     // Limits and consistency (indices, materials, finite numbers), in words a user can act on.
     scene.validate().map_err(|e| anyhow::anyhow!(e.0))?;

@@ -42,6 +42,7 @@ fn millions_of_triangles_render_like_the_reference_within_the_memory_bound() {
         materials: vec![Material::new("terrain", diffuse)],
         textures: vec![],
         motions: vec![],
+        ..Default::default()
     };
     let mut scene = stage(model);
     // Closer than the framing camera, looking down across the terrain, so that the image is

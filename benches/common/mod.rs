@@ -82,6 +82,7 @@ pub fn terrain_scene(triangles: usize, side: u32) -> Scene {
         materials: vec![Material::new("terrain", diffuse)],
         textures: vec![],
         motions: vec![],
+        ..Default::default()
     };
     let mut s = irt::io::stage::stage(model);
     s.camera.eye = DVec3::new(0.6, 0.9, 1.3);
