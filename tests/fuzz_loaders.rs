@@ -666,6 +666,13 @@ fn mutated_ply_scenes() {
     fuzz("ply", files("tests/data/models", &["ply"]), |rng, b, _| mutate_ply(rng, b));
 }
 
+/// PLY files of points alone (particles): the stress plate in ASCII and big-endian, and four
+/// points with a double radius, mutated as the meshes are.
+#[test]
+fn mutated_particle_files() {
+    fuzz("particles", files("tests/data/particles", &["ply"]), |rng, b, _| mutate_ply(rng, b));
+}
+
 /// The real OBJ models (tests/data/models/*/), and their libraries and textures copied into
 /// `format`'s work directory, where the mutants are loaded from, so that they get read.
 fn obj_models(format: &str) -> Vec<PathBuf> {

@@ -197,9 +197,9 @@ pub fn auto(scene: &Scene) -> AccelKind {
 /// Past this many primitives (only particle files reach it) `--accel auto` takes the grid
 /// whether or not anything moves: with a BVH (up to 3 texels a primitive beside a sphere's 2) the
 /// scene texture of the paper's 35M spheres is 2.7 GiB, past the 2 GiB one Vulkan allocation may
-/// take on lavapipe (its `maxMemoryAllocationSize`), and its build alone is minutes; the grid's
-/// texture is 1.55 GiB and traces the evenly spread spheres at 512² in 0.84 s
-/// (docs/large-models.md, "Particles").
+/// take on lavapipe (its `maxMemoryAllocationSize`): the set-up failed after 65 s of building.
+/// The grid's texture is 1.55 GiB, built in 4.5–5 s, and traces the stress plate's evenly
+/// spread spheres at 512² in 0.5–0.84 s (docs/large-models.md, "Particles").
 pub const AUTO_GRID_PRIMITIVES: usize = 1 << 24;
 
 /// [`auto`] for a scene of `primitives`, some of them `moving` or not.

@@ -404,6 +404,10 @@ fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, name
     let material = m.material.as_ref().map(|name| names.resolve(name)).transpose()?;
     let path = scene_relative(origin, &m.file);
     let mut model = super::load_model(&path).map_err(|e| located(m.file.span(), format!("model: {e}")))?;
+    if !model.spheres.is_empty() {
+        // Its spheres would be dropped here: particles have their own table and style.
+        return err(m.file.span(), "model: a PLY file of points is particles: place it with [[particles]]");
+    }
     model.transform(scale, rotate, translate);
     let triangles = scene.triangle_count() + model.meshes.iter().map(|m| m.indices.len()).sum::<usize>();
     let vertices = scene.meshes.iter().chain(&model.meshes).map(|m| m.positions.len()).sum::<usize>();

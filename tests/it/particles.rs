@@ -222,6 +222,10 @@ fn toml_places_particles_and_convert_keeps_them() {
             assert!(e.contains(w), "{table}: message lacks '{w}': {e}");
         }
     }
+    // A file of points given as a [[model]] would lose its spheres: refused, naming the table.
+    std::fs::write(&path, format!("{CAMERA}\n[[model]]\nfile = \"points.ply\"\n")).unwrap();
+    let e = irt::io::load(&path).unwrap_err().to_string();
+    assert!(e.contains("place it with [[particles]]"), "{e}");
     std::fs::write(&path, format!("{CAMERA}\n[[particles]]\nfile = \"scene.toml\"\n")).unwrap();
     let e = irt::io::load(&path).unwrap_err().to_string();
     assert!(e.contains("PLY files of points"), "{e}");

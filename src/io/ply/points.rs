@@ -8,6 +8,7 @@
 
 use super::{instances, skip, Body, Header, Kind, Slot, VALUES};
 use crate::io::stage::Model;
+use crate::io::toml::DEFAULT_DIFFUSE_COLOR;
 use crate::io::{LoadError, MAX_PARTICLES};
 use crate::scene::colour_map::{level, MAP_LEVELS};
 use crate::scene::particles::{auto_radius, Legend, ParticleStyle, Particles, Radius};
@@ -22,8 +23,6 @@ const _: () = assert!(FIELD < VALUES);
 /// The property a radius is read from when the style does not name one.
 const RADIUS_NAMES: [&str; 2] = ["radius", "r"];
 
-/// The colour of particles without a field to colour by.
-const PLAIN_COLOUR: DVec3 = DVec3::new(0.6, 0.6, 0.6);
 
 /// Reads the points of a PLY file whose header is `h` as spheres with their materials.
 pub(super) fn read<B: Body>(h: &Header, body: &mut B, style: &ParticleStyle) -> Result<Model, LoadError> {
@@ -125,7 +124,7 @@ pub(super) fn read<B: Body>(h: &Header, body: &mut B, style: &ParticleStyle) -> 
     }
 
     let (materials, legend) = match field {
-        None => (vec![Material::new("particles", MaterialKind::Diffuse { color: PLAIN_COLOUR })], None),
+        None => (vec![Material::new("particles", MaterialKind::Diffuse { color: DVec3::splat(DEFAULT_DIFFUSE_COLOR) })], None),
         Some((_, name)) => {
             let [lo, hi] = style.range.unwrap_or_else(|| {
                 values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(*v), hi.max(*v)])
