@@ -111,7 +111,7 @@ pub fn render_key(scene: &Scene, settings: &Settings) -> Result<u64, FarmError> 
     let state = State { version: 0, camera: scene.camera.clone(), settings: settings.clone(), time: 0.0 };
     let mut parts = files.textures;
     parts.push(("state".into(), state.encode()));
-    Ok(SceneMsg::digest(&files.toml, &parts))
+    Ok(SceneMsg { toml: files.toml, textures: parts, files: Vec::new(), hash: 0 }.content_hash())
 }
 
 /// One rendered tile: where it lies in which render, and its pixels (linear radiance, the rows

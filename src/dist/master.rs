@@ -6,7 +6,7 @@
 //! named and the job ends.
 
 use super::cluster::{say, Cluster};
-use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
+use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, SharedFile, State, Tag, Work, PROTOCOL};
 use crate::render::frame::HostFrame;
 use crate::render::modes::{chunk_pixels, frameless_sample, resolve_sample, Slices};
 use crate::render::order::{order_pixels, Dissolve, PixelOrder};
@@ -15,6 +15,7 @@ use crate::render::schedule::tile_grid;
 use crate::render::{Mode, RenderError, Schedule, Settings, StepReport};
 use crate::scene::{Camera, Scene};
 use std::collections::{BTreeMap, VecDeque};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// Pieces of work each worker holds at once: one traced, the next already there when it is done.
@@ -52,6 +53,8 @@ pub enum MasterError {
     Protocol { rank: i32, what: &'static str },
     #[error("the scene cannot be sent: {0}")]
     Encode(#[from] crate::io::toml_write::TextureError),
+    #[error("{path}: {why} (rank 0 reads it to send it to the workers)")]
+    File { path: PathBuf, why: String },
     #[error("{0} with --mpi: the ranks do not split it (drop one of them)")]
     Unsupported(&'static str),
     #[error(transparent)]
@@ -144,24 +147,16 @@ impl<'a> Master<'a> {
             workers.push(Worker { rank, device, out: VecDeque::new() });
         }
         workers.sort_by_key(|w| w.rank);
-        let files = crate::io::toml_write::to_files(scene, "scene")?;
-        let hash = SceneMsg::digest(&files.toml, &files.textures);
-        let msg = SceneMsg { toml: files.toml, textures: files.textures, hash }.encode();
+        let out = Outgoing::new(scene)?;
         let state = State { version: 1, camera: scene.camera.clone(), settings, time: 0.0 };
         for w in &workers {
-            cluster.send(w.rank, Tag::Scene, &msg);
+            cluster.send(w.rank, Tag::Scene, &out.msg);
             cluster.send(w.rank, Tag::State, &state.encode());
         }
-        for _ in &workers {
+        let mut ready = 0;
+        while ready < workers.len() {
             let (rank, bytes) = expect(cluster, Tag::Ready, setup, "setting the scene up", None)?;
-            let ready = Ready::decode(&bytes)?;
-            if let Some(why) = ready.error {
-                return Err(MasterError::Scene { rank, why });
-            }
-            if ready.hash != hash {
-                let why = format!("it holds scene {:016x}, rank 0 sent {hash:016x}", ready.hash);
-                return Err(MasterError::Scene { rank, why });
-            }
+            ready += out.settle(cluster, rank, Ready::decode(&bytes)?)? as usize;
         }
         let (w, h) = (scene.camera.width, scene.camera.height);
         let mut m = Master {
@@ -179,11 +174,16 @@ impl<'a> Master<'a> {
             applied: Vec::new(),
         };
         m.restart()?;
-        let kib = msg.len().div_ceil(1024);
+        let kib = out.msg.len().div_ceil(1024);
+        let files = match (out.files.len(), out.sent.get()) {
+            (0, _) => String::new(),
+            (n, 0) => format!("; every worker read its {n} file(s) itself"),
+            (_, b) => format!("; {:.1} MB of files sent", b as f64 / 1e6),
+        };
         say(
             0,
             &format!(
-                "{} workers ready on {}; scene sent ({kib} KiB), tracing",
+                "{} workers ready on {}; scene sent ({kib} KiB{files}), tracing",
                 m.workers.len(),
                 m.device_summary()
             ),
@@ -299,12 +299,10 @@ impl<'a> Master<'a> {
     /// scene is dropped. Pixels that arrive meanwhile are taken as usual. There is no smaller
     /// message for an edit: the scene is what the workers hold.
     pub fn set_scene(&mut self, scene: &Scene, deadline: Duration) -> Result<(), MasterError> {
-        let files = crate::io::toml_write::to_files(scene, "scene")?;
-        let hash = SceneMsg::digest(&files.toml, &files.textures);
-        let msg = SceneMsg { toml: files.toml, textures: files.textures, hash }.encode();
+        let out = Outgoing::new(scene)?;
         self.state.version += 1;
         for w in &self.workers {
-            self.cluster.send(w.rank, Tag::Scene, &msg);
+            self.cluster.send(w.rank, Tag::Scene, &out.msg);
             self.cluster.send(w.rank, Tag::State, &self.state.encode());
         }
         let mut ready = 0;
@@ -324,15 +322,7 @@ impl<'a> Master<'a> {
                 let px = Pixels::decode(&bytes)?;
                 self.take(rank, px, &mut StepReport::default())?;
             } else if tag == Tag::Ready.code() {
-                let r = Ready::decode(&bytes)?;
-                if let Some(why) = r.error {
-                    return Err(MasterError::Scene { rank, why });
-                }
-                if r.hash != hash {
-                    let why = format!("it holds scene {:016x}, rank 0 sent {hash:016x}", r.hash);
-                    return Err(MasterError::Scene { rank, why });
-                }
-                ready += 1;
+                ready += out.settle(self.cluster, rank, Ready::decode(&bytes)?)? as usize;
             } else {
                 return Err(MasterError::Protocol { rank, what: "out-of-turn" });
             }
@@ -589,6 +579,72 @@ fn expect(
             say(0, &format!("no rank answered within {:.0} s while {doing}", start.elapsed().as_secs_f64()));
             Err(MasterError::Silent { rank, seconds: start.elapsed().as_secs_f64(), doing: doing.into() })
         }
+    }
+}
+
+/// The scene as every worker receives it, and the files it names that a worker may ask for.
+struct Outgoing {
+    msg: Vec<u8>,
+    hash: u64,
+    files: Vec<(SharedFile, PathBuf)>,
+    /// The bytes of files sent so far, to every worker that asked.
+    sent: std::cell::Cell<u64>,
+}
+
+impl Outgoing {
+    fn new(scene: &Scene) -> Result<Outgoing, MasterError> {
+        let (files, beside) = crate::io::toml_write::to_files_beside(scene, "scene")?;
+        let shared = beside
+            .into_iter()
+            .map(|(name, path)| {
+                let start = Instant::now();
+                let (len, digest) = super::files::file_digest(&path)
+                    .map_err(|e| MasterError::File { path: path.clone(), why: e.to_string() })?;
+                let (mb, s) = (len as f64 / 1e6, start.elapsed().as_secs_f64());
+                log::info!("{}: {mb:.1} MB, digest {digest:016x} in {s:.2} s", path.display());
+                Ok((SharedFile { name, path: path.display().to_string(), len, digest }, path))
+            })
+            .collect::<Result<Vec<_>, MasterError>>()?;
+        let files = SceneMsg {
+            toml: files.toml,
+            textures: files.textures,
+            files: shared.iter().map(|(f, _)| f.clone()).collect(),
+            hash: 0,
+        };
+        let hash = files.content_hash();
+        Ok(Outgoing {
+            msg: SceneMsg { hash, ..files }.encode(),
+            hash,
+            files: shared,
+            sent: Default::default(),
+        })
+    }
+
+    /// A worker's [`Ready`]: `true` once it holds this scene. The files it cannot read are
+    /// sent (`false`: it says it is ready once they are in).
+    fn settle(&self, cluster: &Cluster, rank: i32, ready: Ready) -> Result<bool, MasterError> {
+        if let Some(why) = ready.error {
+            return Err(MasterError::Scene { rank, why });
+        }
+        for (i, why) in &ready.need {
+            let Some((f, path)) = self.files.get(*i as usize) else {
+                return Err(MasterError::Protocol { rank, what: "ready" });
+            };
+            let start = Instant::now();
+            super::files::send(cluster, rank, *i, f, path)
+                .map_err(|e| MasterError::File { path: path.clone(), why: e.to_string() })?;
+            let (mb, s) = (f.len as f64 / 1e6, start.elapsed().as_secs_f64());
+            say(0, &format!("rank {rank} cannot read {why}: sent it the file ({mb:.1} MB in {s:.2} s)"));
+            self.sent.set(self.sent.get() + f.len);
+        }
+        if !ready.need.is_empty() {
+            return Ok(false);
+        }
+        if ready.hash != self.hash {
+            let why = format!("it holds scene {:016x}, rank 0 sent {:016x}", ready.hash, self.hash);
+            return Err(MasterError::Scene { rank, why });
+        }
+        Ok(true)
     }
 }
 

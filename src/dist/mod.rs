@@ -8,6 +8,7 @@
 //! `--no-default-features` builds irt without MPI, and `--mpi` then says so).
 
 pub mod cluster;
+pub mod files;
 pub mod master;
 pub mod replay;
 pub mod wire;

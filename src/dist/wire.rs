@@ -8,7 +8,7 @@ use glam::DVec3;
 
 /// Bumped whenever a message's layout changes: ranks of another protocol or build refuse to
 /// work together ([`Hello`]).
-pub const PROTOCOL: u32 = 2;
+pub const PROTOCOL: u32 = 3;
 
 /// The MPI tag of each kind of message.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,6 +28,8 @@ pub enum Tag {
     Pixels = 6,
     /// Master → worker: the job is over.
     Bye = 7,
+    /// Master → worker: a part of a file the worker asked for in [`Ready::need`] ([`FilePart`]).
+    File = 8,
 }
 
 impl Tag {
@@ -218,29 +220,48 @@ impl Hello {
     }
 }
 
-/// The scene, as the lossless native TOML and its textures' PNGs (`io::toml_write`): no file
-/// system is shared, and the worker checks the hash of what arrived.
+/// The scene, as the lossless native TOML, its textures' PNGs (`io::toml_write`) and the files
+/// it names that may be too big to send to every worker (particle files): the worker reads such
+/// a file where the master did when it holds the same bytes there, else asks for it
+/// ([`Ready::need`]). The worker checks the hash of what arrived.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneMsg {
     pub toml: String,
     pub textures: Vec<(String, Vec<u8>)>,
-    /// [`SceneMsg::digest`] of the above, as the master computed it.
+    pub files: Vec<SharedFile>,
+    /// [`SceneMsg::content_hash`] of the above, as the master computed it.
     pub hash: u64,
 }
 
+/// A file the scene's TOML names by `name` (beside it): where rank 0 read it, and its length
+/// and digest ([`super::files::Digest`]), by which a worker knows it sees the same bytes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedFile {
+    pub name: String,
+    pub path: String,
+    pub len: u64,
+    pub digest: u64,
+}
+
 impl SceneMsg {
-    /// FNV-1a over the TOML and every texture's name and bytes.
-    pub fn digest(toml: &str, textures: &[(String, Vec<u8>)]) -> u64 {
+    /// FNV-1a over the TOML, every texture's name and bytes and every shared file's name, length
+    /// and digest (its path is where rank 0 read it, not what it holds).
+    pub fn content_hash(&self) -> u64 {
         let mut h = 0xcbf2_9ce4_8422_2325u64;
         let mut eat = |b: &[u8]| {
             for &x in b {
                 h = (h ^ x as u64).wrapping_mul(0x0100_0000_01b3);
             }
         };
-        eat(toml.as_bytes());
-        for (n, b) in textures {
+        eat(self.toml.as_bytes());
+        for (n, b) in &self.textures {
             eat(n.as_bytes());
             eat(b);
+        }
+        for f in &self.files {
+            eat(f.name.as_bytes());
+            eat(&f.len.to_le_bytes());
+            eat(&f.digest.to_le_bytes());
         }
         h
     }
@@ -249,6 +270,10 @@ impl SceneMsg {
         w.str(&self.toml).u32(self.textures.len() as u32);
         for (n, b) in &self.textures {
             w.str(n).bytes(b);
+        }
+        w.u32(self.files.len() as u32);
+        for f in &self.files {
+            w.str(&f.name).str(&f.path).u64(f.len).u64(f.digest);
         }
         w.u64(self.hash);
         w.0
@@ -261,9 +286,39 @@ impl SceneMsg {
         for _ in 0..n {
             textures.push((r.str()?.to_string(), r.bytes()?.to_vec()));
         }
+        let n = r.u32()?;
+        let mut files = Vec::new();
+        for _ in 0..n {
+            let (name, path) = (r.str()?.to_string(), r.str()?.to_string());
+            files.push(SharedFile { name, path, len: r.u64()?, digest: r.u64()? });
+        }
         let hash = r.u64()?;
         r.end()?;
-        Ok(SceneMsg { toml, textures, hash })
+        Ok(SceneMsg { toml, textures, files, hash })
+    }
+}
+
+/// A part of shared file `index` of the newest scene, at `offset`: the parts of a file come in
+/// order (MPI keeps a pair's messages in order), each at most [`super::files::PART_BYTES`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilePart {
+    pub index: u32,
+    pub offset: u64,
+    pub bytes: Vec<u8>,
+}
+
+impl FilePart {
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = Writer::default();
+        w.u32(self.index).u64(self.offset).bytes(&self.bytes);
+        w.0
+    }
+    pub fn decode(b: &[u8]) -> Result<Self, WireError> {
+        let mut r = Reader::new(b, "file part");
+        let (index, offset) = (r.u32()?, r.u64()?);
+        let bytes = r.bytes()?.to_vec();
+        r.end()?;
+        Ok(FilePart { index, offset, bytes })
     }
 }
 
@@ -274,6 +329,9 @@ pub struct Ready {
     pub hash: u64,
     /// Why the scene could not be loaded or set up on the device (`None`: it was).
     pub error: Option<String>,
+    /// The shared files the worker cannot read where rank 0 did, each with why: rank 0 sends
+    /// them ([`FilePart`]) and the worker says it is ready again. Empty: the scene is set up.
+    pub need: Vec<(u32, String)>,
 }
 
 impl Ready {
@@ -282,14 +340,22 @@ impl Ready {
         w.u64(self.hash).opt(self.error.as_deref(), |w, e| {
             w.str(e);
         });
+        w.u32(self.need.len() as u32);
+        for (i, why) in &self.need {
+            w.u32(*i).str(why);
+        }
         w.0
     }
     pub fn decode(b: &[u8]) -> Result<Self, WireError> {
         let mut r = Reader::new(b, "ready");
         let hash = r.u64()?;
         let error = r.opt(|r| Ok(r.str()?.to_string()))?;
+        let mut need = Vec::new();
+        for _ in 0..r.u32()? {
+            need.push((r.u32()?, r.str()?.to_string()));
+        }
         r.end()?;
-        Ok(Ready { hash, error })
+        Ok(Ready { hash, error, need })
     }
 }
 
@@ -506,12 +572,25 @@ mod tests {
         let failed = Hello { protocol: 0, version: "x".into(), device: Err("no Vulkan".into()) };
         assert_eq!(Hello::decode(&failed.encode()), Ok(failed));
         let textures = vec![("a.png".to_string(), vec![1u8, 2, 3])];
-        let scene =
-            SceneMsg { toml: "[camera]".into(), hash: SceneMsg::digest("[camera]", &textures), textures };
-        assert_eq!(SceneMsg::decode(&scene.encode()), Ok(scene));
-        for ready in [Ready { hash: 7, error: None }, Ready { hash: 0, error: Some("bad".into()) }] {
+        let files = vec![SharedFile { name: "p.ply".into(), path: "/d/p.ply".into(), len: 9, digest: 4 }];
+        let mut scene = SceneMsg { toml: "[camera]".into(), textures, files, hash: 0 };
+        scene.hash = scene.content_hash();
+        assert_eq!(SceneMsg::decode(&scene.encode()), Ok(scene.clone()));
+        // What a file holds is in the hash; where rank 0 read it is not.
+        let mut moved = scene.clone();
+        moved.files[0].path = "/e/p.ply".into();
+        assert_eq!(moved.content_hash(), scene.hash);
+        moved.files[0].digest = 5;
+        assert_ne!(moved.content_hash(), scene.hash);
+        for ready in [
+            Ready { hash: 7, error: None, need: vec![] },
+            Ready { hash: 0, error: Some("bad".into()), need: vec![] },
+            Ready { hash: 0, error: None, need: vec![(0, "no such file".into()), (2, "another".into())] },
+        ] {
             assert_eq!(Ready::decode(&ready.encode()), Ok(ready));
         }
+        let part = FilePart { index: 1, offset: 1 << 40, bytes: vec![7; 5] };
+        assert_eq!(FilePart::decode(&part.encode()), Ok(part));
         let camera = crate::scene::default_scene().camera;
         let modes = [
             Mode::Bands,

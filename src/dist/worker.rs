@@ -5,11 +5,11 @@
 //! bye.
 
 use super::cluster::{say, Cluster};
-use super::wire::{build_id, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
+use super::files::{Arrival, FileError};
+use super::wire::{build_id, FilePart, Hello, Piece, Pixels, Ready, SceneMsg, State, Tag, Work, PROTOCOL};
 use crate::gpu::device::Device;
 use crate::render::{RenderError, Session, SliceSpan};
 use crate::scene::Scene;
-use std::path::PathBuf;
 use std::time::Duration;
 
 /// How long a worker waits for the master's next word before it stops waiting: a master that
@@ -36,6 +36,8 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
     let Ok(ctx) = device else { return wait_for_bye(cluster) };
     // The scene (and the hash it arrived with), then the first state: the session needs both.
     let mut scene: Option<(Scene, u64)> = None;
+    // A scene whose shared files are still coming.
+    let mut arriving: Option<Arrival> = None;
     let mut state: Option<State> = None;
     let mut session: Option<Session<D>> = None;
     loop {
@@ -45,9 +47,40 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
         };
         match tag {
             t if t == Tag::Scene.code() => {
-                session = None;
-                match load_scene(&bytes) {
-                    Ok(loaded) => scene = Some(loaded),
+                (session, arriving) = (None, None);
+                let arrived = begin(&bytes).and_then(|(a, need)| match need.is_empty() {
+                    true => load(a).map(Some),
+                    false => {
+                        // Rank 0 sends what this rank cannot read; the scene loads when it is here.
+                        cluster.send(0, Tag::Ready, &Ready { hash: a.msg.hash, error: None, need }.encode());
+                        arriving = Some(a);
+                        Ok(None)
+                    }
+                });
+                match arrived {
+                    Ok(loaded) => scene = loaded,
+                    Err(ready) => {
+                        cluster.send(0, Tag::Ready, &ready.encode());
+                        return wait_for_bye(cluster);
+                    }
+                }
+            }
+            t if t == Tag::File.code() => {
+                let part = FilePart::decode(&bytes).unwrap_or_else(|e| cluster.abort(&e.to_string()));
+                let index = part.index;
+                let Some(a) = arriving.as_mut() else {
+                    cluster.abort(&FileError::Unexpected(index).to_string())
+                };
+                let hash = a.msg.hash;
+                let taken =
+                    a.take(part).map_err(|e| Ready { hash, error: Some(e.to_string()), need: vec![] });
+                let loaded = match taken {
+                    Ok(()) if a.complete() => arriving.take().map(load).transpose(),
+                    Ok(()) => Ok(None),
+                    Err(e) => Err(e),
+                };
+                match loaded {
+                    Ok(loaded) => scene = loaded.or(scene),
                     Err(ready) => {
                         cluster.send(0, Tag::Ready, &ready.encode());
                         return wait_for_bye(cluster);
@@ -76,9 +109,11 @@ pub fn run<D: Device>(cluster: &Cluster, open: impl FnOnce() -> Result<D, String
             t if t == Tag::Bye.code() => return,
             t => cluster.abort(&format!("a message with tag {t} is not irt's")),
         }
-        if let (None, Some((sc, hash)), Some(st)) = (&session, &scene, &state) {
+        if let (None, Some(_), Some(st)) = (&session, &scene, &state) {
+            // The session holds the scene from now on: a 35M-sphere scene is 1.1 GB a copy.
+            let (sc, hash) = scene.take().expect("a scene");
             let opened = open_session(&ctx, sc, st);
-            let ready = Ready { hash: *hash, error: opened.as_ref().err().map(|e| e.to_string()) };
+            let ready = Ready { hash, error: opened.as_ref().err().map(|e| e.to_string()), need: vec![] };
             cluster.send(0, Tag::Ready, &ready.encode());
             match opened {
                 Ok(s) => session = Some(s),
@@ -97,23 +132,36 @@ fn wait_for_bye(cluster: &Cluster) {
     }
 }
 
-/// The scene of a [`SceneMsg`] and the hash of what arrived, loaded from a private directory
-/// (no file system is shared with the master); or the [`Ready`] that says why not.
-fn load_scene(bytes: &[u8]) -> Result<(Scene, u64), Ready> {
-    let msg = SceneMsg::decode(bytes).map_err(|e| Ready { hash: 0, error: Some(e.to_string()) })?;
-    let hash = SceneMsg::digest(&msg.toml, &msg.textures);
+/// A [`SceneMsg`] checked by its hash and written into a private directory (no file system need
+/// be shared with the master), with the shared files it still needs; or the [`Ready`] that says
+/// why not.
+fn begin(bytes: &[u8]) -> Result<(Arrival, Vec<(u32, String)>), Ready> {
+    let fail = |hash, e: String| Ready { hash, error: Some(e), need: vec![] };
+    let msg = SceneMsg::decode(bytes).map_err(|e| fail(0, e.to_string()))?;
+    let hash = msg.content_hash();
     if hash != msg.hash {
-        let error = format!("the scene arrived with hash {hash:016x}, the master sent {:016x}", msg.hash);
-        return Err(Ready { hash, error: Some(error) });
+        return Err(fail(
+            hash,
+            format!("the scene arrived with hash {hash:016x}, the master sent {:016x}", msg.hash),
+        ));
     }
-    write_and_load(&msg).map(|s| (s, hash)).map_err(|e| Ready { hash, error: Some(e.to_string()) })
+    let dir = std::env::temp_dir().join(format!("irt-rank-{}", std::process::id()));
+    Arrival::begin(msg, dir, crate::fault::armed("unseen-files")).map_err(|e| fail(hash, e.to_string()))
+}
+
+/// The scene of a complete arrival, and its hash (its directory goes once it is loaded).
+fn load(a: Arrival) -> Result<(Scene, u64), Ready> {
+    let hash = a.msg.hash;
+    crate::io::load(&a.toml()).map(|s| (s, hash)).map_err(|e| Ready {
+        hash,
+        error: Some(SetupError::Load(e).to_string()),
+        need: vec![],
+    })
 }
 
 /// Why a worker could not set the scene up; its words go back to the master in [`Ready`].
 #[derive(Debug, thiserror::Error)]
 enum SetupError {
-    #[error("writing {0}: {1}")]
-    Write(PathBuf, std::io::Error),
     #[error(transparent)]
     Load(#[from] crate::io::LoadError),
     #[error("setting the scene up: {0}")]
@@ -122,27 +170,9 @@ enum SetupError {
     Pose(f64, RenderError),
 }
 
-fn write_and_load(msg: &SceneMsg) -> Result<Scene, SetupError> {
-    let dir = std::env::temp_dir().join(format!("irt-rank-{}", std::process::id()));
-    let write =
-        |path: PathBuf, bytes: &[u8]| std::fs::write(&path, bytes).map_err(|e| SetupError::Write(path, e));
-    std::fs::create_dir_all(&dir).map_err(|e| SetupError::Write(dir.clone(), e))?;
-    let result = (|| {
-        for (name, png) in &msg.textures {
-            write(dir.join(name), png)?;
-        }
-        let file = dir.join("scene.toml");
-        write(file.clone(), msg.toml.as_bytes())?;
-        Ok(crate::io::load(&file)?)
-    })();
-    let _ = std::fs::remove_dir_all(&dir);
-    result
-}
-
 /// A session of `scene` seen by the state's camera, with its settings and time: the same
 /// origin, variant and accelerator as the master's own picture would have.
-fn open_session<D: Device>(ctx: &D, scene: &Scene, st: &State) -> Result<Session<D>, SetupError> {
-    let mut s = scene.clone();
+fn open_session<D: Device>(ctx: &D, mut s: Scene, st: &State) -> Result<Session<D>, SetupError> {
     s.camera = st.camera.clone();
     let mut session = Session::from_scene(ctx, s, st.settings.clone()).map_err(SetupError::Session)?;
     session.set_time(ctx, st.time).map_err(|e| SetupError::Pose(st.time, e))?;

@@ -59,6 +59,21 @@ pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, TextureError> {
     Ok(SceneFiles { toml: to_toml(scene, &names), textures })
 }
 
+/// The scene as files for a directory of its own (a worker rank's, which may not see rank 0's
+/// file system): as [`to_files`], but particle file `i` named `<stem>.<i>.particles.ply` beside the
+/// TOML rather than by its path. Also gives each such name with the file it stands for.
+pub fn to_files_beside(
+    scene: &Scene,
+    stem: &str,
+) -> Result<(SceneFiles, Vec<(String, std::path::PathBuf)>), TextureError> {
+    let mut files = to_files(scene, stem)?;
+    let beside: Vec<_> = (0..scene.particles.len()).map(|i| format!("{stem}.{i}.particles.ply")).collect();
+    files.toml = to_toml_naming(scene, &texture_file_names(scene, stem), Some(&beside));
+    let sources =
+        scene.particles.iter().map(|p| std::fs::canonicalize(&p.file).unwrap_or(p.file.clone().into()));
+    Ok((files, beside.into_iter().zip(sources).collect()))
+}
+
 /// File names for the scene's textures, unique (the index) and safe on any file system: the
 /// texture's name is kept only in ASCII letters, digits, `-` and `_` (others become `_`, at
 /// most 32 of them, a trailing `.png` dropped) and left out when nothing is left of it.
@@ -105,6 +120,11 @@ enum Value<'a> {
 /// directory; one per texture). The scene should be valid ([`Scene::validate`]): TOML has no
 /// spelling for NaN that the loader would accept, and the loader rejects what `validate` rejects.
 pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
+    to_toml_naming(scene, texture_files, None)
+}
+
+/// [`to_toml`], particle file `i` named `particle_files[i]` if given, else by its absolute path.
+fn to_toml_naming(scene: &Scene, texture_files: &[String], particle_files: Option<&[String]>) -> String {
     assert_eq!(texture_files.len(), scene.textures.len(), "one file name per texture");
     let names = unique_names(scene.materials.iter().map(|m| m.name.as_str()));
     let texture_names = unique_names(scene.textures.iter().map(|t| t.name.as_str()));
@@ -237,17 +257,21 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
         table(&mut out, "[[mesh]]", &e);
         motion(&mut out, "mesh", Target::Mesh(i as u32));
     }
-    for p in &scene.particles {
-        write_particles(&mut out, p);
+    for (i, p) in scene.particles.iter().enumerate() {
+        let file = match particle_files {
+            Some(names) => names[i].clone(),
+            None => std::fs::canonicalize(&p.file).map_or(p.file.clone(), |f| f.display().to_string()),
+        };
+        write_particles(&mut out, p, &file);
     }
     out
 }
 
-/// A `[[particles]]` table: the file by its absolute path (the TOML may be written anywhere),
-/// and the style with the field and range it resolved to, so that the file is drawn as it was.
-fn write_particles(out: &mut String, p: &Particles) {
-    let file = std::fs::canonicalize(&p.file).map_or(p.file.clone(), |f| f.display().to_string());
-    let mut e = vec![("file", Value::Str(&file))];
+/// A `[[particles]]` table: the file as `file` names it (by default its absolute path: the TOML
+/// may be written anywhere), and the style with the field and range it resolved to, so that the
+/// file is drawn as it was.
+fn write_particles(out: &mut String, p: &Particles, file: &str) {
+    let mut e = vec![("file", Value::Str(file))];
     match &p.style.radius {
         Radius::Auto => {}
         Radius::Value(r) => e.push(("radius", Value::Float(*r))),

@@ -179,6 +179,12 @@ fn assert_same_as_one_process(name: &str, args: &[&str]) {
 
 /// [`assert_same_as_one_process`] at `size` (`["--size", "WxH"]`).
 fn assert_same_as_one_process_at(name: &str, args: &[&str], size: &[&str]) {
+    assert_same_with_workers(name, args, size, &[]);
+}
+
+/// [`assert_same_as_one_process_at`], the second worker with the environment `env`; gives what
+/// the job wrote on stderr.
+fn assert_same_with_workers(name: &str, args: &[&str], size: &[&str], env: &[(&str, &str)]) -> String {
     let one = dir().join(format!("{name}-one.png"));
     let mpi = dir().join(format!("{name}-mpi.png"));
     let out = Command::new(IRT).arg("render").args(args).args(size).arg("--out").arg(&one).output().unwrap();
@@ -186,12 +192,38 @@ fn assert_same_as_one_process_at(name: &str, args: &[&str], size: &[&str]) {
     let mut job_args = vec!["render", "--mpi", "--out", mpi.to_str().unwrap()];
     job_args.extend(args);
     job_args.extend(size);
-    let mut job = Job::start(&[ranks(3, &job_args)]);
+    let mut job = match env.is_empty() {
+        true => Job::start(&[ranks(3, &job_args)]),
+        false => Job::start(&[ranks(2, &job_args), Ranks { env, ..ranks(1, &job_args) }]),
+    };
     let status = job.wait(Duration::from_secs(240));
     let err = job.stderr();
     assert!(status.is_some_and(|s| s.success()), "{name}: {status:?}\n{err}");
     assert!(std::fs::read(&one).unwrap() == std::fs::read(&mpi).unwrap(), "{name}: the MPI picture differs");
     assert!(job.left_behind().is_empty(), "{name}: processes left: {:?}", job.left_behind());
+    err
+}
+
+/// A particle file is not in the scene message: a worker that sees rank 0's file reads it
+/// there; one that cannot is sent it in parts. Either way the picture is one process's.
+#[test]
+fn particle_files_are_read_where_workers_see_them_and_sent_where_not() {
+    let plate = irt::io::stress_plate::plate(20_000);
+    let mut bytes = Vec::new();
+    irt::io::ply::write_points(&plate, irt::io::ply::Encoding::BinaryLittleEndian, &mut bytes).unwrap();
+    let file = dir().join("plate.ply");
+    std::fs::write(&file, &bytes).unwrap();
+    let args = [file.to_str().unwrap(), "--mode", "conventional"];
+    let err = assert_same_with_workers("particles-read", &args, &SMALL, &[]);
+    assert!(err.contains("every worker read its 1 file(s) itself"), "{err}");
+    assert!(!err.contains("sent it the file"), "{err}");
+    let unseen = [("IRT_FAULT", "unseen-files")];
+    let err = assert_same_with_workers("particles-sent", &args, &SMALL, &unseen);
+    let mb = format!("sent it the file ({:.1} MB in", bytes.len() as f64 / 1e6);
+    assert!(err.contains("rank 2 cannot read") && err.contains(&mb), "{err}");
+    assert!(!err.contains("rank 1 cannot read"), "rank 1 sees the file: {err}");
+    // The file goes in parts of 64 MiB; this one is a single part, the unit tests split one.
+    assert!(err.contains(&format!("{:.1} MB of files sent", bytes.len() as f64 / 1e6)), "{err}");
 }
 
 #[test]
