@@ -23,7 +23,6 @@ const _: () = assert!(FIELD < VALUES);
 /// The property a radius is read from when the style does not name one.
 const RADIUS_NAMES: [&str; 2] = ["radius", "r"];
 
-
 /// Reads the points of a PLY file whose header is `h` as spheres with their materials.
 pub(super) fn read<B: Body>(h: &Header, body: &mut B, style: &ParticleStyle) -> Result<Model, LoadError> {
     let vertex = h.elements.iter().position(|e| e.name == "vertex").expect("checked by the caller");
@@ -124,7 +123,13 @@ pub(super) fn read<B: Body>(h: &Header, body: &mut B, style: &ParticleStyle) -> 
     }
 
     let (materials, legend) = match field {
-        None => (vec![Material::new("particles", MaterialKind::Diffuse { color: DVec3::splat(DEFAULT_DIFFUSE_COLOR) })], None),
+        None => (
+            vec![Material::new(
+                "particles",
+                MaterialKind::Diffuse { color: DVec3::splat(DEFAULT_DIFFUSE_COLOR) },
+            )],
+            None,
+        ),
         Some((_, name)) => {
             let [lo, hi] = style.range.unwrap_or_else(|| {
                 values.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| [lo.min(*v), hi.max(*v)])
