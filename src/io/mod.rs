@@ -15,6 +15,7 @@ pub mod stage;
 pub mod stress_plate;
 pub mod toml;
 pub mod toml_write;
+pub mod volume;
 
 use crate::scene::{InvalidScene, Scene};
 use glam::DVec3;

@@ -12,6 +12,7 @@ mod shadows;
 mod shells;
 mod soft;
 mod texture;
+pub mod volume;
 
 pub use builtin::default_scene;
 use glam::{DVec2, DVec3};

@@ -61,4 +61,5 @@ mod spd;
 mod specialisation;
 mod textures;
 mod viewer;
+mod volumes;
 mod watertight;
