@@ -2,6 +2,7 @@
 //! hierarchy beside it, chosen per scene ([`AccelChoice`]).
 pub mod bvh;
 pub mod grid;
+pub mod macrocells;
 pub use bvh::Bvh;
 pub use grid::{Grid, PrimKind, PrimRef};
 

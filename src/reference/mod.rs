@@ -10,6 +10,7 @@ mod shading;
 pub mod shadows;
 mod texture;
 mod trace;
+pub mod volume;
 
 pub use geometry::{
     cone_bounds, cone_normal, intersect_cone, intersect_sphere, intersect_triangle, triangle_normal,
