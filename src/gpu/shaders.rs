@@ -47,6 +47,7 @@ impl Program {
 
 const TRACE: &str = include_str!("../../shaders/trace.wgsl");
 const TESTS: &str = include_str!("../../shaders/tests.wgsl");
+const VOLUME: &str = include_str!("../../shaders/volume.wgsl");
 const MODES: &str = include_str!("../../shaders/modes.wgsl");
 
 /// The features a pipeline is specialised for: code for what is off is compiled out.
@@ -223,7 +224,7 @@ pub fn compose(program: Program, variant: Variant) -> String {
     let entries: &[(&str, &str)] = match program {
         Program::Render => &[("trace.wgsl", TRACE)],
         Program::Modes => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
-        Program::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
+        Program::Tests => &[("trace.wgsl", TRACE), ("volume.wgsl", VOLUME), ("tests.wgsl", TESTS)],
     };
     let bvh = variant.accel != layout::ACCEL_GRID;
     let accel = [

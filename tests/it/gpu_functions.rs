@@ -466,3 +466,53 @@ fn each_material_shading() {
         );
     }
 }
+
+/// A volume cell's isosurface along a segment (`cell_hit`, shaders/volume.wgsl) against its f64
+/// twin `scene::volume::cell_hit` on random cells and segments.
+#[test]
+fn cell_hit() {
+    let h = Harness::new();
+    let mut rng = Rng::new(9);
+    let mut cases = Vec::new();
+    for _ in 0..N {
+        let c: [f64; 8] = std::array::from_fn(|_| rng.range(0.0, 10.0) as f32 as f64);
+        let a = f32_round(rng.vec(0.0, 1.0));
+        let b = f32_round(rng.vec(0.0, 1.0));
+        cases.push((c, a, b, rng.range(2.0, 8.0) as f32 as f64));
+    }
+    let inputs: Vec<[f32; 4]> = cases
+        .iter()
+        .flat_map(|&(c, a, b, iso)| {
+            let q = |i: usize| [c[i] as f32, c[i + 1] as f32, c[i + 2] as f32, c[i + 3] as f32];
+            [q(0), q(4), v4(a, iso), v4(b, 0.0)]
+        })
+        .collect();
+    let out = h.run("k_cell_hit", &inputs, N, 1);
+    let (mut checked, mut hits) = (0, 0);
+    for (k, &(c, a, b, iso)) in cases.iter().enumerate() {
+        let f = |s: f64| irt::scene::volume::trilinear(&c, (a + (b - a) * s).to_array()) - iso;
+        // f32 evaluates the cubic to about 1e-5 of the corners' scale (10): a segment that comes
+        // within 1e-4 of iso without crossing, or starts or ends there, may be classified either
+        // way, and a root where the cubic is nearly flat moves by that error over its slope.
+        let near = (0..=1000).map(|i| f(i as f64 / 1000.0).abs()).fold(f64::INFINITY, f64::min);
+        let want = irt::scene::volume::cell_hit(&c, a, b, iso);
+        let got = out[k][0] as f64;
+        let slope = want.map_or(0.0, |s| ((f((s + 1e-4).min(1.0)) - f((s - 1e-4).max(0.0))) / 2e-4).abs());
+        let graze = want.is_none() && near < 1e-3 || f(0.0).abs() < 1e-3 || f(1.0).abs() < 1e-3;
+        if graze || (want.is_some() && slope < 0.1) {
+            continue;
+        }
+        checked += 1;
+        match want {
+            None => assert_eq!(got, -1.0, "case {k}: GPU s {got}, the f64 twin misses"),
+            Some(s) => {
+                hits += 1;
+                assert!(
+                    (got - s).abs() <= 1e-4 / slope + 1e-6,
+                    "case {k}: GPU s {got}, f64 {s} (slope {slope})"
+                );
+            }
+        }
+    }
+    assert!(checked > N * 9 / 10 && hits > N / 5, "{checked} unambiguous cases, {hits} hits");
+}
