@@ -14,13 +14,14 @@ mod ply_speed;
 mod scale;
 mod study;
 mod vklevers;
+mod volume;
 
 use clap::Parser;
 
 /// (name, what it measures, the harness)
 type Harness = (&'static str, &'static str, fn(&[String]) -> anyhow::Result<()>);
 
-const HARNESSES: [Harness; 11] = [
+const HARNESSES: [Harness; 12] = [
     (
         "adaptive",
         "the adaptive frameless order against Hilbert on camera paths: dynamic error, latency, age (docs/adaptive.md)",
@@ -48,6 +49,7 @@ const HARNESSES: [Harness; 11] = [
     ("ply-speed", "the PLY reader's speed: write a terrain, read it back (docs/ply.md)", ply_speed::run),
     ("scale", "one row of the large-model scale table (docs/large-models.md)", scale::run),
     ("vklevers", "the ash path's raw-Vulkan levers against the default (docs/backends.md)", vklevers::run),
+    ("volume", "write a synthetic 16-bit body as NRRD; load a volume and build its macrocells (docs/volumes.md)", volume::run),
 ];
 
 #[derive(Parser)]
