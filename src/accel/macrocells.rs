@@ -1,6 +1,6 @@
-//! A volume's min/max macrocell hierarchy (Parker et al.'s, PAPER.md §10): level 0 holds each
-//! cell's range (the least and greatest of its eight samples), and each level above groups
-//! `BRICK`³ of the level below. A ray walks the coarsest level and descends only into
+//! A volume's min/max macrocell hierarchy (Parker et al.'s, PAPER.md §10): level 0 holds the
+//! range (least and greatest sample) of each brick of `BRICK`³ cells, and each level above
+//! groups `BRICK`³ of the level below. A ray walks the coarsest level and descends only into
 //! macrocells whose range holds the isovalue, so a new isovalue rebuilds nothing and a walk
 //! skips the empty space. This is the host's copy, and the algorithm the shader walk follows.
 
@@ -9,7 +9,7 @@ use glam::DVec3;
 
 /// Cells (or macrocells) a macrocell spans along each axis.
 pub const BRICK: u32 = 4;
-/// Levels above the cells (the paper used three in all).
+/// Levels of macrocells above the cells (the paper used three).
 pub const MAX_LEVELS: usize = 3;
 
 /// One level: how many of its macrocells lie along each axis, how many grid cells each spans,
@@ -33,30 +33,42 @@ impl Level {
     }
 }
 
-/// The hierarchy: `levels[0]` is the cells themselves, the last the coarsest.
+/// The hierarchy: `levels[0]` groups `BRICK`³ cells, each level above `BRICK`³ of the one
+/// below, the last the coarsest. The cells' own ranges are not stored (8 bytes a cell would be
+/// four times a 16-bit volume): the walk takes them from the samples as it reaches them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Macrocells {
     pub levels: Vec<Level>,
 }
 
 impl Macrocells {
-    /// Builds the ranges bottom up: up to [`MAX_LEVELS`] levels above the cells, stopping once
-    /// a level has a single macrocell.
+    /// Builds the ranges bottom up: level 0 from the samples (a macrocell of cells `m B ..
+    /// m B + B` spans samples `m B ..= m B + B`), then up to [`MAX_LEVELS`] levels in all,
+    /// stopping once a level has a single macrocell.
     pub fn build(grid: &Grid) -> Macrocells {
         let cells = grid.cells();
-        let mut ranges = Vec::with_capacity(cells.iter().map(|&c| c as usize).product());
-        for k in 0..cells[2] {
-            for j in 0..cells[1] {
-                for i in 0..cells[0] {
-                    let c = grid.corners([i, j, k]);
-                    let lo = c.iter().copied().fold(f64::INFINITY, f64::min) as f32;
-                    let hi = c.iter().copied().fold(f64::NEG_INFINITY, f64::max) as f32;
-                    ranges.push([lo, hi]);
+        let dims = cells.map(|d| d.div_ceil(BRICK));
+        let mut ranges = Vec::with_capacity(dims.iter().map(|&d| d as usize).product());
+        for mk in 0..dims[2] {
+            for mj in 0..dims[1] {
+                for mi in 0..dims[0] {
+                    let lo = [mi, mj, mk].map(|m| m * BRICK);
+                    let hi: [u32; 3] = std::array::from_fn(|a| (lo[a] + BRICK).min(cells[a]));
+                    let mut r = [f32::INFINITY, f32::NEG_INFINITY];
+                    for k in lo[2]..=hi[2] {
+                        for j in lo[1]..=hi[1] {
+                            for i in lo[0]..=hi[0] {
+                                let v = grid.at(i, j, k);
+                                r = [r[0].min(v), r[1].max(v)];
+                            }
+                        }
+                    }
+                    ranges.push(r);
                 }
             }
         }
-        let mut levels = vec![Level { dims: cells, span: 1, ranges }];
-        while levels.len() <= MAX_LEVELS && levels.last().is_some_and(|l| l.dims.iter().any(|&d| d > 1)) {
+        let mut levels = vec![Level { dims, span: BRICK, ranges }];
+        while levels.len() < MAX_LEVELS && levels.last().is_some_and(|l| l.dims.iter().any(|&d| d > 1)) {
             let below = levels.last().expect("a level");
             let dims = below.dims.map(|d| d.div_ceil(BRICK));
             let mut ranges =
@@ -131,14 +143,21 @@ impl Macrocells {
             if !l.holds(c, iso) {
                 return false;
             }
-            if level == 0 {
-                return visit(c, ta, tb);
-            }
-            // The children of `c` on the level below, clamped to that level's extent.
-            let below = &self.levels[level - 1].dims;
+            // The children of `c` on the level below (the cells, under level 0), clamped to
+            // that level's extent.
+            let below = if level == 0 { grid.cells() } else { self.levels[level - 1].dims };
             let lo = c.map(|x| x * BRICK);
             let hi = std::array::from_fn(|a| (lo[a] + BRICK - 1).min(below[a] - 1));
-            self.walk_level(level - 1, [lo, hi], grid, origin, dir, [ta, tb], iso, visit)
+            if level > 0 {
+                return self.walk_level(level - 1, [lo, hi], grid, origin, dir, [ta, tb], iso, visit);
+            }
+            dda(grid.origin, grid.spacing, [lo, hi], origin, dir, [ta, tb], &mut |cell, ca, cb| {
+                let corners = grid.corners(cell);
+                let (lo, hi) = corners
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+                lo <= iso as f64 && iso as f64 <= hi && visit(cell, ca, cb)
+            })
         })
     }
 }
@@ -229,12 +248,13 @@ mod tests {
     }
 
     /// Every cell the ray crosses whose range holds the isovalue, by walking every cell.
-    fn brute(grid: &Grid, cells: &Level, origin: DVec3, dir: DVec3, iso: f32) -> Vec<[u32; 3]> {
+    fn brute(grid: &Grid, origin: DVec3, dir: DVec3, iso: f32) -> Vec<[u32; 3]> {
         let mut out = Vec::new();
         if let Some(span) = clip(grid, origin, dir, [0.0, f64::INFINITY]) {
-            let all = [[0, 0, 0], cells.dims.map(|d| d - 1)];
+            let all = [[0, 0, 0], grid.cells().map(|d| d - 1)];
             dda(grid.origin, grid.spacing, all, origin, dir, span, &mut |c, _, _| {
-                if cells.holds(c, iso) {
+                let v = grid.corners(c);
+                if v.iter().any(|&x| x <= iso as f64) && v.iter().any(|&x| x >= iso as f64) {
                     out.push(c);
                 }
                 false
@@ -252,7 +272,7 @@ mod tests {
         for case in 0..300 {
             let grid = random_grid(&mut seed);
             let m = Macrocells::build(&grid);
-            assert!(m.levels.len() >= 2, "case {case}");
+            assert!(!m.levels.is_empty(), "case {case}");
             let (lo, hi) = grid.bounds();
             for _ in 0..20 {
                 let inside = lo + (hi - lo) * DVec3::new(lcg(&mut seed), lcg(&mut seed), lcg(&mut seed));
@@ -260,7 +280,7 @@ mod tests {
                     DVec3::new(lcg(&mut seed) - 0.5, lcg(&mut seed) - 0.5, lcg(&mut seed) - 0.5).normalize();
                 let origin = inside - dir * 40.0;
                 let iso = (lcg(&mut seed) * 255.0) as f32;
-                let want = brute(&grid, &m.levels[0], origin, dir, iso);
+                let want = brute(&grid, origin, dir, iso);
                 let mut got = Vec::new();
                 m.walk(&grid, origin, dir, [0.0, f64::INFINITY], iso, &mut |c, ta, tb| {
                     assert!(ta <= tb, "case {case}: the span {ta}..{tb} runs backwards");
@@ -275,15 +295,16 @@ mod tests {
     }
 
     #[test]
-    fn levels_group_bricks_and_hold_their_cells_ranges() {
-        let v: Vec<u8> = (0..10 * 9 * 3).map(|n| (n % 10) as u8).collect();
-        let g = Grid::new([10, 9, 3], DVec3::ONE, DVec3::ZERO, Voxels::U8(v)).unwrap();
+    fn levels_group_bricks_and_hold_their_samples_ranges() {
+        let v: Vec<u8> = (0..34 * 9 * 3).map(|n| (n % 34) as u8).collect();
+        let g = Grid::new([34, 9, 3], DVec3::ONE, DVec3::ZERO, Voxels::U8(v)).unwrap();
         let m = Macrocells::build(&g);
         let dims: Vec<_> = m.levels.iter().map(|l| (l.dims, l.span)).collect();
-        assert_eq!(dims, [([9, 8, 2], 1), ([3, 2, 1], 4), ([1, 1, 1], 16)]);
-        assert_eq!(m.levels[0].ranges[0], [0.0, 1.0]);
-        assert_eq!(m.levels[2].ranges[0], [0.0, 9.0]);
-        // Cells 4..8 along x hold 4..=8.
-        assert_eq!(m.levels[1].ranges[1], [4.0, 8.0]);
+        assert_eq!(dims, [([9, 2, 1], 4), ([3, 1, 1], 16), ([1, 1, 1], 64)]);
+        // Cells 4..8 along x span samples 4..=8; the last macrocell, cells 32..33, samples 32..=33.
+        assert_eq!(m.levels[0].ranges[1], [4.0, 8.0]);
+        assert_eq!(m.levels[0].ranges[8], [32.0, 33.0]);
+        assert_eq!(m.levels[1].ranges[0], [0.0, 16.0]);
+        assert_eq!(m.levels[2].ranges[0], [0.0, 33.0]);
     }
 }

@@ -113,9 +113,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Grid, LoadError> {
                 let m = format!("{} bytes of data; {n} {sample:?} samples need {want}", body.len());
                 return Err(LoadError::new(&data_name, m));
             }
-            body[..want].to_vec()
+            std::borrow::Cow::Borrowed(&body[..want])
         }
-        "gzip" | "gz" => gunzip(data, want).map_err(|m| LoadError::new(&data_name, m))?,
+        "gzip" | "gz" => gunzip(data, want).map_err(|m| LoadError::new(&data_name, m))?.into(),
         "ascii" | "text" | "txt" => return ascii(data, dims, &h, &data_name),
         other => {
             let m = format!("encoding `{other}`: irt reads raw, gzip and ascii NRRD data");
