@@ -9,6 +9,7 @@ pub mod nff;
 pub mod obj;
 pub mod ply;
 pub mod png;
+mod scalar;
 pub mod shapes;
 pub mod spd;
 pub mod stage;

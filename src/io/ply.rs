@@ -16,6 +16,7 @@
 mod points;
 pub use points::{write as write_points, PointTable};
 
+use super::scalar::Scalar;
 use super::shapes::{triangulate, MAX_POLYGON_VERTICES};
 use super::stage::{self, Model};
 use super::toml::DEFAULT_DIFFUSE_COLOR;
@@ -125,19 +126,6 @@ impl Encoding {
 
 // ---- The header ------------------------------------------------------------------------------
 
-/// A property's number type.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Scalar {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
-
 const TYPE_NAMES: &str = "char, uchar, short, ushort, int, uint, float, double (or int8, uint8, int16, \
                           uint16, int32, uint32, float32, float64)";
 
@@ -156,19 +144,6 @@ impl Scalar {
         })
     }
 
-    fn size(self) -> usize {
-        match self {
-            Scalar::I8 | Scalar::U8 => 1,
-            Scalar::I16 | Scalar::U16 => 2,
-            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
-            Scalar::F64 => 8,
-        }
-    }
-
-    fn is_integer(self) -> bool {
-        !matches!(self, Scalar::F32 | Scalar::F64)
-    }
-
     fn name(self) -> &'static str {
         match self {
             Scalar::I8 => "char",
@@ -179,19 +154,6 @@ impl Scalar {
             Scalar::U32 => "uint",
             Scalar::F32 => "float",
             Scalar::F64 => "double",
-        }
-    }
-
-    /// The range of an integer type.
-    fn range(self) -> (i64, i64) {
-        match self {
-            Scalar::I8 => (i8::MIN as i64, i8::MAX as i64),
-            Scalar::U8 => (0, u8::MAX as i64),
-            Scalar::I16 => (i16::MIN as i64, i16::MAX as i64),
-            Scalar::U16 => (0, u16::MAX as i64),
-            Scalar::I32 => (i32::MIN as i64, i32::MAX as i64),
-            Scalar::U32 => (0, u32::MAX as i64),
-            Scalar::F32 | Scalar::F64 => (i64::MIN, i64::MAX),
         }
     }
 }

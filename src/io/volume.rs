@@ -9,6 +9,7 @@ mod nifti;
 mod nrrd;
 mod vti;
 
+use super::scalar::Scalar;
 use super::LoadError;
 use crate::scene::volume::{Grid, Voxels};
 use glam::DVec3;
@@ -55,32 +56,10 @@ fn voxel_count(dims: [u64; 3]) -> Result<u64, String> {
     Ok(n)
 }
 
-/// A sample type as files name it, and how to decode it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum SampleType {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
-
-impl SampleType {
-    fn bytes(self) -> usize {
-        match self {
-            SampleType::I8 | SampleType::U8 => 1,
-            SampleType::I16 | SampleType::U16 => 2,
-            SampleType::I32 | SampleType::U32 | SampleType::F32 => 4,
-            SampleType::F64 => 8,
-        }
-    }
-
+impl Scalar {
     /// `bytes` (exactly `n` samples of this type, in `big`-endian order or not) as voxels:
     /// 8- and 16-bit kept as they are (int8 widened to int16), the rest as float32.
-    fn decode(self, bytes: &[u8], big: bool) -> Voxels {
+    fn decode_voxels(self, bytes: &[u8], big: bool) -> Voxels {
         macro_rules! each {
             ($t:ty, $n:literal) => {
                 bytes.chunks_exact($n).map(|c| {
@@ -94,14 +73,14 @@ impl SampleType {
             };
         }
         match self {
-            SampleType::U8 => Voxels::U8(bytes.to_vec()),
-            SampleType::I8 => Voxels::I16(bytes.iter().map(|&b| b as i8 as i16).collect()),
-            SampleType::U16 => Voxels::U16(each!(u16, 2).collect()),
-            SampleType::I16 => Voxels::I16(each!(i16, 2).collect()),
-            SampleType::I32 => Voxels::F32(each!(i32, 4).map(|v| v as f32).collect()),
-            SampleType::U32 => Voxels::F32(each!(u32, 4).map(|v| v as f32).collect()),
-            SampleType::F32 => Voxels::F32(each!(f32, 4).collect()),
-            SampleType::F64 => Voxels::F32(each!(f64, 8).map(|v| v as f32).collect()),
+            Scalar::U8 => Voxels::U8(bytes.to_vec()),
+            Scalar::I8 => Voxels::I16(bytes.iter().map(|&b| b as i8 as i16).collect()),
+            Scalar::U16 => Voxels::U16(each!(u16, 2).collect()),
+            Scalar::I16 => Voxels::I16(each!(i16, 2).collect()),
+            Scalar::I32 => Voxels::F32(each!(i32, 4).map(|v| v as f32).collect()),
+            Scalar::U32 => Voxels::F32(each!(u32, 4).map(|v| v as f32).collect()),
+            Scalar::F32 => Voxels::F32(each!(f32, 4).collect()),
+            Scalar::F64 => Voxels::F32(each!(f64, 8).map(|v| v as f32).collect()),
         }
     }
 }

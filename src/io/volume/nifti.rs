@@ -2,7 +2,8 @@
 //! voxels are read), then the voxels. Placement from the sform when it is set, else the qform's
 //! quaternion, else the voxel sizes alone; `scl_slope`/`scl_inter` applied when they scale.
 
-use super::{aligned_grid, voxel_count, SampleType};
+use super::{aligned_grid, voxel_count};
+use crate::io::scalar::Scalar;
 use crate::io::LoadError;
 use crate::scene::volume::{Grid, Voxels};
 use glam::{DMat3, DQuat, DVec3};
@@ -24,14 +25,14 @@ pub fn load(path: &Path) -> Result<Grid, LoadError> {
     let dims = [h.dim[1], h.dim[2], h.dim[3]].map(u64::from);
     voxel_count(dims).map_err(&fail)?;
     let sample = match h.data_type() {
-        Ok(NiftiType::Uint8) => SampleType::U8,
-        Ok(NiftiType::Int8) => SampleType::I8,
-        Ok(NiftiType::Int16) => SampleType::I16,
-        Ok(NiftiType::Uint16) => SampleType::U16,
-        Ok(NiftiType::Int32) => SampleType::I32,
-        Ok(NiftiType::Uint32) => SampleType::U32,
-        Ok(NiftiType::Float32) => SampleType::F32,
-        Ok(NiftiType::Float64) => SampleType::F64,
+        Ok(NiftiType::Uint8) => Scalar::U8,
+        Ok(NiftiType::Int8) => Scalar::I8,
+        Ok(NiftiType::Int16) => Scalar::I16,
+        Ok(NiftiType::Uint16) => Scalar::U16,
+        Ok(NiftiType::Int32) => Scalar::I32,
+        Ok(NiftiType::Uint32) => Scalar::U32,
+        Ok(NiftiType::Float32) => Scalar::F32,
+        Ok(NiftiType::Float64) => Scalar::F64,
         Ok(t) => {
             return Err(fail(format!(
                 "datatype {t:?}: irt reads 8-, 16- and 32-bit integers, float32 and float64"
@@ -49,7 +50,7 @@ pub fn load(path: &Path) -> Result<Grid, LoadError> {
         })
     })?;
     let big = h.endianness == nifti::Endianness::Big;
-    let mut voxels = sample.decode(obj.into_volume().raw_data(), big);
+    let mut voxels = sample.decode_voxels(obj.into_volume().raw_data(), big);
     // A slope of 0 or NaN means no scaling (the standard and nibabel agree); an offset that is
     // not finite is none.
     let slope = h.scl_slope as f64;

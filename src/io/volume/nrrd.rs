@@ -4,7 +4,8 @@
 //! the header. Encodings raw, gzip and ascii; a three-dimensional scalar grid (a leading axis of
 //! size 1 is dropped). Spacing from `spacings` or `space directions`, origin from `space origin`.
 
-use super::{aligned_grid, gunzip, voxel_count, SampleType};
+use super::{aligned_grid, gunzip, voxel_count};
+use crate::io::scalar::Scalar;
 use crate::io::LoadError;
 use crate::scene::volume::Grid;
 use glam::DVec3;
@@ -22,7 +23,7 @@ pub fn load(path: &Path) -> Result<Grid, LoadError> {
 /// The fields of a header that irt uses.
 #[derive(Default)]
 struct Header {
-    sample: Option<SampleType>,
+    sample: Option<Scalar>,
     dimension: Option<usize>,
     sizes: Vec<u64>,
     encoding: Option<String>,
@@ -85,7 +86,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Grid, LoadError> {
     }
     let dims = [h.sizes[skip], h.sizes[skip + 1], h.sizes[skip + 2]];
     let n = voxel_count(dims).map_err(|m| LoadError::new(&shown, m))? as usize;
-    let want = n * sample.bytes();
+    let want = n * sample.size();
     let encoding = h.encoding.clone().ok_or_else(|| need("encoding"))?;
 
     let (data, data_name): (std::borrow::Cow<[u8]>, String) = match &h.data_file {
@@ -122,7 +123,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Grid, LoadError> {
             return Err(LoadError::new(&shown, m));
         }
     };
-    grid(dims, &h, sample.decode(&raw, h.big_endian)).map_err(|m| LoadError::new(&shown, m))
+    grid(dims, &h, sample.decode_voxels(&raw, h.big_endian)).map_err(|m| LoadError::new(&shown, m))
 }
 
 /// Where the blank line that ends an attached header is: its start, and where the data begins.
@@ -187,16 +188,16 @@ fn field_into(h: &mut Header, field: &str, value: &str) -> Result<(), String> {
     Ok(())
 }
 
-fn sample_type(v: &str) -> Result<SampleType, String> {
+fn sample_type(v: &str) -> Result<Scalar, String> {
     Ok(match v {
-        "signed char" | "int8" | "int8_t" => SampleType::I8,
-        "uchar" | "unsigned char" | "uint8" | "uint8_t" => SampleType::U8,
-        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => SampleType::I16,
-        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => SampleType::U16,
-        "int" | "signed int" | "int32" | "int32_t" => SampleType::I32,
-        "uint" | "unsigned int" | "uint32" | "uint32_t" => SampleType::U32,
-        "float" => SampleType::F32,
-        "double" => SampleType::F64,
+        "signed char" | "int8" | "int8_t" => Scalar::I8,
+        "uchar" | "unsigned char" | "uint8" | "uint8_t" => Scalar::U8,
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => Scalar::I16,
+        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => Scalar::U16,
+        "int" | "signed int" | "int32" | "int32_t" => Scalar::I32,
+        "uint" | "unsigned int" | "uint32" | "uint32_t" => Scalar::U32,
+        "float" => Scalar::F32,
+        "double" => Scalar::F64,
         other => {
             return Err(format!("type `{other}`: irt reads 8-, 16- and 32-bit integers, float and double"))
         }
