@@ -104,12 +104,18 @@ pub fn tile_rows(height: u32, spec: TileSpec) -> Result<Range<u32>, FarmError> {
     Ok(at(spec.index)..at(spec.index + 1))
 }
 
-/// Which render a tile belongs to: the scene as sent to MPI workers (its TOML and textures) and
+/// Which render a tile belongs to: the scene as sent to MPI workers (its TOML, textures and the
+/// digests of its particle files: a file changed between two tiles' runs is another render) and
 /// the settings and camera it is traced with, hashed. Two tiles merge only if their keys agree.
 pub fn render_key(scene: &Scene, settings: &Settings) -> Result<u64, FarmError> {
     let files = crate::io::toml_write::to_files(scene, "scene").map_err(|e| FarmError::Io(e.to_string()))?;
     let state = State { version: 0, camera: scene.camera.clone(), settings: settings.clone(), time: 0.0 };
     let mut parts = files.textures;
+    for p in &scene.particles {
+        let (len, digest) = crate::dist::files::file_digest(std::path::Path::new(&p.file))
+            .map_err(|e| FarmError::Io(format!("{}: {e}", p.file)))?;
+        parts.push((p.file.clone(), [len.to_le_bytes(), digest.to_le_bytes()].concat()));
+    }
     parts.push(("state".into(), state.encode()));
     Ok(SceneMsg { toml: files.toml, textures: parts, files: Vec::new(), hash: 0 }.content_hash())
 }
@@ -420,6 +426,34 @@ mod tests {
                 Err(FarmError::TooManyTiles { .. })
             ));
         }
+    }
+
+    /// A particle file whose bytes change between two tiles' runs makes them another render.
+    #[test]
+    fn the_key_holds_the_particle_files_bytes() {
+        let dir = std::env::temp_dir().join(format!("irt-farm-key-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("p.ply");
+        let write = |z: f32| {
+            let table = crate::io::ply::PointTable {
+                positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, z]],
+                fields: vec![("f".into(), vec![1.0, 2.0])],
+            };
+            crate::io::ply::write_points(
+                &table,
+                crate::io::ply::Encoding::Ascii,
+                std::fs::File::create(&file).unwrap(),
+            )
+            .unwrap();
+        };
+        write(0.0);
+        let scene = crate::io::load(&file).unwrap();
+        let settings = Settings::default();
+        let key = render_key(&scene, &settings).unwrap();
+        assert_eq!(render_key(&scene, &settings).unwrap(), key);
+        write(0.5);
+        assert_ne!(render_key(&scene, &settings).unwrap(), key, "the file changed");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
