@@ -232,11 +232,12 @@ fn t_bvh_qnode(i: u32) {
     out_buf[2u * i + 1u] = vec4f(n.hi, 0.0);
 }
 
-// in: corners 0..3, corners 4..7, (a, iso), (b, 0) -> (s, 0, 0, 0)
+// in: corners 0..3, corners 4..7, (a, iso), (b, 0) -> (s by cell_hit, s by the closed form, 0, 0)
 @compute @workgroup_size(64, 1, 1)
 fn k_cell_hit(@builtin(global_invocation_id) g: vec3u) { if g.x < launch.rect.z { t_cell_hit(g.x); } }
 fn t_cell_hit(i: u32) {
     let a = test_in[4u * i + 2u];
     let s = cell_hit(test_in[4u * i], test_in[4u * i + 1u], a.xyz, test_in[4u * i + 3u].xyz, a.w);
-    out_buf[i] = vec4f(s, 0.0, 0.0, 0.0);
+    let closed = cell_hit_closed_form(test_in[4u * i], test_in[4u * i + 1u], a.xyz, test_in[4u * i + 3u].xyz, a.w);
+    out_buf[i] = vec4f(s, closed, 0.0, 0.0);
 }

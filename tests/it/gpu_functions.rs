@@ -468,7 +468,9 @@ fn each_material_shading() {
 }
 
 /// A volume cell's isosurface along a segment (`cell_hit`, shaders/volume.wgsl) against its f64
-/// twin `scene::volume::cell_hit` on random cells and segments.
+/// twin `scene::volume::cell_hit` on random cells and segments. The closed form
+/// (`cell_hit_closed_form`, Cardano) runs on the same cells as the measured alternative: its
+/// errors against the same tolerance are counted and printed, not asserted (docs/volumes.md).
 #[test]
 fn cell_hit() {
     let h = Harness::new();
@@ -489,6 +491,8 @@ fn cell_hit() {
         .collect();
     let out = h.run("k_cell_hit", &inputs, N, 1);
     let (mut checked, mut hits) = (0, 0);
+    // The closed form's cases outside the tolerance the kept method meets, and its worst error.
+    let (mut closed_wrong, mut closed_worst) = (0, 0.0f64);
     for (k, &(c, a, b, iso)) in cases.iter().enumerate() {
         let f = |s: f64| irt::scene::volume::trilinear(&c, (a + (b - a) * s).to_array()) - iso;
         // f32 evaluates the cubic to about 1e-5 of the corners' scale (10): a segment that comes
@@ -503,16 +507,25 @@ fn cell_hit() {
             continue;
         }
         checked += 1;
+        let closed = out[k][1] as f64;
         match want {
-            None => assert_eq!(got, -1.0, "case {k}: GPU s {got}, the f64 twin misses"),
+            None => {
+                assert_eq!(got, -1.0, "case {k}: GPU s {got}, the f64 twin misses");
+                closed_wrong += usize::from(closed != -1.0);
+            }
             Some(s) => {
                 hits += 1;
-                assert!(
-                    (got - s).abs() <= 1e-4 / slope + 1e-6,
-                    "case {k}: GPU s {got}, f64 {s} (slope {slope})"
-                );
+                let tolerance = 1e-4 / slope + 1e-6;
+                assert!((got - s).abs() <= tolerance, "case {k}: GPU s {got}, f64 {s} (slope {slope})");
+                let err = if closed == -1.0 { 1.0 } else { (closed - s).abs() };
+                closed_worst = closed_worst.max(err);
+                closed_wrong += usize::from(err > tolerance);
             }
         }
     }
     assert!(checked > N * 9 / 10 && hits > N / 5, "{checked} unambiguous cases, {hits} hits");
+    println!(
+        "cell_hit in f32 on {checked} cells ({hits} crossing): the extrema split and bisection all \
+         within tolerance; the closed form {closed_wrong} outside it, worst error {closed_worst:.2e}"
+    );
 }
