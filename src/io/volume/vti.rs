@@ -1,6 +1,7 @@
-//! VTK ImageData (`.vti`, XML: ascii, base64 binary or appended data, zlib-compressed or not)
-//! through the `vtkio` crate: the first point-data array of one component (or the one named
-//! `Scalars` when there are several), on the image's extent, origin and spacing.
+//! VTK ImageData (`.vti`, XML) through the `vtkio` crate: ascii and base64 binary data are
+//! tested here; appended and zlib-compressed data are read as vtkio reads them. The point-data
+//! array named `Scalars`, else the first, must hold one component a point; it is placed on the
+//! image's extent, origin and spacing.
 
 use super::{aligned_grid, voxel_count};
 use crate::io::LoadError;
