@@ -92,6 +92,25 @@ struct Outcome {
 }
 
 /// Loads `path` on a worker thread: panics are caught, time and peak memory measured.
+/// What is wrong with loading the scene at `path`: nothing, or the problem in words.
+fn scene_problem(path: &Path) -> Option<String> {
+    match irt::io::load(path) {
+        Ok(scene) => {
+            scene.validate().err().map(|e| format!("loaded an invalid scene: {}", e.0)).or_else(|| {
+                // Posing must not panic at any time, in range or not (a posed scene may
+                // still be invalid, e.g. scaled past f64's range: renderers check it).
+                let end = scene.duration();
+                for t in [-1.0, 0.0, 0.37 * end, end, end + 1.0, f64::NAN] {
+                    let _ = scene.at(t).validate();
+                }
+                None
+            })
+        }
+        Err(e) if e.message.is_empty() => Some("an error without a message".to_string()),
+        Err(_) => None,
+    }
+}
+
 fn guarded_load(path: &Path) -> Outcome {
     let (tx, rx) = mpsc::channel();
     let owned = path.to_path_buf();
@@ -101,22 +120,13 @@ fn guarded_load(path: &Path) -> Outcome {
         .spawn(move || {
             LIVE.with(|l| l.set(0));
             PEAK.with(|p| p.set(0));
-            let result = std::panic::catch_unwind(|| match irt::io::load(&owned) {
-                Ok(scene) => {
-                    scene.validate().err().map(|e| format!("loaded an invalid scene: {}", e.0)).or_else(
-                        || {
-                            // Posing must not panic at any time, in range or not (a posed scene may
-                            // still be invalid, e.g. scaled past f64's range: renderers check it).
-                            let end = scene.duration();
-                            for t in [-1.0, 0.0, 0.37 * end, end, end + 1.0, f64::NAN] {
-                                let _ = scene.at(t).validate();
-                            }
-                            None
-                        },
-                    )
-                }
-                Err(e) if e.message.is_empty() => Some("an error without a message".to_string()),
-                Err(_) => None,
+            // A volume file is not a scene yet (docs/volumes.md): its own reader, checked alike.
+            let result = std::panic::catch_unwind(|| match irt::io::volume::is_volume(&owned) {
+                true => match irt::io::volume::load(&owned) {
+                    Err(e) if e.message.is_empty() => Some("an error without a message".to_string()),
+                    _ => None,
+                },
+                false => scene_problem(&owned),
             });
             let peak = PEAK.with(|p| p.get()).max(0) as usize;
             let problem = result.unwrap_or_else(|payload| {
@@ -668,6 +678,15 @@ fn mutated_ply_scenes() {
 
 /// PLY files of points alone (particles): the stress plate in ASCII and big-endian, and four
 /// points with a double radius, mutated as the meshes are.
+/// Volume files (tests/data/volumes): NRRD raw, ascii and big-endian, NIfTI-1 uncompressed and
+/// VTK ImageData, their headers' numbers and their bytes mutated. (The gzip files would only
+/// test inflate's checksums.)
+#[test]
+fn mutated_volume_files() {
+    let inputs = files("tests/data/volumes", &["nrrd", "nii", "vti"]);
+    fuzz("volumes", inputs, |rng, b, _| mutate_text(rng, b));
+}
+
 #[test]
 fn mutated_particle_files() {
     fuzz("particles", files("tests/data/particles", &["ply"]), |rng, b, _| mutate_ply(rng, b));

@@ -2,7 +2,8 @@
 //! range (least and greatest sample) of each brick of `BRICK`³ cells, and each level above
 //! groups `BRICK`³ of the level below. A ray walks the coarsest level and descends only into
 //! macrocells whose range holds the isovalue, so a new isovalue rebuilds nothing and a walk
-//! skips the empty space. This is the host's copy, and the algorithm the shader walk follows.
+//! skips the empty space. This is the host's copy; the shader's walk (not written yet) is to
+//! follow it and be checked against it by readback.
 
 use crate::scene::volume::{cell_hit, Grid};
 use glam::DVec3;

@@ -90,6 +90,21 @@ impl Cluster {
         self.traffic.set(t);
     }
 
+    /// [`Cluster::send`] for a large message, which MPI hands over only as the receiver takes
+    /// it: a rank that stops taking it (stopped, or stuck) for `deadline` is named with what the
+    /// sender was `doing` and the job ends, rather than rank 0 waiting in the send for ever.
+    pub fn send_within(&self, to: i32, tag: Tag, bytes: &[u8], deadline: Duration, doing: &str) {
+        let timeout = || -> std::convert::Infallible {
+            let s = deadline.as_secs_f64();
+            self.abort(&format!("rank {to} took nothing for {s:.0} s while rank 0 was {doing}"))
+        };
+        self.link.send_within(to, tag.code(), bytes, deadline, timeout);
+        let mut t = self.traffic.get();
+        t.sent += bytes.len() as u64;
+        t.messages_sent += 1;
+        self.traffic.set(t);
+    }
+
     /// The next message from any rank, if one has arrived: (from, tag, bytes).
     pub fn try_receive(&self) -> Option<(i32, i32, Vec<u8>)> {
         let m = self.link.try_receive()?;
@@ -141,6 +156,7 @@ mod link {
     use super::ClusterError;
     use mpi::topology::SimpleCommunicator;
     use mpi::traits::*;
+    use std::time::{Duration, Instant};
 
     pub struct Link {
         _universe: mpi::environment::Universe,
@@ -157,6 +173,32 @@ mod link {
 
         pub fn send(&self, to: i32, tag: i32, bytes: &[u8]) {
             self.world.process_at_rank(to).send_with_tag(bytes, tag);
+        }
+
+        /// An immediate send, tested until it completes or `deadline` passes (then `timeout`,
+        /// which ends the job: a pending request must not outlive its scope).
+        pub fn send_within(
+            &self,
+            to: i32,
+            tag: i32,
+            bytes: &[u8],
+            deadline: Duration,
+            timeout: impl FnOnce() -> std::convert::Infallible,
+        ) {
+            let start = Instant::now();
+            mpi::request::scope(|scope| {
+                let mut request = self.world.process_at_rank(to).immediate_send_with_tag(scope, bytes, tag);
+                loop {
+                    match request.test() {
+                        Ok(_) => return,
+                        Err(pending) => request = pending,
+                    }
+                    if start.elapsed() > deadline {
+                        match timeout() {}
+                    }
+                    std::thread::sleep(Duration::from_micros(200));
+                }
+            })
         }
 
         pub fn try_receive(&self) -> Option<(i32, i32, Vec<u8>)> {
@@ -184,6 +226,17 @@ mod link {
         }
 
         pub fn send(&self, _: i32, _: i32, _: &[u8]) {
+            match *self {}
+        }
+
+        pub fn send_within(
+            &self,
+            _: i32,
+            _: i32,
+            _: &[u8],
+            _: std::time::Duration,
+            _: impl FnOnce() -> std::convert::Infallible,
+        ) {
             match *self {}
         }
 

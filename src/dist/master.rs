@@ -150,13 +150,14 @@ impl<'a> Master<'a> {
         let out = Outgoing::new(scene)?;
         let state = State { version: 1, camera: scene.camera.clone(), settings, time: 0.0 };
         for w in &workers {
-            cluster.send(w.rank, Tag::Scene, &out.msg);
-            cluster.send(w.rank, Tag::State, &state.encode());
+            // A rank stopped before it took its first message would hold rank 0 in the send.
+            cluster.send_within(w.rank, Tag::Scene, &out.msg, setup, "sending the scene");
+            cluster.send_within(w.rank, Tag::State, &state.encode(), setup, "sending the first state");
         }
         let mut ready = 0;
         while ready < workers.len() {
             let (rank, bytes) = expect(cluster, Tag::Ready, setup, "setting the scene up", None)?;
-            ready += out.settle(cluster, rank, Ready::decode(&bytes)?)? as usize;
+            ready += out.settle(cluster, rank, Ready::decode(&bytes)?, setup)? as usize;
         }
         let (w, h) = (scene.camera.width, scene.camera.height);
         let mut m = Master {
@@ -302,8 +303,8 @@ impl<'a> Master<'a> {
         let out = Outgoing::new(scene)?;
         self.state.version += 1;
         for w in &self.workers {
-            self.cluster.send(w.rank, Tag::Scene, &out.msg);
-            self.cluster.send(w.rank, Tag::State, &self.state.encode());
+            self.cluster.send_within(w.rank, Tag::Scene, &out.msg, deadline, "sending an edited scene");
+            self.cluster.send_within(w.rank, Tag::State, &self.state.encode(), deadline, "sending its state");
         }
         let mut ready = 0;
         let start = Instant::now();
@@ -322,7 +323,7 @@ impl<'a> Master<'a> {
                 let px = Pixels::decode(&bytes)?;
                 self.take(rank, px, &mut StepReport::default())?;
             } else if tag == Tag::Ready.code() {
-                ready += out.settle(self.cluster, rank, Ready::decode(&bytes)?)? as usize;
+                ready += out.settle(self.cluster, rank, Ready::decode(&bytes)?, deadline)? as usize;
             } else {
                 return Err(MasterError::Protocol { rank, what: "out-of-turn" });
             }
@@ -622,7 +623,14 @@ impl Outgoing {
 
     /// A worker's [`Ready`]: `true` once it holds this scene. The files it cannot read are
     /// sent (`false`: it says it is ready once they are in).
-    fn settle(&self, cluster: &Cluster, rank: i32, ready: Ready) -> Result<bool, MasterError> {
+    /// A rank that stops taking a file for `deadline` ends the job.
+    fn settle(
+        &self,
+        cluster: &Cluster,
+        rank: i32,
+        ready: Ready,
+        deadline: Duration,
+    ) -> Result<bool, MasterError> {
         if let Some(why) = ready.error {
             return Err(MasterError::Scene { rank, why });
         }
@@ -631,7 +639,7 @@ impl Outgoing {
                 return Err(MasterError::Protocol { rank, what: "ready" });
             };
             let start = Instant::now();
-            super::files::send(cluster, rank, *i, f, path)
+            super::files::send(cluster, rank, *i, f, path, deadline)
                 .map_err(|e| MasterError::File { path: path.clone(), why: e.to_string() })?;
             let (mb, s) = (f.len as f64 / 1e6, start.elapsed().as_secs_f64());
             say(0, &format!("rank {rank} cannot read {why}: sent it the file ({mb:.1} MB in {s:.2} s)"));

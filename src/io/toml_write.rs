@@ -45,6 +45,29 @@ pub struct SceneFiles {
 /// `<stem>.<i>.png`, or `<stem>.<i>.<name>.png` with the texture's name made safe
 /// ([`texture_file_names`]). PNG is lossless, so loading the files gives back the same texels.
 pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, TextureError> {
+    files_naming(scene, stem, None)
+}
+
+/// The scene as files for a directory of its own (a worker rank's, which may not see rank 0's
+/// file system): as [`to_files`], but particle file `i` named `<stem>.<i>.particles.ply` beside the
+/// TOML rather than by its path. Also gives each such name with the file it stands for.
+pub fn to_files_beside(
+    scene: &Scene,
+    stem: &str,
+) -> Result<(SceneFiles, Vec<(String, std::path::PathBuf)>), TextureError> {
+    let beside: Vec<_> = (0..scene.particles.len()).map(|i| format!("{stem}.{i}.particles.ply")).collect();
+    let files = files_naming(scene, stem, Some(&beside))?;
+    let sources =
+        scene.particles.iter().map(|p| std::fs::canonicalize(&p.file).unwrap_or(p.file.clone().into()));
+    Ok((files, beside.into_iter().zip(sources).collect()))
+}
+
+/// [`to_files`], particle files named as [`to_toml_naming`] names them.
+fn files_naming(
+    scene: &Scene,
+    stem: &str,
+    particle_files: Option<&[String]>,
+) -> Result<SceneFiles, TextureError> {
     let names = texture_file_names(scene, stem);
     let textures = scene
         .textures
@@ -56,22 +79,7 @@ pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, TextureError> {
             Ok((file.clone(), png))
         })
         .collect::<Result<_, TextureError>>()?;
-    Ok(SceneFiles { toml: to_toml(scene, &names), textures })
-}
-
-/// The scene as files for a directory of its own (a worker rank's, which may not see rank 0's
-/// file system): as [`to_files`], but particle file `i` named `<stem>.<i>.particles.ply` beside the
-/// TOML rather than by its path. Also gives each such name with the file it stands for.
-pub fn to_files_beside(
-    scene: &Scene,
-    stem: &str,
-) -> Result<(SceneFiles, Vec<(String, std::path::PathBuf)>), TextureError> {
-    let mut files = to_files(scene, stem)?;
-    let beside: Vec<_> = (0..scene.particles.len()).map(|i| format!("{stem}.{i}.particles.ply")).collect();
-    files.toml = to_toml_naming(scene, &texture_file_names(scene, stem), Some(&beside));
-    let sources =
-        scene.particles.iter().map(|p| std::fs::canonicalize(&p.file).unwrap_or(p.file.clone().into()));
-    Ok((files, beside.into_iter().zip(sources).collect()))
+    Ok(SceneFiles { toml: to_toml_naming(scene, &names, particle_files), textures })
 }
 
 /// File names for the scene's textures, unique (the index) and safe on any file system: the

@@ -16,8 +16,12 @@ use glam::DVec3;
 use std::path::Path;
 
 /// Samples a volume may hold: 2^31, past the paper's 1 GB Visible Woman (512x512x1734, 16-bit:
-/// 454M samples) with room, and 4 GiB of host memory at float32.
+/// 454M samples) with room; 8 GiB of host memory at float32.
 pub const MAX_VOXELS: u64 = 1 << 31;
+
+/// The most bytes deflate can make of one (a stream of 258-byte matches): a header that promises
+/// more than this times the compressed size is refused before anything is allocated.
+pub(super) const DEFLATE_MAX_RATIO: usize = 1032;
 
 /// The extensions a volume file has (`.nii.gz` as its last two).
 pub const EXTENSIONS: &[&str] = &["nrrd", "nhdr", "nii", "nii.gz", "vti"];
@@ -144,6 +148,12 @@ fn flip(voxels: &mut Voxels, [nx, ny, nz]: [u32; 3], axis: usize) {
 /// that holds more is not the volume the header describes. Nothing past `want + 1` is inflated.
 fn gunzip(data: &[u8], want: usize) -> Result<Vec<u8>, String> {
     use std::io::Read;
+    if want > data.len().saturating_mul(DEFLATE_MAX_RATIO) {
+        return Err(format!(
+            "{} bytes of gzip data cannot hold the {want} bytes the header promises",
+            data.len()
+        ));
+    }
     let mut out = Vec::with_capacity(want);
     let mut z = flate2::read::MultiGzDecoder::new(data).take(want as u64 + 1);
     z.read_to_end(&mut out).map_err(|e| format!("the gzip data does not inflate: {e}"))?;

@@ -2,12 +2,29 @@
 //! cubic (`accel::macrocells`, `scene::volume::cell_hit`): the interpolant sampled densely along
 //! the ray through the whole volume, a sign change bisected; MIP as the largest sample.
 
-use crate::accel::macrocells::clip;
 use crate::scene::volume::{trilinear, trilinear_gradient, Grid};
 use glam::DVec3;
 
 /// Samples per cell along the ray: a crossing pair closer than a 64th of a cell is not seen.
 pub const SAMPLES_PER_CELL: f64 = 64.0;
+
+/// The part of `[t0, t1]` inside the volume's box, by the slabs one axis at a time (its own,
+/// not the walk's `accel::macrocells::clip`: the twin shares no code with what it checks).
+fn clip(grid: &Grid, origin: DVec3, dir: DVec3, [mut t0, mut t1]: [f64; 2]) -> Option<[f64; 2]> {
+    let (lo, hi) = grid.bounds();
+    for a in 0..3 {
+        if dir[a] == 0.0 {
+            if origin[a] < lo[a] || origin[a] > hi[a] {
+                return None;
+            }
+            continue;
+        }
+        let (near, far) = ((lo[a] - origin[a]) / dir[a], (hi[a] - origin[a]) / dir[a]);
+        t0 = t0.max(near.min(far));
+        t1 = t1.min(near.max(far));
+    }
+    (t0 <= t1).then_some([t0, t1])
+}
 
 /// The interpolated value at world point `p`, `None` outside the volume.
 pub fn value_at(grid: &Grid, p: DVec3) -> Option<f64> {

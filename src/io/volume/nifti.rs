@@ -23,7 +23,6 @@ pub fn load(path: &Path) -> Result<Grid, LoadError> {
         )));
     }
     let dims = [h.dim[1], h.dim[2], h.dim[3]].map(u64::from);
-    voxel_count(dims).map_err(&fail)?;
     let sample = match h.data_type() {
         Ok(NiftiType::Uint8) => Scalar::U8,
         Ok(NiftiType::Int8) => Scalar::I8,
@@ -40,6 +39,21 @@ pub fn load(path: &Path) -> Result<Grid, LoadError> {
         }
         Err(_) => return Err(fail(format!("datatype {} is not one of NIfTI-1's", h.datatype))),
     };
+    // The crate reserves the voxels the header promises: refused first if the file cannot hold
+    // them (raw: from its length; gzip: deflate's largest ratio).
+    let want = voxel_count(dims).map_err(&fail)? * sample.size() as u64;
+    let size = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?.len();
+    let gz = shown.to_ascii_lowercase().ends_with(".gz");
+    let holds = if gz {
+        size.saturating_mul(super::DEFLATE_MAX_RATIO as u64)
+    } else {
+        size.saturating_sub(h.vox_offset as u64)
+    };
+    if want > holds {
+        return Err(fail(format!(
+            "the file holds {holds} bytes of voxels, its header promises {want}: it is truncated"
+        )));
+    }
     let directions = placement(&h);
     let obj = ReaderOptions::new().read_file(path).map_err(|e| {
         fail(match e {

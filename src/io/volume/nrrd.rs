@@ -111,7 +111,11 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Grid, LoadError> {
             let from = byte_skip(data.len(), want, h.byte_skip).map_err(|m| LoadError::new(&data_name, m))?;
             let body = &data[from..];
             if body.len() < want {
-                let m = format!("{} bytes of data; {n} {sample:?} samples need {want}", body.len());
+                let m = format!(
+                    "{} bytes of data; {n} samples of {} bytes need {want}",
+                    body.len(),
+                    sample.size()
+                );
                 return Err(LoadError::new(&data_name, m));
             }
             std::borrow::Cow::Borrowed(&body[..want])
@@ -243,7 +247,8 @@ fn byte_skip(len: usize, want: usize, skip: i64) -> Result<usize, String> {
 fn ascii(data: &[u8], dims: [u64; 3], h: &Header, name: &str) -> Result<Grid, LoadError> {
     let text = std::str::from_utf8(data).map_err(|_| LoadError::new(name, "ascii data that is not text"))?;
     let n = dims.iter().product::<u64>() as usize;
-    let mut values = Vec::with_capacity(n);
+    // A number takes two bytes of text at least: no more room than the text can fill.
+    let mut values = Vec::with_capacity(n.min(text.len() / 2 + 1));
     for (i, word) in text.split_whitespace().enumerate() {
         if i == n {
             return Err(LoadError::new(name, format!("more than the {n} samples the header promises")));

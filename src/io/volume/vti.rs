@@ -21,7 +21,11 @@ pub fn load(path: &Path) -> Result<Grid, LoadError> {
     if size > MAX_FILE_BYTES {
         return Err(fail(format!("{size} bytes; .vti files are limited to {MAX_FILE_BYTES}")));
     }
-    let vtk = vtkio::Vtk::import(path).map_err(|e| fail(format!("not a VTK file irt can read: {e}")))?;
+    // vtkio 0.7.0-rc1 panics on some malformed files (the loader fuzzer found an index out of
+    // bounds in its XML reader): a panic there is a bad file, said as one.
+    let imported = std::panic::catch_unwind(|| vtkio::Vtk::import(path))
+        .map_err(|_| fail("not a VTK file irt can read: vtkio failed on it (its message is above)".into()))?;
+    let vtk = imported.map_err(|e| fail(format!("not a VTK file irt can read: {e}")))?;
     let DataSet::ImageData { extent, origin, spacing, pieces, .. } = vtk.data else {
         return Err(fail("a VTK file of another data set: irt reads ImageData (.vti) volumes".into()));
     };
