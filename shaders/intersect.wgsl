@@ -191,5 +191,10 @@ fn intersect_prim(r: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
         let c = load_cone(i);
         return vec3f(intersect_cone(o, d, c.base, c.r0, c.axis, c.r1, t_min, t_max), 0.0, 0.0);
     }
+    if HAS_VOLUMES && prim_kind(r) == PRIM_VOLUME {
+        // b1: which of the volume's isovalues was met.
+        let h = volume_hit(i, o, d, t_min, t_max);
+        return vec3f(h.x, h.y, 0.0);
+    }
     return vec3f(MISS, 0.0, 0.0);
 }

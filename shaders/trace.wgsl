@@ -98,6 +98,12 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
         if HAS_TEXTURES {
             uv = sphere_uv(ng);
         }
+    } else if HAS_VOLUMES && prim_kind(h.prim) == PRIM_VOLUME {
+        ng = unit_or(volume_normal(i, p), -d);
+        n = ng;
+        // p stays the ray's, as on a cone.
+        scale = vmax(abs(o)) + h.t;
+        material = load_volume(i).materials[u32(h.b1)];
     } else if HAS_CONES && prim_kind(h.prim) == PRIM_CONE {
         let c = load_cone(i);
         ng = unit_or(cone_normal(p, c.base, c.r0, c.axis, c.r1), -d);

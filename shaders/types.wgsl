@@ -29,6 +29,8 @@ struct Params {
     trace: vec4f,
     shadow: vec4u,
     lights: array<Light, MAX_LIGHTS>,
+    volume: vec4u,
+    iso: array<vec4f, MAX_VOLUMES>,
 }
 
 // A BVH node of the stack walk (two texels of the scene texture; src/gpu/layout.rs, BvhNode).

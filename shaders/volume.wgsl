@@ -1,6 +1,7 @@
-// Volumes (PAPER.md §10): the isosurface of the trilinear interpolant inside one cell. Twin of
-// `scene::volume::cell_hit` (f64). Compiled only into programs that trace volumes (for now the
-// readback kernels: the walk and the volume's data on the device come next).
+// Volumes (PAPER.md §10): a volume's record and samples in the scene texture (src/gpu/layout/
+// volume.rs), the walk of its min/max macrocells (twin: `accel::macrocells::Macrocells::walk`)
+// and the isosurface of the trilinear interpolant inside one cell (twin: `scene::volume::
+// cell_hit`, f64). Everything here runs only where `HAS_VOLUMES` lets `intersect_prim` call it.
 
 // The trilinear interpolant of corners c0 (bit 0 = +x, bit 1 = +y, bit 2 = +z) at p in [0, 1]³.
 fn trilinear(c0: vec4f, c1: vec4f, p: vec3f) -> f32 {
@@ -131,4 +132,190 @@ fn cell_hit_closed_form(c0: vec4f, c1: vec4f, a: vec3f, b: vec3f, iso: f32) -> f
         }
     }
     return first;
+}
+
+struct VolumeRec {
+    m0: vec4f,
+    m1: vec4f,
+    m2: vec4f,
+    dims: vec3u,
+    kind: u32,
+    samples: u32,
+    isos: u32,
+    levels: u32,
+    level_base: vec3u,
+    materials: vec4u,
+}
+
+fn load_volume(v: u32) -> VolumeRec {
+    let b = params.volume.x + v * VOLUME_TEXELS;
+    let d = texel(b + 3u);
+    let r = texel(b + 4u);
+    return VolumeRec(ftexel(b), ftexel(b + 1u), ftexel(b + 2u), d.xyz, d.w, r.x, r.y, r.z, texel(b + 5u).xyz, texel(b + 6u));
+}
+
+// Grid index coordinates of the (origin-relative) world point p, and of a direction.
+fn volume_point(vol: VolumeRec, p: vec3f) -> vec3f {
+    return vec3f(dot(vol.m0.xyz, p) + vol.m0.w, dot(vol.m1.xyz, p) + vol.m1.w, dot(vol.m2.xyz, p) + vol.m2.w);
+}
+
+fn volume_dir(vol: VolumeRec, d: vec3f) -> vec3f {
+    return vec3f(dot(vol.m0.xyz, d), dot(vol.m1.xyz, d), dot(vol.m2.xyz, d));
+}
+
+// Sample c, decoded from its type (`layout::volume::sample_code`: 0 u8, 1 u16, 2 i16, 3 f32).
+fn volume_sample(vol: VolumeRec, c: vec3u) -> f32 {
+    let i = c.x + vol.dims.x * (c.y + vol.dims.y * c.z);
+    let shift = select(select(3u, 2u, vol.kind == 3u), 4u, vol.kind == 0u);
+    let t = texel(vol.samples + (i >> shift));
+    let w = t[(i >> (shift - 2u)) & 3u];
+    let sub = i & ((1u << (shift - 2u)) - 1u);
+    if vol.kind == 3u {
+        return bitcast<f32>(w);
+    }
+    if vol.kind == 0u {
+        return f32((w >> (8u * sub)) & 0xffu);
+    }
+    let h = (w >> (16u * sub)) & 0xffffu;
+    if vol.kind == 2u {
+        return f32(bitcast<i32>(h << 16u) >> 16u);
+    }
+    return f32(h);
+}
+
+// Cell c's corners as `trilinear` takes them: corners 0..3 (z = 0), then 4..7.
+fn volume_corners(vol: VolumeRec, c: vec3u, z: u32) -> vec4f {
+    let k = c + vec3u(0u, 0u, z);
+    return vec4f(
+        volume_sample(vol, k),
+        volume_sample(vol, k + vec3u(1u, 0u, 0u)),
+        volume_sample(vol, k + vec3u(0u, 1u, 0u)),
+        volume_sample(vol, k + vec3u(1u, 1u, 0u))
+    );
+}
+
+// The range of macrocell m of level l (spanning 4^(l+1) cells a side).
+fn volume_range(vol: VolumeRec, l: u32, m: vec3u) -> vec2f {
+    let s = 2u * (l + 1u);
+    let dims = (vol.dims - 1u + vec3u((1u << s) - 1u)) >> vec3u(s);
+    let i = m.x + dims.x * (m.y + dims.y * m.z);
+    let t = ftexel(vol.level_base[l] + (i >> 1u));
+    return select(t.xy, t.zw, (i & 1u) == 1u);
+}
+
+// Whether [lo, hi] holds one of volume v's isovalues.
+fn volume_holds(r: vec2f, iso: vec4f, n: u32) -> bool {
+    let inside = vec4<bool>(r.x <= iso.x && iso.x <= r.y, r.x <= iso.y && iso.y <= r.y, r.x <= iso.z && iso.z <= r.y, r.x <= iso.w && iso.w <= r.y);
+    let used = vec4<bool>(n > 0u, n > 1u, n > 2u, n > 3u);
+    return any(inside & used);
+}
+
+// The first crossing of volume v's isosurfaces in (t_min, t_max): (t, which isovalue), t = MISS
+// when there is none. The ray moves into index coordinates (t is kept) and walks the cells; at
+// each cell the coarsest macrocell holding it whose range holds no isovalue is skipped whole
+// (its exit found from its faces, the next cell from the exit axis, so the walk always moves
+// on), else the cell's cubic is solved for each isovalue. No stack: a skip restarts the descent
+// from the top, which costs a range load a level on lavapipe, where a stack indexed at run time
+// costs more (../shared/LAVAPIPE.md).
+fn volume_hit(v: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec2f {
+    let vol = load_volume(v);
+    let iso = params.iso[v];
+    let q = volume_point(vol, o);
+    let e0 = volume_dir(vol, d);
+    let e = select(e0, vec3f(1e-30), e0 == vec3f(0.0));
+    let inv = 1.0 / e;
+    let cells = vol.dims - 1u;
+    let top = vec3f(cells);
+    let fa = -q * inv;
+    let fb = (top - q) * inv;
+    let near = min(fa, fb);
+    let far = max(fa, fb);
+    let t0 = max(t_min, max(max(near.x, near.y), near.z));
+    let t1 = min(t_max, min(min(far.x, far.y), far.z));
+    if !(t0 < t1) {
+        return vec2f(MISS, 0.0);
+    }
+    let step = vec3i(select(vec3i(-1), vec3i(1), e > vec3f(0.0)));
+    let last = vec3i(cells) - 1;
+    var cell = clamp(vec3i(floor(q + e * t0)), vec3i(0), last);
+    var t = t0;
+    let bound = cells.x + cells.y + cells.z + 3u;
+    for (var n = 0u; n < bound; n++) {
+        if any(cell < vec3i(0)) || any(cell > last) || t >= t1 {
+            break;
+        }
+        // The coarsest level whose macrocell here holds no isovalue: its span's shift, or 0.
+        var skip = 0u;
+        for (var l = vol.levels; l > 0u; l--) {
+            let s = 2u * l;
+            if !volume_holds(volume_range(vol, l - 1u, vec3u(cell) >> vec3u(s)), iso, vol.isos) {
+                skip = s;
+                break;
+            }
+        }
+        let lo = (cell >> vec3u(skip)) << vec3u(skip);
+        let hi = min(lo + vec3i((1 << skip) - 1), last);
+        let faces = vec3f(select(lo, hi + 1, step > vec3i(0)));
+        let tf = (faces - q) * inv;
+        let t_exit = min(min(tf.x, tf.y), tf.z);
+        if skip == 0u {
+            let c = vec3u(cell);
+            let c0 = volume_corners(vol, c, 0u);
+            let c1 = volume_corners(vol, c, 1u);
+            let r = vec2f(min(min(c0, c1).x, min(min(c0, c1).y, min(min(c0, c1).z, min(c0, c1).w))), max(max(c0, c1).x, max(max(c0, c1).y, max(max(c0, c1).z, max(c0, c1).w))));
+            if volume_holds(r, iso, vol.isos) {
+                let tb = min(t_exit, t1);
+                let a = clamp(q + e * t - vec3f(c), vec3f(0.0), vec3f(1.0));
+                let b = clamp(q + e * tb - vec3f(c), vec3f(0.0), vec3f(1.0));
+                var best = MISS;
+                var which = 0u;
+                for (var k = 0u; k < vol.isos; k++) {
+                    let s = cell_hit(c0, c1, a, b, iso[k]);
+                    if s != MISS {
+                        let th = t + (tb - t) * s;
+                        if th > t_min && (best == MISS || th < best) {
+                            best = th;
+                            which = k;
+                        }
+                    }
+                }
+                if best != MISS {
+                    return vec2f(best, f32(which));
+                }
+            }
+        }
+        // On to the cell beyond the exit face; the other axes stay within the box left.
+        let p = floor(q + e * t_exit);
+        var next = clamp(vec3i(p), lo, hi);
+        if tf.x <= tf.y && tf.x <= tf.z {
+            next.x = select(lo.x - 1, hi.x + 1, step.x > 0);
+        } else if tf.y <= tf.z {
+            next.y = select(lo.y - 1, hi.y + 1, step.y > 0);
+        } else {
+            next.z = select(lo.z - 1, hi.z + 1, step.z > 0);
+        }
+        cell = next;
+        t = max(t, t_exit);
+    }
+    return vec2f(MISS, 0.0);
+}
+
+// The outward normal (towards smaller values: the solid is where the samples exceed the
+// isovalue) at the world point p of volume v, from the interpolant's gradient.
+fn volume_normal(v: u32, p: vec3f) -> vec3f {
+    let vol = load_volume(v);
+    let x = volume_point(vol, p);
+    let c = vec3u(clamp(vec3i(floor(x)), vec3i(0), vec3i(vol.dims - 2u)));
+    let u = clamp(x - vec3f(c), vec3f(0.0), vec3f(1.0));
+    let c0 = volume_corners(vol, c, 0u);
+    let c1 = volume_corners(vol, c, 1u);
+    // d/du, d/dv, d/dw of the trilinear interpolant.
+    let y0 = mix(c0, c1, u.z);
+    let du = mix(y0.y - y0.x, y0.w - y0.z, u.y);
+    let dv = mix(y0.z - y0.x, y0.w - y0.y, u.x);
+    let x0 = mix(c0.xz, c0.yw, u.x);
+    let x1 = mix(c1.xz, c1.yw, u.x);
+    let dw = mix(x1.x - x0.x, x1.y - x0.y, u.y);
+    let g = vec3f(du, dv, dw);
+    return -(vol.m0.xyz * g.x + vol.m1.xyz * g.y + vol.m2.xyz * g.z);
 }

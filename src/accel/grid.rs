@@ -16,6 +16,8 @@ pub enum PrimKind {
     Sphere = 0,
     Triangle = 1,
     Cone = 2,
+    /// A volume's isosurfaces: its macrocells are the leaf's inside (`shaders/volume.wgsl`).
+    Volume = 3,
 }
 
 /// A primitive reference as stored in the grid: kind in bits 30..32, index into that kind's array (`Scene::spheres`, `Scene::triangles()`, `Scene::cones`)
@@ -37,7 +39,8 @@ impl PrimRef {
         match self.0 >> Self::KIND_SHIFT {
             0 => PrimKind::Sphere,
             1 => PrimKind::Triangle,
-            _ => PrimKind::Cone,
+            2 => PrimKind::Cone,
+            _ => PrimKind::Volume,
         }
     }
     pub fn index(self) -> u32 {
@@ -113,6 +116,8 @@ enum Shape {
     Sphere { center: DVec3, radius: f64 },
     Triangle([DVec3; 3]),
     Cone { base: DVec3, r0: f64, apex: DVec3, r1: f64 },
+    /// A volume, by its world box.
+    Box(Aabb),
 }
 
 impl Shape {
@@ -127,6 +132,7 @@ impl Shape {
                 Aabb { lo: base - reach * r0, hi: base + reach * r0 }
                     .union(Aabb { lo: apex - reach * r1, hi: apex + reach * r1 })
             }
+            Shape::Box(b) => b,
         }
     }
 
@@ -139,6 +145,7 @@ impl Shape {
             }
             Shape::Triangle(p) => triangle_overlaps_box(p, b),
             Shape::Cone { base, r0, apex, r1 } => cone_overlaps_box(base, r0, apex, r1, b),
+            Shape::Box(v) => v.lo.cmple(b.hi).all() && b.lo.cmple(v.hi).all(),
         }
     }
 }
@@ -258,7 +265,7 @@ impl<'a> Prims<'a> {
     }
 
     fn len(&self) -> usize {
-        self.scene.spheres.len() + self.mesh_start.last().unwrap() + self.scene.cones.len()
+        self.scene.spheres.len() + self.mesh_start.last().unwrap() + self.scene.cones.len() + self.scene.volumes.len()
     }
 
     fn bounds(&self, ranges: &[std::ops::Range<usize>]) -> Aabb {
@@ -297,11 +304,17 @@ impl<'a> Prims<'a> {
             }
         }
         let first_cone = spheres + triangles;
-        for i in range.start.max(first_cone)..range.end.max(first_cone) {
+        let first_volume = first_cone + s.cones.len();
+        for i in range.start.clamp(first_cone, first_volume)..range.end.clamp(first_cone, first_volume) {
             let k = i - first_cone;
             let c = &s.cones[k];
             let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
             f(PrimRef::new(PrimKind::Cone, k as u32), shape);
+        }
+        for i in range.start.max(first_volume)..range.end.max(first_volume) {
+            let v = i - first_volume;
+            let (lo, hi) = s.volumes[v].world_bounds();
+            f(PrimRef::new(PrimKind::Volume, v as u32), Shape::Box(Aabb { lo, hi }));
         }
     }
 }
@@ -408,6 +421,7 @@ impl Grid {
             PrimKind::Sphere => r.index() as usize,
             PrimKind::Triangle => spheres + r.index() as usize,
             PrimKind::Cone => spheres + triangles + r.index() as usize,
+            PrimKind::Volume => spheres + triangles + scene.cones.len() + r.index() as usize,
         };
         let is_moving = |r: PrimRef| {
             let g = global(r);

@@ -29,6 +29,7 @@ impl Selection {
             Selection::Light(i) => format!("light {i}"),
             Selection::Object(Primitive::Sphere(i)) => format!("sphere {i}"),
             Selection::Object(Primitive::Cone(i)) => format!("cone {i}"),
+            Selection::Object(Primitive::Volume(i)) => format!("volume {i}"),
             Selection::Object(Primitive::Triangle { mesh, triangle }) => {
                 format!("mesh {mesh} (triangle {triangle})")
             }
@@ -58,6 +59,8 @@ pub fn object_material(scene: &Scene, p: Primitive) -> Option<u32> {
         Primitive::Sphere(i) => scene.spheres.get(i).map(|s| s.material),
         Primitive::Cone(i) => scene.cones.get(i).map(|c| c.material),
         Primitive::Triangle { mesh, .. } => scene.meshes.get(mesh).map(|m| m.material),
+        // Its first isosurface's (the one a material edit changes).
+        Primitive::Volume(i) => scene.volumes.get(i).and_then(|v| v.isos.first()).map(|iso| iso.material),
     }
 }
 
@@ -155,6 +158,7 @@ impl Picker {
                 trace: TraceSettings::default(),
                 motions: Vec::new(),
                 particles: Vec::new(),
+                volumes: Vec::new(),
             };
             self.geometry = Some(Reference::new(&copy).into_geometry());
             self.scene = Some(copy);

@@ -28,7 +28,8 @@ pub const SCENE_FILES: &str = ".toml, .gltf, .glb, .nff, .obj, .ply";
 #[derive(Args, Clone, Debug)]
 #[command(next_help_heading = "Scene")]
 pub struct SceneArgs {
-    /// Scene file (.toml, .gltf, .glb, .nff, .obj, .ply); the built-in default scene when omitted.
+    /// Scene file (.toml, .gltf, .glb, .nff, .obj, .ply) or a volume file (.nrrd, .nhdr, .nii,
+    /// .nii.gz, .vti: its isosurface, see --iso); the built-in default scene when omitted.
     #[arg(help_heading = None)]
     pub scene: Option<PathBuf>,
     /// Image size in pixels, WxH (default: the scene camera's): up to 16384 a side and 67108864
@@ -45,6 +46,11 @@ pub struct SceneArgs {
     /// (default) or product). See docs/shadows.md.
     #[arg(long, value_name = "MODE")]
     pub shadows: Option<irt::scene::ShadowSetting>,
+    /// Isovalues of every volume, comma-separated (overrides the scene's `iso`; a volume file
+    /// alone is drawn halfway through its samples' range): e.g. --iso 80 or --iso 80,300. The
+    /// i-th isosurface keeps the volume's i-th material (its last, past the ones it has).
+    #[arg(long, value_name = "V[,V...]", value_delimiter = ',', allow_hyphen_values = true)]
+    pub iso: Vec<f64>,
     /// Radius of every light (overrides the scene; 0 is a point light, soft modes need > 0).
     #[arg(long, value_name = "R")]
     pub light_radius: Option<f64>,
@@ -109,6 +115,7 @@ pub fn load_scene_and_pick(args: &SceneArgs) -> Result<(Scene, Option<irt::scene
     let overrides =
         Settings { light_radius: args.light_radius, max_depth: args.max_depth, ..Settings::default() };
     overrides.apply_to(&mut scene);
+    set_isos(&mut scene, &args.iso)?;
     // After the size and the lights' radius: `soft` weighs the modes on the scene as it is traced.
     // The command line's choice, else the scene file's `shadows = "soft"`.
     let setting = args.shadows.or(scene.trace.soft.then_some(irt::scene::ShadowSetting::Soft));
@@ -124,6 +131,29 @@ pub fn load_scene_and_pick(args: &SceneArgs) -> Result<(Scene, Option<irt::scene
     }
     irt::io::check_renderable(&scene, &args.name_or("default scene")).map_err(anyhow::Error::msg)?;
     Ok((scene, pick))
+}
+
+/// `--iso`: every volume's isovalues replaced by `isos` (nothing when empty).
+pub fn set_isos(scene: &mut Scene, isos: &[f64]) -> Result<()> {
+    if isos.is_empty() {
+        return Ok(());
+    }
+    if scene.volumes.is_empty() {
+        bail!("--iso: the scene has no volume (give a .nrrd, .nhdr, .nii, .nii.gz or .vti file, or a [[volume]])");
+    }
+    let max = irt::scene::volume::MAX_ISOS;
+    if isos.len() > max || isos.iter().any(|v| !v.is_finite()) {
+        bail!("--iso: give 1 to {max} finite isovalues");
+    }
+    for v in &mut scene.volumes {
+        let materials: Vec<u32> = v.isos.iter().map(|i| i.material).collect();
+        v.isos = isos
+            .iter()
+            .enumerate()
+            .map(|(k, &value)| irt::scene::volume::Iso { value, material: materials[k.min(materials.len() - 1)] })
+            .collect();
+    }
+    Ok(())
 }
 
 /// Fails with a message that says so when `path`, given as a scene, is a directory (the loader

@@ -5,11 +5,12 @@ use super::layout;
 use crate::scene::ShadowMode;
 
 /// Shared modules before the accelerator's, in dependency order.
-const MODULES: [(&str, &str); 4] = [
+const MODULES: [(&str, &str); 5] = [
     ("types.wgsl", include_str!("../../shaders/types.wgsl")),
     ("scene.wgsl", include_str!("../../shaders/scene.wgsl")),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
     ("intersect.wgsl", include_str!("../../shaders/intersect.wgsl")),
+    ("volume.wgsl", include_str!("../../shaders/volume.wgsl")),
 ];
 /// The accelerators' walks: a variant compiles the one its scene was packed with
 /// (`Variant::accel`; the test kernels always have the grid's, whose DDA they step).
@@ -47,7 +48,6 @@ impl Program {
 
 const TRACE: &str = include_str!("../../shaders/trace.wgsl");
 const TESTS: &str = include_str!("../../shaders/tests.wgsl");
-const VOLUME: &str = include_str!("../../shaders/volume.wgsl");
 const MODES: &str = include_str!("../../shaders/modes.wgsl");
 
 /// The features a pipeline is specialised for: code for what is off is compiled out.
@@ -56,6 +56,8 @@ pub struct Variant {
     pub spheres: bool,
     pub triangles: bool,
     pub cones: bool,
+    /// Volumes' isosurfaces (`shaders/volume.wgsl`).
+    pub volumes: bool,
     /// Count rays by kind into the stats buffer (costs four atomics per pixel).
     pub count_rays: bool,
     /// The shadow mode compiled in (`ShadowMode::kind_index`), or [`SHADOWS_ANY`]: chosen at run
@@ -99,6 +101,7 @@ impl Variant {
         spheres: true,
         triangles: true,
         cones: true,
+        volumes: true,
         count_rays: true,
         shadows: SHADOWS_ANY,
         materials: ALL_MATERIALS,
@@ -115,6 +118,7 @@ impl Variant {
             spheres: !scene.spheres.is_empty(),
             triangles: scene.triangle_count() > 0,
             cones: !scene.cones.is_empty(),
+            volumes: !scene.volumes.is_empty(),
             count_rays,
             shadows: scene.trace.shadows.kind_index(),
             materials: scene.materials.iter().fold(0, |m, mat| m | 1 << layout::material_code(&mat.kind)),
@@ -139,6 +143,7 @@ impl Variant {
                     spheres: bits & 1 != 0,
                     triangles: bits & 2 != 0,
                     cones: bits & 8 != 0,
+                    volumes: bits & 8 != 0,
                     count_rays: bits & 4 != 0,
                     shadows,
                     materials: ALL_MATERIALS,
@@ -179,6 +184,7 @@ impl Variant {
         s += &b("HAS_SPHERES", self.spheres);
         s += &b("HAS_TRIANGLES", self.triangles);
         s += &b("HAS_CONES", self.cones);
+        s += &b("HAS_VOLUMES", self.volumes);
         s += &b("COUNT_RAYS", self.count_rays);
         s += &b("SIMD_STATS", self.simd_stats);
         // The lane that counts a SIMD group's iteration (shaders/trace.wgsl, `loop_tick`): the
@@ -224,7 +230,7 @@ pub fn compose(program: Program, variant: Variant) -> String {
     let entries: &[(&str, &str)] = match program {
         Program::Render => &[("trace.wgsl", TRACE)],
         Program::Modes => &[("trace.wgsl", TRACE), ("modes.wgsl", MODES)],
-        Program::Tests => &[("trace.wgsl", TRACE), ("volume.wgsl", VOLUME), ("tests.wgsl", TESTS)],
+        Program::Tests => &[("trace.wgsl", TRACE), ("tests.wgsl", TESTS)],
     };
     let bvh = variant.accel != layout::ACCEL_GRID;
     let accel = [

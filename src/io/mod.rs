@@ -199,6 +199,9 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
 /// [`load`] with a size limit in bytes below the format's own (tests use a small one).
 pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<Scene, LoadError> {
     let origin = path.display().to_string();
+    if volume::is_volume(path) {
+        return load_volume_staged(path);
+    }
     let format = format_of(path).ok_or_else(|| {
         let supported: Vec<String> = FORMATS
             .iter()
@@ -209,6 +212,25 @@ pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<Scene, LoadError> 
     let bytes = read_limited(path, max_bytes.min(format.max_bytes), "scene file")
         .map_err(|m| LoadError::new(&origin, m))?;
     (format.parse)(&bytes, &origin)
+}
+
+/// A volume file alone on the default stage: its isosurface halfway through its samples' range
+/// (`--iso` picks another), in the default volume material, framed and lit as a model is.
+fn load_volume_staged(path: &Path) -> Result<Scene, LoadError> {
+    let grid = volume::load(path)?;
+    let iso = toml::volume::default_iso(&grid);
+    let mut scene = stage::stage(stage::Model::default());
+    let material = toml::volume::default_material(&mut scene);
+    let v = crate::scene::volume::Volume {
+        grid: std::sync::Arc::new(grid),
+        transform: glam::DAffine3::IDENTITY,
+        isos: vec![crate::scene::volume::Iso { value: iso, material }],
+        file: Some(path.to_path_buf()),
+    };
+    let model = stage::Model { volumes: vec![v], materials: scene.materials, ..Default::default() };
+    let scene = stage::stage(model);
+    scene.validate().map_err(|e| LoadError::new(&path.display().to_string(), e.to_string()))?;
+    Ok(scene)
 }
 
 /// Loads a model file (a format with a `model` parser: what `[[model]]` accepts) as geometry

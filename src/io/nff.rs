@@ -508,6 +508,7 @@ impl<'a> Parser<'a> {
             trace: TraceSettings::default(),
             motions: Vec::new(),
             particles: Vec::new(),
+            volumes: Vec::new(),
         };
         // What is left to find is about the viewpoint (an `up` along the view, `at` on `from`,
         // too many pixels): point there.

@@ -23,6 +23,8 @@ pub struct Model {
     pub motions: Vec<Animated>,
     pub spheres: Vec<Sphere>,
     pub particles: Vec<Particles>,
+    /// Sampled volumes (a volume file staged alone, or `[[volume]]`).
+    pub volumes: Vec<crate::scene::volume::Volume>,
 }
 
 impl Model {
@@ -58,6 +60,9 @@ impl Model {
             p.scale *= radius_scale;
             p.rotate_deg = rotate_deg;
             p.translate = translate;
+        }
+        for v in &mut self.volumes {
+            v.transform = placement * v.transform;
         }
         for (mesh, _) in self.meshes.iter_mut().zip(moving).filter(|(_, moving)| !moving) {
             for p in &mut mesh.positions {
@@ -103,10 +108,19 @@ pub fn stage(model: Model) -> Scene {
 /// `model` with the given camera (else [`framing_camera`]) and lights (if none,
 /// [`headlight`]), the default ambient and background.
 pub fn stage_with(mut model: Model, camera: Option<Camera>, mut lights: Vec<Light>) -> Scene {
-    // Spheres are framed by the corners of their box, a mesh of points without triangles.
-    let proxy = !model.spheres.is_empty();
+    // Spheres and volumes are framed by the corners of their boxes, a mesh of points without
+    // triangles.
+    let proxy = !model.spheres.is_empty() || !model.volumes.is_empty();
     if proxy {
-        model.meshes.push(sphere_box_corners(&model.spheres));
+        let mut corners = sphere_box_corners(&model.spheres);
+        if model.spheres.is_empty() {
+            corners.positions.clear();
+        }
+        for v in &model.volumes {
+            let (lo, hi) = v.world_bounds();
+            corners.positions.extend([lo, hi]);
+        }
+        model.meshes.push(corners);
     }
     let (center, radius) = bounds(&model.meshes);
     let camera = camera.unwrap_or_else(|| framing_camera(&model.meshes));
@@ -129,6 +143,7 @@ pub fn stage_with(mut model: Model, camera: Option<Camera>, mut lights: Vec<Ligh
         trace: TraceSettings::default(),
         motions: model.motions,
         particles: model.particles,
+        volumes: model.volumes,
     }
 }
 

@@ -11,6 +11,8 @@
 mod motion;
 #[path = "toml_particles.rs"]
 mod particles;
+#[path = "toml_volume.rs"]
+pub mod volume;
 
 use super::shapes::{self, Geometry, MAX_ICOSPHERE_SUBDIVISIONS};
 use super::{
@@ -92,6 +94,8 @@ struct Doc {
     model: Vec<Spanned<ModelDoc>>,
     #[serde(default)]
     particles: Vec<Spanned<particles::ParticlesDoc>>,
+    #[serde(default)]
+    volume: Vec<Spanned<volume::VolumeDoc>>,
 }
 
 /// A model file placed in the scene: its meshes and materials (or `material` for all of them),
@@ -356,6 +360,7 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
         trace: trace(doc.trace.as_ref().map_or(&TraceDoc::default(), Spanned::get_ref))?,
         motions: Vec::new(),
         particles: Vec::new(),
+        volumes: Vec::new(),
     };
     scene.motions = motions(doc)?;
     for m in &doc.model {
@@ -363,6 +368,9 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
     }
     for p in &doc.particles {
         particles::place(&mut scene, p.get_ref(), &p.span(), origin)?;
+    }
+    for v in &doc.volume {
+        volume::place(&mut scene, v.get_ref(), &v.span(), origin, &names)?;
     }
     Ok(scene)
 }

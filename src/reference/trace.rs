@@ -79,6 +79,7 @@ pub enum Primitive {
     Sphere(usize),
     Triangle { mesh: usize, triangle: usize },
     Cone(usize),
+    Volume(usize),
 }
 
 /// The parts of a [`Reference`] that depend on the primitives alone (resolved triangles and the
@@ -94,6 +95,8 @@ enum Prim {
     Sphere(usize),
     Triangle { index: usize, b1: f64, b2: f64 },
     Cone(usize),
+    /// Volume `index`'s isosurface, with the outward normal found with the hit (world units).
+    Volume { index: usize, iso: usize, n: DVec3 },
 }
 
 /// A scene prepared for tracing: camera basis, resolved triangles and unit ambient `up`.
@@ -123,7 +126,8 @@ impl<'a> Reference<'a> {
         let tris =
             r.triangles.iter().map(|t| (t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2])));
         let cones = scene.cones.iter().map(|c| cone_bounds(c.base, c.base_radius, c.apex, c.apex_radius));
-        r.bvh = Some(Bvh::build(&spheres.chain(tris).chain(cones).collect::<Vec<_>>()));
+        let volumes = scene.volumes.iter().map(|v| v.world_bounds());
+        r.bvh = Some(Bvh::build(&spheres.chain(tris).chain(cones).chain(volumes).collect::<Vec<_>>()));
         r
     }
 
@@ -240,6 +244,7 @@ impl<'a> Reference<'a> {
         match prim {
             Prim::Sphere(i) => Primitive::Sphere(i),
             Prim::Cone(i) => Primitive::Cone(i),
+            Prim::Volume { index, .. } => Primitive::Volume(index),
             Prim::Triangle { index, .. } => {
                 let mut first = 0;
                 for (mesh, m) in self.scene.meshes.iter().enumerate() {
@@ -275,7 +280,8 @@ impl<'a> Reference<'a> {
     }
 
     fn prim_count(&self) -> PrimId {
-        (self.scene.spheres.len() + self.triangles.len() + self.scene.cones.len()) as PrimId
+        (self.scene.spheres.len() + self.triangles.len() + self.scene.cones.len() + self.scene.volumes.len())
+            as PrimId
     }
 
     /// Nearest hit of primitive `id` with `t > 0` (no upper bound: the nearest root does not
@@ -291,6 +297,9 @@ impl<'a> Reference<'a> {
             let [p0, p1, p2] = self.triangles[index].p;
             intersect_triangle(o, d, p0, p1, p2, 0.0, f64::INFINITY)
                 .map(|(t, b1, b2)| (t, Prim::Triangle { index, b1, b2 }))
+        } else if id >= ns + self.triangles.len() + self.scene.cones.len() {
+            let index = id - ns - self.triangles.len() - self.scene.cones.len();
+            volume_hit(&self.scene.volumes[index], o, d).map(|(t, iso, n)| (t, Prim::Volume { index, iso, n }))
         } else {
             let index = id - ns - self.triangles.len();
             let c = &self.scene.cones[index];
@@ -341,6 +350,7 @@ impl<'a> Reference<'a> {
                 uv = cone_uv(p, c.base, c.apex);
                 (n, n, c.material)
             }
+            Prim::Volume { index, iso, n } => (n, n, self.scene.volumes[index].isos[iso].material),
         };
         // Decision: flip when n_g·d > 0; at exactly 0 (grazing) the normal is kept.
         let inside = n_g.dot(d) > 0.0;
@@ -585,4 +595,23 @@ pub fn render(scene: &Scene) -> RadianceImage {
 /// The whole image at pixel centres and the rays it took.
 pub fn render_with_stats(scene: &Scene) -> (RadianceImage, Stats) {
     Reference::new(&scene.posed(0.0)).render()
+}
+
+/// The nearest crossing with `t > 0` of any of `v`'s isosurfaces: (t, which isovalue, outward
+/// unit normal in world units). The ray moves into the grid's own coordinates (an affine map
+/// keeps `t`), where [`super::volume::iso_hit`] samples it densely; the normal comes back by the
+/// inverse transpose and points to smaller values (the solid is above the isovalue).
+fn volume_hit(v: &crate::scene::volume::Volume, o: DVec3, d: DVec3) -> Option<(f64, usize, DVec3)> {
+    let inv = v.transform.inverse();
+    let (og, dg) = (inv.transform_point3(o), inv.transform_vector3(d));
+    let normal_map = inv.matrix3.transpose();
+    v.isos
+        .iter()
+        .enumerate()
+        .filter_map(|(k, iso)| {
+            super::volume::iso_hit(&v.grid, og, dg, [0.0, f64::INFINITY], iso.value)
+                .filter(|&(t, _)| t > 0.0)
+                .map(|(t, n)| (t, k, (normal_map * -n).try_normalize().unwrap_or(-d.normalize())))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
 }

@@ -55,6 +55,8 @@ pub struct Scene {
     /// The particle files whose spheres are among `spheres` (what `irt convert` writes by
     /// reference and the HUD's colour bar shows).
     pub particles: Vec<particles::Particles>,
+    /// Sampled volumes drawn as isosurfaces (PAPER.md §10), at most [`volume::MAX_VOLUMES`].
+    pub volumes: Vec<volume::Volume>,
 }
 
 /// Pinhole camera. Rays go through pixel centres; `vfov_deg` is the full vertical angle
@@ -219,7 +221,7 @@ impl Scene {
     }
 
     pub fn primitive_count(&self) -> usize {
-        self.spheres.len() + self.triangle_count() + self.cones.len()
+        self.spheres.len() + self.triangle_count() + self.cones.len() + self.volumes.len()
     }
 
     /// All mesh triangles in mesh order; triangle `i` here is triangle `i` everywhere.
@@ -293,6 +295,12 @@ impl Scene {
         }
         if self.lights.len() > MAX_LIGHTS {
             return bad(format!("{} lights given; at most {MAX_LIGHTS} are supported", self.lights.len()));
+        }
+        if self.volumes.len() > volume::MAX_VOLUMES {
+            return bad(format!("{} volumes given; at most {} are supported", self.volumes.len(), volume::MAX_VOLUMES));
+        }
+        for (i, v) in self.volumes.iter().enumerate() {
+            v.check(self.materials.len()).or_else(|why| bad(format!("volume {i}: {why}")))?;
         }
         for (i, l) in self.lights.iter().enumerate() {
             finite3(format_args!("light {i} position"), l.position)?;

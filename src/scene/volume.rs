@@ -129,6 +129,77 @@ impl Grid {
     }
 }
 
+/// Volumes a scene may hold: the shader keeps their isovalues in its frame uniform, so a new
+/// isovalue is a new uniform, not a new scene texture.
+pub const MAX_VOLUMES: usize = 4;
+/// Isosurfaces one volume may draw at once.
+pub const MAX_ISOS: usize = 4;
+
+/// One isosurface of a volume: the sample value it is drawn at and its material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Iso {
+    pub value: f64,
+    pub material: u32,
+}
+
+/// A volume placed in a scene: its samples (shared, never copied by a clone of the scene),
+/// where they go and the isosurfaces drawn from them. The isosurfaces are surfaces like any
+/// other: they cast and take shadows and show in mirrors and through glass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Volume {
+    pub grid: std::sync::Arc<Grid>,
+    /// World from the grid's own coordinates (those of [`Grid::origin`] and
+    /// [`Grid::spacing`]): the file's placement, then the scene's scale, rotation and move.
+    pub transform: glam::DAffine3,
+    pub isos: Vec<Iso>,
+    /// Where the file came from (what `irt convert` writes back), if it came from one.
+    pub file: Option<std::path::PathBuf>,
+}
+
+impl Volume {
+    /// Grid index coordinates (sample (i, j, k) at (i, j, k)) from world coordinates: what the
+    /// tracers move a ray into before walking the cells. Affine, so a ray's `t` is kept.
+    pub fn index_from_world(&self) -> glam::DAffine3 {
+        let g = &self.grid;
+        glam::DAffine3::from_scale(g.spacing.recip()) * glam::DAffine3::from_translation(-g.origin)
+            * self.transform.inverse()
+    }
+
+    /// The world box around the volume's (transformed) box.
+    pub fn world_bounds(&self) -> (DVec3, DVec3) {
+        let (lo, hi) = self.grid.bounds();
+        (0..8).fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), c| {
+            let p = DVec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            );
+            let w = self.transform.transform_point3(p);
+            (a.min(w), b.max(w))
+        })
+    }
+
+    /// Why the volume cannot be drawn, if it cannot (`materials`: how many the scene has).
+    pub fn check(&self, materials: usize) -> Result<(), String> {
+        if self.isos.is_empty() || self.isos.len() > MAX_ISOS {
+            return Err(format!("{} isovalues: give 1 to {MAX_ISOS}", self.isos.len()));
+        }
+        for iso in &self.isos {
+            if !iso.value.is_finite() {
+                return Err(format!("isovalue {} is not finite", iso.value));
+            }
+            if iso.material as usize >= materials {
+                return Err(format!("isovalue {} names material {} of {materials}", iso.value, iso.material));
+            }
+        }
+        let det = self.transform.matrix3.determinant();
+        if !(det.is_finite() && det.abs() > 1e-300 && self.transform.translation.is_finite()) {
+            return Err("its transform is not invertible (a scale of 0?)".into());
+        }
+        Ok(())
+    }
+}
+
 /// The trilinear interpolant of a cell's corners ([`Grid::corners`]) at `(u, v, w)` in [0, 1]³.
 pub fn trilinear(c: &[f64; 8], [u, v, w]: [f64; 3]) -> f64 {
     let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;

@@ -12,6 +12,7 @@
 pub mod bvh;
 pub mod pack;
 pub mod prelude;
+pub mod volume;
 
 pub use bvh::{bvh_nodes, decode_qnode, quantise_node, BvhLattice};
 pub use pack::{
@@ -191,6 +192,10 @@ pub struct Params {
     /// (0/1), falloff | combine << 8.
     pub shadow: [u32; 4],
     pub lights: [GpuLight; MAX_LIGHTS],
+    /// The volumes (`layout::volume`): first record texel, count, unused, unused.
+    pub volume: [u32; 4],
+    /// Each volume's isovalues (live: a new one changes only this uniform).
+    pub iso: [[f32; 4]; crate::scene::volume::MAX_VOLUMES],
 }
 
 /// The per-dispatch uniform: what one dispatch covers and how its pixels update the frame
@@ -375,6 +380,8 @@ pub struct PackedScene {
     /// With a BVH, the lattice its compact nodes were quantised to ([`params`] hands it to the
     /// shader).
     pub bvh_lattice: Option<BvhLattice>,
+    /// First texel of the volume records (`layout::volume`).
+    pub volume_base: u32,
 }
 
 impl PackedScene {

@@ -64,7 +64,9 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         ShadowMode::Bundle { samples, .. } => samples as usize,
         _ => 0,
     };
-    let capacity = SPHERE_TEXELS as usize * scene.spheres.len()
+    let (volume_texels, macrocells) = super::volume::volume_texels(scene);
+    let capacity = volume_texels
+        + SPHERE_TEXELS as usize * scene.spheres.len()
         + (TRIANGLE_TEXELS as usize) * scene.triangle_count()
         + NORMAL_TEXELS as usize * normal_tris
         + MATERIAL_TEXELS as usize * scene.materials.len()
@@ -145,6 +147,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         texel[..chunk.len()].copy_from_slice(chunk);
         t.push(texel);
     }
+    let volume_base = super::volume::push_volumes(&mut t, scene, &macrocells, origin);
     let (accel_base, bvh_lattice) = push_accel(&mut t, accel, origin);
     let bundle_base = push_bundle(&mut t, scene.trace.shadows);
     let mut shell_sections = vec![];
@@ -162,6 +165,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         accel_base: [accel_base[0], accel_base[1], accel_base[2], bundle_base],
         shell_sections,
         bvh_lattice,
+        volume_base,
     }
 }
 
@@ -314,6 +318,7 @@ pub struct Prefix {
     at: u32,
     prim_base: [u32; 4],
     aux_base: [u32; 4],
+    volume_base: u32,
 }
 
 impl PackedScene {
@@ -326,7 +331,7 @@ impl PackedScene {
         let at = self.accel_base[0];
         let row = at / SCENE_TEX_WIDTH * SCENE_TEX_WIDTH;
         let head = self.texels[row as usize..at as usize].to_vec();
-        Some(Prefix { head, at, prim_base: self.prim_base, aux_base: self.aux_base })
+        Some(Prefix { head, at, prim_base: self.prim_base, aux_base: self.aux_base, volume_base: self.volume_base })
     }
 }
 
@@ -357,6 +362,7 @@ pub fn swap_accel(prefix: &Prefix, section: AccelSection, shadows: ShadowMode) -
         accel_base: [prefix.at + a, prefix.at + b, third, bundle_base],
         shell_sections: vec![],
         bvh_lattice: section.lattice,
+        volume_base: prefix.volume_base,
     };
     (row, packed)
 }
@@ -483,6 +489,8 @@ pub fn params<'a>(
             ShadowMode::Shell { falloff, combine } => [2, 0, 0, falloff as u32 | (combine as u32) << 8],
         },
         lights,
+        volume: [packed.volume_base, scene.volumes.len() as u32, 0, 0],
+        iso: super::volume::iso_values(scene),
     };
     match accel.into() {
         AccelRef::Grid(grid) => {

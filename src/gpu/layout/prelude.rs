@@ -70,6 +70,9 @@ pub fn wgsl_constants() -> String {
     s += &c("PRIM_SPHERE", PrimKind::Sphere as u32);
     s += &c("PRIM_TRIANGLE", PrimKind::Triangle as u32);
     s += &c("PRIM_CONE", PrimKind::Cone as u32);
+    s += &c("PRIM_VOLUME", PrimKind::Volume as u32);
+    s += &c("VOLUME_TEXELS", super::volume::VOLUME_TEXELS);
+    s += &c("MAX_VOLUMES", crate::scene::volume::MAX_VOLUMES as u32);
     for (name, kind) in [
         ("MAT_DIFFUSE", MaterialKind::Diffuse { color: DVec3::ZERO }),
         ("MAT_METAL", MaterialKind::Metal { color: DVec3::ZERO, exponent: 0.0 }),

@@ -21,6 +21,8 @@ pub enum PeerError {
     NotTheWorkload { peer: &'static str },
     #[error("the {peer} peer shades diffuse materials only (use the primary-shadow workload)")]
     NotDiffuse { peer: &'static str },
+    #[error("the {peer} peer traces spheres, triangles and cones, not volumes")]
+    Volumes { peer: &'static str },
     /// An Embree call that returned nothing (`call`: "rtcNewDevice", "rtcNewGeometry(2)").
     #[error("{call}: {error}")]
     Embree { call: String, error: &'static str },

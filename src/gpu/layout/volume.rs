@@ -1,0 +1,130 @@
+//! Volumes in the scene texture (`shaders/volume.wgsl` decodes the same): per volume a record,
+//! its samples in the file's own type, and its min/max macrocell levels
+//! (`accel::macrocells`). The isovalues are not here but in [`super::Params::iso`], so a new
+//! isovalue is a new uniform and nothing is packed again.
+//!
+//! - record ([`VOLUME_TEXELS`]): three rows of the affine map from (origin-relative) world to
+//!   grid index coordinates, `[a00, a01, a02, b0]` ..., then `[nx, ny, nz, sample type]`
+//!   ([`sample_code`]), `[first sample texel, isovalues, levels, 0]`, `[first texel of level 0,
+//!   1, 2, 0]`, `[material of isovalue 0, 1, 2, 3]`;
+//! - samples: x fastest, then y, then z, packed `32 / bits` to a word little end first, four
+//!   words a texel (16 bytes of samples, whatever their type);
+//! - each level's ranges, x fastest: `[lo0, hi0, lo1, hi1]` (f32), two macrocells a texel.
+
+use crate::accel::macrocells::{Macrocells, MAX_LEVELS};
+use crate::scene::volume::{Volume, Voxels, MAX_ISOS};
+use crate::scene::Scene;
+use glam::DVec3;
+
+pub const VOLUME_TEXELS: u32 = 7;
+/// Macrocells a texel of a level's ranges.
+pub const RANGES_PER_TEXEL: u32 = 2;
+const _: () = assert!(MAX_LEVELS <= 3 && MAX_ISOS == 4);
+
+/// The shader's code for a sample type, and log2 of samples per texel.
+pub fn sample_code(v: &Voxels) -> (u32, u32) {
+    match v {
+        Voxels::U8(_) => (0, 4),
+        Voxels::U16(_) => (1, 3),
+        Voxels::I16(_) => (2, 3),
+        Voxels::F32(_) => (3, 2),
+    }
+}
+
+/// Texels the volumes of `scene` take, and their macrocells (built here, once).
+pub fn volume_texels(scene: &Scene) -> (usize, Vec<Macrocells>) {
+    let cells: Vec<Macrocells> = scene.volumes.iter().map(|v| Macrocells::build(&v.grid)).collect();
+    let n = scene
+        .volumes
+        .iter()
+        .zip(&cells)
+        .map(|(v, m)| {
+            let samples = v.grid.voxels.len().div_ceil(1 << sample_code(&v.grid.voxels).1);
+            let ranges: usize = m.levels.iter().map(|l| l.ranges.len().div_ceil(RANGES_PER_TEXEL as usize)).sum();
+            VOLUME_TEXELS as usize + samples + ranges
+        })
+        .sum();
+    (n, cells)
+}
+
+/// Appends the volumes' records (all first, so record `i` is at `base + i VOLUME_TEXELS`), then
+/// each one's samples and levels; returns `base`.
+pub fn push_volumes(t: &mut Vec<[u32; 4]>, scene: &Scene, cells: &[Macrocells], origin: DVec3) -> u32 {
+    let base = t.len() as u32;
+    let records = t.len();
+    t.resize(records + VOLUME_TEXELS as usize * scene.volumes.len(), [0; 4]);
+    for (i, (v, m)) in scene.volumes.iter().zip(cells).enumerate() {
+        let samples = t.len() as u32;
+        push_samples(t, &v.grid.voxels);
+        let mut levels = [0u32; 4];
+        for (l, level) in m.levels.iter().enumerate() {
+            levels[l] = t.len() as u32;
+            for pair in level.ranges.chunks(RANGES_PER_TEXEL as usize) {
+                let mut texel = [0u32; 4];
+                for (k, r) in pair.iter().enumerate() {
+                    texel[2 * k] = r[0].to_bits();
+                    texel[2 * k + 1] = r[1].to_bits();
+                }
+                t.push(texel);
+            }
+        }
+        let rec = &mut t[records + i * VOLUME_TEXELS as usize..][..VOLUME_TEXELS as usize];
+        record(rec, v, samples, m.levels.len() as u32, levels, origin);
+    }
+    base
+}
+
+fn record(rec: &mut [[u32; 4]], v: &Volume, samples: u32, levels: u32, bases: [u32; 4], origin: DVec3) {
+    // Index coordinates of an origin-relative point q: A (q + origin) + b.
+    let m = v.index_from_world();
+    let b = m.translation + m.matrix3 * origin;
+    for r in 0..3 {
+        let row = m.matrix3.row(r);
+        rec[r] = [row.x, row.y, row.z, b[r]].map(|x| (x as f32).to_bits());
+    }
+    let [nx, ny, nz] = v.grid.dims;
+    rec[3] = [nx, ny, nz, sample_code(&v.grid.voxels).0];
+    rec[4] = [samples, v.isos.len() as u32, levels, 0];
+    rec[5] = [bases[0], bases[1], bases[2], 0];
+    let mut materials = [0u32; 4];
+    for (k, iso) in v.isos.iter().enumerate() {
+        materials[k] = iso.material;
+    }
+    rec[6] = materials;
+}
+
+fn push_samples(t: &mut Vec<[u32; 4]>, v: &Voxels) {
+    let words: Box<dyn Iterator<Item = u32> + '_> = match v {
+        Voxels::U8(s) => Box::new(s.chunks(4).map(|c| c.iter().rev().fold(0u32, |w, &b| w << 8 | b as u32))),
+        Voxels::U16(s) => Box::new(s.chunks(2).map(|c| c.iter().rev().fold(0u32, |w, &x| w << 16 | x as u32))),
+        Voxels::I16(s) => {
+            Box::new(s.chunks(2).map(|c| c.iter().rev().fold(0u32, |w, &x| w << 16 | x as u16 as u32)))
+        }
+        Voxels::F32(s) => Box::new(s.iter().map(|x| x.to_bits())),
+    };
+    let mut texel = [0u32; 4];
+    let mut k = 0;
+    for w in words {
+        texel[k] = w;
+        k += 1;
+        if k == 4 {
+            t.push(texel);
+            texel = [0; 4];
+            k = 0;
+        }
+    }
+    if k > 0 {
+        t.push(texel);
+    }
+}
+
+/// The isovalues of `scene`'s volumes as the frame uniform holds them.
+pub fn iso_values(scene: &Scene) -> [[f32; 4]; crate::scene::volume::MAX_VOLUMES] {
+    let mut iso = [[0.0; 4]; crate::scene::volume::MAX_VOLUMES];
+    for (v, out) in scene.volumes.iter().zip(&mut iso) {
+        for (k, i) in v.isos.iter().enumerate() {
+            out[k] = i.value as f32;
+        }
+    }
+    iso
+}

@@ -1,0 +1,127 @@
+//! Volumes in TOML: `[[volume]]` places a volume file (NRRD, NIfTI, VTK ImageData) and draws
+//! its isosurfaces (docs/scene-format.md, "Volumes"; docs/volumes.md):
+//!
+//! ```toml
+//! [[volume]]
+//! file = "head.nii.gz"    # relative to the scene file
+//! iso = 80                # one isovalue, drawn with `material`
+//! material = "skin"       # default: a pale diffuse one
+//! # or several, each with its own material:
+//! # iso = [{ value = 80, material = "skin" }, { value = 300, material = "bone" }]
+//! mode = "iso"            # isosurfaces (MIP and DVR are not built yet)
+//! scale = 1.0             # a number or [sx, sy, sz], then rotate (degrees), then translate
+//! ```
+
+use super::{err, located, scene_relative, vec3_or, Names, Numbers, Res, Scale, Span};
+use crate::io::stage::rotation;
+use crate::io::MAX_MATERIALS;
+use crate::scene::volume::{Iso, Volume, MAX_ISOS, MAX_VOLUMES};
+use crate::scene::{Material, MaterialKind, Scene};
+use ::toml::Spanned;
+use glam::{DAffine3, DMat3, DVec3};
+use serde::Deserialize;
+use std::sync::Arc;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct VolumeDoc {
+    file: Spanned<String>,
+    iso: Option<Spanned<IsoDoc>>,
+    material: Option<Spanned<String>>,
+    mode: Option<Spanned<String>>,
+    scale: Option<Spanned<Scale>>,
+    rotate: Option<Numbers>,
+    translate: Option<Numbers>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged, expecting = "a number, or a list of { value = V, material = \"name\" }")]
+enum IsoDoc {
+    Value(f64),
+    Levels(Vec<LevelDoc>),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LevelDoc {
+    value: f64,
+    material: Option<Spanned<String>>,
+}
+
+/// The material a volume's isosurface gets when none is named: bone-white, diffuse.
+pub const DEFAULT_VOLUME_COLOUR: DVec3 = DVec3::new(0.85, 0.8, 0.72);
+
+/// The index of the scene's default volume material, added on first use.
+pub fn default_material(scene: &mut Scene) -> u32 {
+    if let Some(i) = scene.materials.iter().position(|m| m.name == "volume") {
+        return i as u32;
+    }
+    scene.materials.push(Material::new("volume", MaterialKind::Diffuse { color: DEFAULT_VOLUME_COLOUR }));
+    scene.materials.len() as u32 - 1
+}
+
+/// The isovalue a volume is drawn at when none is given: halfway through its samples' range.
+pub fn default_iso(grid: &crate::scene::volume::Grid) -> f64 {
+    let (lo, hi) = grid.range();
+    0.5 * (lo as f64 + hi as f64)
+}
+
+/// Reads a `[[volume]]` table's file and adds the volume to `scene`.
+pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str, names: &Names) -> Res<()> {
+    if scene.volumes.len() >= MAX_VOLUMES {
+        return err(table.clone(), format!("a scene holds at most {MAX_VOLUMES} volumes"));
+    }
+    if let Some(mode) = &v.mode {
+        if mode.get_ref() != "iso" {
+            return err(
+                mode.span(),
+                format!("`mode` \"{}\": only \"iso\" (isosurfaces) is built yet; MIP and DVR are not", mode.get_ref()),
+            );
+        }
+    }
+    let rotate = vec3_or(&v.rotate, "rotate", DVec3::ZERO)?;
+    let translate = vec3_or(&v.translate, "translate", DVec3::ZERO)?;
+    let scale = super::scale(&v.scale)?;
+    if !(rotate.is_finite() && translate.is_finite()) {
+        return err(table.clone(), "`rotate` and `translate` must be finite");
+    }
+    let material = v.material.as_ref().map(|m| names.resolve(m)).transpose()?;
+    // The levels, by name, before the file is read: a typo should not wait for 1 GiB.
+    let levels: Vec<(Option<f64>, Option<u32>)> = match v.iso.as_ref().map(|i| (i.get_ref(), i.span())) {
+        None => vec![(None, material)],
+        Some((IsoDoc::Value(x), span)) => {
+            if !x.is_finite() {
+                return err(span, format!("`iso` {x} is not finite"));
+            }
+            vec![(Some(*x), material)]
+        }
+        Some((IsoDoc::Levels(ls), span)) => {
+            if ls.is_empty() || ls.len() > MAX_ISOS {
+                return err(span, format!("{} isovalues: give 1 to {MAX_ISOS}", ls.len()));
+            }
+            let mut out = Vec::new();
+            for l in ls {
+                if !l.value.is_finite() {
+                    return err(span.clone(), format!("isovalue {} is not finite", l.value));
+                }
+                let m = l.material.as_ref().map(|m| names.resolve(m)).transpose()?.or(material);
+                out.push((Some(l.value), m));
+            }
+            out
+        }
+    };
+    let path = scene_relative(origin, &v.file);
+    let grid = crate::io::volume::load(&path).map_err(|e| located(v.file.span(), format!("volume: {e}")))?;
+    let needs_default = levels.iter().any(|(_, m)| m.is_none());
+    if needs_default && scene.materials.len() >= MAX_MATERIALS {
+        return err(table.clone(), "the scene has too many materials for the volume's default one");
+    }
+    let fallback = if needs_default { default_material(scene) } else { 0 };
+    let isos = levels
+        .into_iter()
+        .map(|(value, m)| Iso { value: value.unwrap_or_else(|| default_iso(&grid)), material: m.unwrap_or(fallback) })
+        .collect();
+    let transform = DAffine3::from_mat3_translation(rotation(rotate) * DMat3::from_diagonal(scale), translate);
+    scene.volumes.push(Volume { grid: Arc::new(grid), transform, isos, file: Some(path) });
+    Ok(())
+}
