@@ -113,9 +113,17 @@ impl Aabb {
 
 /// A primitive as the builder sees it: its bounds and an exact overlap test against a box.
 enum Shape {
-    Sphere { center: DVec3, radius: f64 },
+    Sphere {
+        center: DVec3,
+        radius: f64,
+    },
     Triangle([DVec3; 3]),
-    Cone { base: DVec3, r0: f64, apex: DVec3, r1: f64 },
+    Cone {
+        base: DVec3,
+        r0: f64,
+        apex: DVec3,
+        r1: f64,
+    },
     /// A volume, by its world box.
     Box(Aabb),
 }
@@ -265,7 +273,10 @@ impl<'a> Prims<'a> {
     }
 
     fn len(&self) -> usize {
-        self.scene.spheres.len() + self.mesh_start.last().unwrap() + self.scene.cones.len() + self.scene.volumes.len()
+        self.scene.spheres.len()
+            + self.mesh_start.last().unwrap()
+            + self.scene.cones.len()
+            + self.scene.volumes.len()
     }
 
     fn bounds(&self, ranges: &[std::ops::Range<usize>]) -> Aabb {
@@ -768,6 +779,7 @@ pub(in crate::accel) mod tests {
             trace: TraceSettings::default(),
             motions: Vec::new(),
             particles: Vec::new(),
+            volumes: Vec::new(),
         }
     }
 
@@ -961,6 +973,10 @@ pub(in crate::accel) mod tests {
                                 let c = &s.cones[r.index() as usize];
                                 segment_box_distance(c.base, c.apex, lo, hi)
                                     <= 3f64.sqrt() * c.base_radius.max(c.apex_radius)
+                            }
+                            PrimKind::Volume => {
+                                let (vlo, vhi) = s.volumes[r.index() as usize].world_bounds();
+                                vlo.cmple(hi).all() && lo.cmple(vhi).all()
                             }
                         };
                         assert!(touches, "{r:?} listed in cell {x},{y},{z} it does not touch");

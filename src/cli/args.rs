@@ -150,7 +150,10 @@ pub fn set_isos(scene: &mut Scene, isos: &[f64]) -> Result<()> {
         v.isos = isos
             .iter()
             .enumerate()
-            .map(|(k, &value)| irt::scene::volume::Iso { value, material: materials[k.min(materials.len() - 1)] })
+            .map(|(k, &value)| irt::scene::volume::Iso {
+                value,
+                material: materials[k.min(materials.len() - 1)],
+            })
             .collect();
     }
     Ok(())

@@ -45,7 +45,9 @@ enum IsoDoc {
 #[serde(deny_unknown_fields)]
 struct LevelDoc {
     value: f64,
-    material: Option<Spanned<String>>,
+    // Not `Spanned`: an untagged enum's fields are buffered, which loses their places; an
+    // unknown name is reported at the `iso` list.
+    material: Option<String>,
 }
 
 /// The material a volume's isosurface gets when none is named: bone-white, diffuse.
@@ -75,7 +77,10 @@ pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str
         if mode.get_ref() != "iso" {
             return err(
                 mode.span(),
-                format!("`mode` \"{}\": only \"iso\" (isosurfaces) is built yet; MIP and DVR are not", mode.get_ref()),
+                format!(
+                    "`mode` \"{}\": only \"iso\" (isosurfaces) is built yet; MIP and DVR are not",
+                    mode.get_ref()
+                ),
             );
         }
     }
@@ -104,7 +109,13 @@ pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str
                 if !l.value.is_finite() {
                     return err(span.clone(), format!("isovalue {} is not finite", l.value));
                 }
-                let m = l.material.as_ref().map(|m| names.resolve(m)).transpose()?.or(material);
+                let m = match &l.material {
+                    None => material,
+                    Some(name) => match names.map.get(name.as_str()) {
+                        Some((index, _)) => Some(*index),
+                        None => return err(span.clone(), names.unknown(name)),
+                    },
+                };
                 out.push((Some(l.value), m));
             }
             out
@@ -119,9 +130,13 @@ pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str
     let fallback = if needs_default { default_material(scene) } else { 0 };
     let isos = levels
         .into_iter()
-        .map(|(value, m)| Iso { value: value.unwrap_or_else(|| default_iso(&grid)), material: m.unwrap_or(fallback) })
+        .map(|(value, m)| Iso {
+            value: value.unwrap_or_else(|| default_iso(&grid)),
+            material: m.unwrap_or(fallback),
+        })
         .collect();
-    let transform = DAffine3::from_mat3_translation(rotation(rotate) * DMat3::from_diagonal(scale), translate);
+    let transform =
+        DAffine3::from_mat3_translation(rotation(rotate) * DMat3::from_diagonal(scale), translate);
     scene.volumes.push(Volume { grid: Arc::new(grid), transform, isos, file: Some(path) });
     Ok(())
 }

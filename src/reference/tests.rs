@@ -33,6 +33,7 @@ fn scene(eye: DVec3, look_at: DVec3, materials: Vec<MaterialKind>) -> Scene {
         trace: TraceSettings::default(),
         motions: Vec::new(),
         particles: Vec::new(),
+        volumes: Vec::new(),
     }
 }
 

@@ -93,10 +93,18 @@ pub struct Geometry {
 #[derive(Clone, Copy)]
 enum Prim {
     Sphere(usize),
-    Triangle { index: usize, b1: f64, b2: f64 },
+    Triangle {
+        index: usize,
+        b1: f64,
+        b2: f64,
+    },
     Cone(usize),
     /// Volume `index`'s isosurface, with the outward normal found with the hit (world units).
-    Volume { index: usize, iso: usize, n: DVec3 },
+    Volume {
+        index: usize,
+        iso: usize,
+        n: DVec3,
+    },
 }
 
 /// A scene prepared for tracing: camera basis, resolved triangles and unit ambient `up`.
@@ -299,7 +307,8 @@ impl<'a> Reference<'a> {
                 .map(|(t, b1, b2)| (t, Prim::Triangle { index, b1, b2 }))
         } else if id >= ns + self.triangles.len() + self.scene.cones.len() {
             let index = id - ns - self.triangles.len() - self.scene.cones.len();
-            volume_hit(&self.scene.volumes[index], o, d).map(|(t, iso, n)| (t, Prim::Volume { index, iso, n }))
+            volume_hit(&self.scene.volumes[index], o, d)
+                .map(|(t, iso, n)| (t, Prim::Volume { index, iso, n }))
         } else {
             let index = id - ns - self.triangles.len();
             let c = &self.scene.cones[index];

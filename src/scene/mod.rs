@@ -297,7 +297,11 @@ impl Scene {
             return bad(format!("{} lights given; at most {MAX_LIGHTS} are supported", self.lights.len()));
         }
         if self.volumes.len() > volume::MAX_VOLUMES {
-            return bad(format!("{} volumes given; at most {} are supported", self.volumes.len(), volume::MAX_VOLUMES));
+            return bad(format!(
+                "{} volumes given; at most {} are supported",
+                self.volumes.len(),
+                volume::MAX_VOLUMES
+            ));
         }
         for (i, v) in self.volumes.iter().enumerate() {
             v.check(self.materials.len()).or_else(|why| bad(format!("volume {i}: {why}")))?;

@@ -161,7 +161,8 @@ impl Volume {
     /// tracers move a ray into before walking the cells. Affine, so a ray's `t` is kept.
     pub fn index_from_world(&self) -> glam::DAffine3 {
         let g = &self.grid;
-        glam::DAffine3::from_scale(g.spacing.recip()) * glam::DAffine3::from_translation(-g.origin)
+        glam::DAffine3::from_scale(g.spacing.recip())
+            * glam::DAffine3::from_translation(-g.origin)
             * self.transform.inverse()
     }
 

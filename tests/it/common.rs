@@ -106,6 +106,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
         trace: TraceSettings::default(),
         motions: Vec::new(),
         particles: Vec::new(),
+        volumes: Vec::new(),
     }
 }
 

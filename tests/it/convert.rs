@@ -388,6 +388,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                     trace,
                     motions: Vec::new(),
                     particles: Vec::new(),
+                    volumes: Vec::new(),
                 },
             )
     })

@@ -61,5 +61,6 @@ mod spd;
 mod specialisation;
 mod textures;
 mod viewer;
+mod volume_render;
 mod volumes;
 mod watertight;

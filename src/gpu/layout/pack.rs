@@ -331,7 +331,13 @@ impl PackedScene {
         let at = self.accel_base[0];
         let row = at / SCENE_TEX_WIDTH * SCENE_TEX_WIDTH;
         let head = self.texels[row as usize..at as usize].to_vec();
-        Some(Prefix { head, at, prim_base: self.prim_base, aux_base: self.aux_base, volume_base: self.volume_base })
+        Some(Prefix {
+            head,
+            at,
+            prim_base: self.prim_base,
+            aux_base: self.aux_base,
+            volume_base: self.volume_base,
+        })
     }
 }
 

@@ -40,7 +40,8 @@ pub fn volume_texels(scene: &Scene) -> (usize, Vec<Macrocells>) {
         .zip(&cells)
         .map(|(v, m)| {
             let samples = v.grid.voxels.len().div_ceil(1 << sample_code(&v.grid.voxels).1);
-            let ranges: usize = m.levels.iter().map(|l| l.ranges.len().div_ceil(RANGES_PER_TEXEL as usize)).sum();
+            let ranges: usize =
+                m.levels.iter().map(|l| l.ranges.len().div_ceil(RANGES_PER_TEXEL as usize)).sum();
             VOLUME_TEXELS as usize + samples + ranges
         })
         .sum();
@@ -96,7 +97,9 @@ fn record(rec: &mut [[u32; 4]], v: &Volume, samples: u32, levels: u32, bases: [u
 fn push_samples(t: &mut Vec<[u32; 4]>, v: &Voxels) {
     let words: Box<dyn Iterator<Item = u32> + '_> = match v {
         Voxels::U8(s) => Box::new(s.chunks(4).map(|c| c.iter().rev().fold(0u32, |w, &b| w << 8 | b as u32))),
-        Voxels::U16(s) => Box::new(s.chunks(2).map(|c| c.iter().rev().fold(0u32, |w, &x| w << 16 | x as u32))),
+        Voxels::U16(s) => {
+            Box::new(s.chunks(2).map(|c| c.iter().rev().fold(0u32, |w, &x| w << 16 | x as u32)))
+        }
         Voxels::I16(s) => {
             Box::new(s.chunks(2).map(|c| c.iter().rev().fold(0u32, |w, &x| w << 16 | x as u16 as u32)))
         }
