@@ -22,6 +22,10 @@ pub fn run(args: ConvertArgs) -> Result<()> {
     check_output_path(&args.output)?;
     not_a_directory(&args.input)?;
     let scene = irt::io::load(&args.input)?;
+    if !scene.volumes.is_empty() {
+        // Dropping them would write a scene that silently draws less (docs/volumes.md, Next).
+        bail!("'{}' holds volumes, which irt convert does not write yet", args.input.display());
+    }
     let stem = args.output.file_stem().map_or("scene".into(), |s| s.to_string_lossy());
     let files = irt::io::toml_write::to_files(&scene, &stem).map_err(anyhow::Error::msg)?;
     if files.toml.len() as u64 > irt::io::MAX_SCENE_FILE_BYTES {

@@ -53,6 +53,8 @@ pub enum MasterError {
     Protocol { rank: i32, what: &'static str },
     #[error("the scene cannot be sent: {0}")]
     Encode(#[from] crate::io::toml_write::TextureError),
+    #[error("the scene cannot be sent: {0}")]
+    Unsendable(String),
     #[error("{path}: {why} (rank 0 reads it to send it to the workers)")]
     File { path: PathBuf, why: String },
     #[error("{0} with --mpi: the ranks do not split it (drop one of them)")]
@@ -594,6 +596,10 @@ struct Outgoing {
 
 impl Outgoing {
     fn new(scene: &Scene) -> Result<Outgoing, MasterError> {
+        if !scene.volumes.is_empty() {
+            // The scene message names no volume files yet: workers would draw without them.
+            return Err(MasterError::Unsendable("it holds volumes, which MPI ranks do not take yet".into()));
+        }
         let (files, beside) = crate::io::toml_write::to_files_beside(scene, "scene")?;
         let shared = beside
             .into_iter()
