@@ -31,6 +31,8 @@ pub enum Action {
     Depth(i8),
     /// Resolution scale coarser (+1) or finer (-1).
     Scale(i8),
+    /// Every volume's isovalues down (-1) or up (+1) by a fiftieth of its samples' range.
+    Iso(i8),
     Screenshot,
     Hud,
     /// Left click.
@@ -124,6 +126,11 @@ pub const TABLE: &[Binding] = &[
         "`[` / `]`",
         &[(K::BracketLeft, A::Scale(1)), (K::BracketRight, A::Scale(-1))],
         "resolution scale down / up (1, 1/2, 1/4)",
+    ),
+    keys(
+        "`U` / `I`",
+        &[(K::KeyU, A::Iso(-1)), (K::KeyI, A::Iso(1))],
+        "volumes: isovalue down / up by 1/50 of the samples' range",
     ),
     keys(
         "`P`",

@@ -98,6 +98,28 @@ impl Viewer<'_> {
         }
     }
 
+    /// U / I: every volume's isovalues moved by `sign` fiftieths of its samples' range.
+    pub(super) fn change_iso(&mut self, sign: f64) {
+        if self.source.base_scene().volumes.is_empty() {
+            self.say("the scene has no volume");
+            return;
+        }
+        let ok = self.edit("isovalue", |s| {
+            for v in &mut s.volumes {
+                let (lo, hi) = v.grid.range();
+                let step = sign * (hi as f64 - lo as f64) / 50.0;
+                for iso in &mut v.isos {
+                    iso.value = (iso.value + step).clamp(lo as f64, hi as f64);
+                }
+            }
+        });
+        if ok {
+            let values: Vec<String> =
+                self.source.base_scene().volumes[0].isos.iter().map(|i| format!("{:.4}", i.value)).collect();
+            self.report_edit(format!("isovalue {}", values.join(", ")));
+        }
+    }
+
     /// L: selects the light after the selected one (the first if none is).
     pub(super) fn next_light(&mut self) {
         let n = self.source.scene().lights.len();
