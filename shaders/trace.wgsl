@@ -199,13 +199,23 @@ struct Shaded {
     hit: bool,
     sf: Surface,
     m: Material,
+    // The share of the light from the hit (and so from the rays it spawns) that the volumes
+    // drawn by MIP or DVR let through to the ray's origin; c has it applied.
+    veil: f32,
 }
 
 fn shade_ray(o: vec3f, d: vec3f, eye_ray: bool) -> Shaded {
     let h = trace_closest(o, d, 0.0, BIG);
     loop_tick(LOOP_RAY_TREE);
+    let first_pass = launch.pass_range.z != 0u;
+    // Emitted by the volumes in front of the hit: counted in the first pass alone, as ambient.
+    var fog = vec4f(0.0, 0.0, 0.0, 1.0);
+    if HAS_VOLUMES {
+        fog = through_volumes(o, d, select(h.t, BIG, h.prim == NO_HIT));
+        fog = vec4f(select(vec3f(0.0), fog.rgb, first_pass), fog.w);
+    }
     if h.prim == NO_HIT {
-        return Shaded(select(vec3f(0.0), params.background.rgb, launch.pass_range.z != 0u), false, Surface(), Material());
+        return Shaded(fog.rgb + fog.w * select(vec3f(0.0), params.background.rgb, first_pass), false, Surface(), Material(), fog.w);
     }
     if eye_ray {
         eye_hit = 1.0;
@@ -215,7 +225,7 @@ fn shade_ray(o: vec3f, d: vec3f, eye_ray: bool) -> Shaded {
     if HAS_TEXTURES && m.texture != NO_TEXTURE {
         m.color *= sample_texture(m.texture, sf.uv);
     }
-    return Shaded(shade_local(sf, m, -d), true, sf, m);
+    return Shaded(fog.rgb + fog.w * shade_local(sf, m, -d), true, sf, m, fog.w);
 }
 
 // Whether the pipeline's materials can spawn reflected or refracted rays: a diffuse-only
@@ -246,14 +256,14 @@ fn radiance(eye: vec3f, dir: vec3f) -> vec3f {
         if s.hit && ray.depth < max_depth {
             let sf = s.sf;
             let k = reflectance(s.m, sf.n, -ray.d, sf.inside);
-            let w_s = ray.w * k.ks;
+            let w_s = ray.w * s.veil * k.ks;
             if max(max(w_s.x, w_s.y), w_s.z) > cutoff {
                 let r = reflect_dir(ray.d, sf.n);
                 child = PendingRay(offset_origin(sf, r), ray.depth + 1u, r, w_s);
                 has_child = true;
                 ray_counts.y += 1u;
             }
-            let w_t = ray.w * k.kt;
+            let w_t = ray.w * s.veil * k.kt;
             if k.kt > 0.0 && max(max(w_t.x, w_t.y), w_t.z) > cutoff {
                 let t = refract_dir(ray.d, sf.n, select(1.0 / s.m.eta, s.m.eta, sf.inside));
                 if t.w != 0.0 {

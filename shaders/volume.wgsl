@@ -29,14 +29,9 @@ fn cell_cubic(c0: vec4f, c1: vec4f, a: vec3f, b: vec3f, iso: f32) -> vec4f {
     return vec4f(v0, d1 - d2 / 3.0 + d3 * (2.0 / 9.0), d2 - d3, d3);
 }
 
-// The first s in [0, 1] where the interpolant along a -> b equals iso, or MISS. The cubic comes
-// from four of its values (Newton's form on 0, 1/3, 2/3, 1); its extrema split [0, 1] into
-// monotone pieces (Marmitt et al. 2004), and the first piece that crosses iso is bisected.
-// Lavapipe runs every branch and loop for all lanes, so the pieces are a fixed three and the
-// bisection a fixed 24 steps (f32's mantissa).
-fn cell_hit(c0: vec4f, c1: vec4f, a: vec3f, b: vec3f, iso: f32) -> f32 {
-    let c = cell_cubic(c0, c1, a, b, iso);
-    // Extrema: roots of c.y + 2 c.z s + 3 c.w s², sorted, each clamped into [0, 1].
+// The cubic c's extrema in [0, 1], sorted (1 where it has fewer): the roots of c.y + 2 c.z s
+// + 3 c.w s², each clamped into [0, 1].
+fn cubic_extrema(c: vec4f) -> vec2f {
     var s1 = 1.0;
     var s2 = 1.0;
     let qa = 3.0 * c.w;
@@ -51,6 +46,26 @@ fn cell_hit(c0: vec4f, c1: vec4f, a: vec3f, b: vec3f, iso: f32) -> f32 {
     } else if abs(qa) <= 1e-30 && qb != 0.0 {
         s1 = clamp(-c.y / qb, 0.0, 1.0);
     }
+    return vec2f(s1, s2);
+}
+
+// The greatest value of the interpolant along a -> b (MIP): at an end or an extremum.
+fn segment_max(c0: vec4f, c1: vec4f, a: vec3f, b: vec3f) -> f32 {
+    let c = cell_cubic(c0, c1, a, b, 0.0);
+    let x = cubic_extrema(c);
+    return max(max(cubic_at(c, 0.0), cubic_at(c, 1.0)), max(cubic_at(c, x.x), cubic_at(c, x.y)));
+}
+
+// The first s in [0, 1] where the interpolant along a -> b equals iso, or MISS. The cubic comes
+// from four of its values (Newton's form on 0, 1/3, 2/3, 1); its extrema split [0, 1] into
+// monotone pieces (Marmitt et al. 2004), and the first piece that crosses iso is bisected.
+// Lavapipe runs every branch and loop for all lanes, so the pieces are a fixed three and the
+// bisection a fixed 24 steps (f32's mantissa).
+fn cell_hit(c0: vec4f, c1: vec4f, a: vec3f, b: vec3f, iso: f32) -> f32 {
+    let c = cell_cubic(c0, c1, a, b, iso);
+    let x = cubic_extrema(c);
+    let s1 = x.x;
+    let s2 = x.y;
     let cuts = array<f32, 4>(0.0, s1, s2, 1.0);
     var lo = 1.0;
     var hi = 1.0;
@@ -145,13 +160,32 @@ struct VolumeRec {
     levels: u32,
     level_base: vec3u,
     materials: vec4u,
+    // The transfer function: the samples its table spans, and the table's first texel.
+    window: vec2f,
+    table: u32,
 }
 
 fn load_volume(v: u32) -> VolumeRec {
     let b = params.volume.x + v * VOLUME_TEXELS;
     let d = texel(b + 3u);
     let r = texel(b + 4u);
-    return VolumeRec(ftexel(b), ftexel(b + 1u), ftexel(b + 2u), d.xyz, d.w, r.x, r.y, r.z, texel(b + 5u).xyz, texel(b + 6u));
+    let w = texel(b + 7u);
+    return VolumeRec(ftexel(b), ftexel(b + 1u), ftexel(b + 2u), d.xyz, d.w, r.x, r.y, r.z, texel(b + 5u).xyz, texel(b + 6u), bitcast<vec2f>(w.xy), w.z);
+}
+
+// Volume v's look (`LOOK_*`), from the frame uniform: the window switches it live.
+fn volume_look(v: u32) -> u32 {
+    return (params.volume.z >> (2u * v)) & 3u;
+}
+
+// The transfer function at sample value x: linear RGB and opacity, linear between the table's
+// entries, transparent below the window (twin: `Transfer::lookup`).
+fn transfer_at(vol: VolumeRec, x: f32) -> vec4f {
+    let s = (x - vol.window.x) / (vol.window.y - vol.window.x);
+    let f = clamp(s, 0.0, 1.0) * f32(TRANSFER_ENTRIES - 1u);
+    let i = min(u32(f), TRANSFER_ENTRIES - 2u);
+    let e = mix(ftexel(vol.table + i), ftexel(vol.table + i + 1u), f - f32(i));
+    return select(e, vec4f(e.rgb, 0.0), s <= 0.0);
 }
 
 // Grid index coordinates of the (origin-relative) world point p, and of a direction.
@@ -210,14 +244,39 @@ fn volume_holds(r: vec2f, iso: vec4f, n: u32) -> bool {
     return any(inside & used);
 }
 
+// Whether a walk in `look` may pass over a box of samples in [r.x, r.y] without looking in:
+// it holds no isovalue (iso), cannot raise the greatest value found, acc.x (MIP), or is
+// transparent (DVR: all of it at or below the transfer window).
+fn volume_skips(r: vec2f, look: u32, iso: vec4f, n: u32, acc: vec4f, vol: VolumeRec) -> bool {
+    if look == LOOK_ISO {
+        return !volume_holds(r, iso, n);
+    }
+    if look == LOOK_MIP {
+        return r.y <= acc.x;
+    }
+    return r.y <= vol.window.x;
+}
+
 // The first crossing of volume v's isosurfaces in (t_min, t_max): (t, which isovalue), t = MISS
-// when there is none. The ray moves into index coordinates (t is kept) and walks the cells; at
-// each cell the coarsest macrocell holding it whose range holds no isovalue is skipped whole
-// (its exit found from its faces, the next cell from the exit axis, so the walk always moves
-// on), else the cell's cubic is solved for each isovalue. No stack: a skip restarts the descent
-// from the top, which costs a range load a level on lavapipe, where a stack indexed at run time
-// costs more (../shared/LAVAPIPE.md).
+// when there is none.
 fn volume_hit(v: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec2f {
+    if volume_look(v) != LOOK_ISO {
+        return vec2f(MISS, 0.0);
+    }
+    return volume_walk(v, o, d, t_min, t_max, LOOK_ISO).xy;
+}
+
+// Walks volume v along o + t d, t in (t_min, t_max), for its look. Iso: (the first crossing's t
+// or MISS, which isovalue, 0, 0). MIP: (the greatest value, 0, 0, 1 if the ray met the volume,
+// else 0). DVR: (the colour emitted towards o, premultiplied; the transmittance), samples every
+// DVR_STEP cells from where the ray enters the box, stopped below DVR_EARLY_OUT.
+//
+// The ray moves into index coordinates (t is kept) and walks the cells; at each cell the
+// coarsest macrocell holding it that `volume_skips` is passed over whole (its exit found from
+// its faces, the next cell from the exit axis, so the walk always moves on), else the cell is
+// looked into. No stack: a skip restarts the descent from the top, which costs a range load a
+// level on lavapipe, where a stack indexed at run time costs more (../shared/LAVAPIPE.md).
+fn volume_walk(v: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32, look: u32) -> vec4f {
     let vol = load_volume(v);
     let iso = params.iso[v];
     let q = volume_point(vol, o);
@@ -232,23 +291,33 @@ fn volume_hit(v: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec2f {
     let far = max(fa, fb);
     let t0 = max(t_min, max(max(near.x, near.y), near.z));
     let t1 = min(t_max, min(min(far.x, far.y), far.z));
-    if !(t0 < t1) {
-        return vec2f(MISS, 0.0);
+    var acc = select(vec4f(MISS, 0.0, 0.0, 0.0), vec4f(0.0, 0.0, 0.0, 1.0), look == LOOK_DVR);
+    if look == LOOK_MIP {
+        acc = vec4f(-3.0e38, 0.0, 0.0, 0.0);
     }
+    if !(t0 < t1) {
+        return acc;
+    }
+    if look == LOOK_MIP {
+        acc.w = 1.0;
+    }
+    // DVR's samples: t0 + (k + 1/2) dt.
+    let dt = DVR_STEP / length(e0);
     let step = vec3i(select(vec3i(-1), vec3i(1), e > vec3f(0.0)));
     let last = vec3i(cells) - 1;
     var cell = clamp(vec3i(floor(q + e * t0)), vec3i(0), last);
     var t = t0;
     let bound = cells.x + cells.y + cells.z + 3u;
     for (var n = 0u; n < bound; n++) {
+        loop_iters += 1u;
         if any(cell < vec3i(0)) || any(cell > last) || t >= t1 {
             break;
         }
-        // The coarsest level whose macrocell here holds no isovalue: its span's shift, or 0.
+        // The coarsest level whose macrocell here may be passed over: its span's shift, or 0.
         var skip = 0u;
         for (var l = vol.levels; l > 0u; l--) {
             let s = 2u * l;
-            if !volume_holds(volume_range(vol, l - 1u, vec3u(cell) >> vec3u(s)), iso, vol.isos) {
+            if volume_skips(volume_range(vol, l - 1u, vec3u(cell) >> vec3u(s)), look, iso, vol.isos, acc, vol) {
                 skip = s;
                 break;
             }
@@ -263,24 +332,45 @@ fn volume_hit(v: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec2f {
             let c0 = volume_corners(vol, c, 0u);
             let c1 = volume_corners(vol, c, 1u);
             let r = vec2f(min(min(c0, c1).x, min(min(c0, c1).y, min(min(c0, c1).z, min(c0, c1).w))), max(max(c0, c1).x, max(max(c0, c1).y, max(max(c0, c1).z, max(c0, c1).w))));
-            if volume_holds(r, iso, vol.isos) {
+            if !volume_skips(r, look, iso, vol.isos, acc, vol) {
                 let tb = min(t_exit, t1);
                 let a = clamp(q + e * t - vec3f(c), vec3f(0.0), vec3f(1.0));
                 let b = clamp(q + e * tb - vec3f(c), vec3f(0.0), vec3f(1.0));
-                var best = MISS;
-                var which = 0u;
-                for (var k = 0u; k < vol.isos; k++) {
-                    let s = cell_hit(c0, c1, a, b, iso[k]);
-                    if s != MISS {
-                        let th = t + (tb - t) * s;
-                        if th > t_min && (best == MISS || th < best) {
-                            best = th;
-                            which = k;
+                if look == LOOK_ISO {
+                    var best = MISS;
+                    var which = 0u;
+                    for (var k = 0u; k < vol.isos; k++) {
+                        let s = cell_hit(c0, c1, a, b, iso[k]);
+                        if s != MISS {
+                            let th = t + (tb - t) * s;
+                            if th > t_min && (best == MISS || th < best) {
+                                best = th;
+                                which = k;
+                            }
                         }
                     }
-                }
-                if best != MISS {
-                    return vec2f(best, f32(which));
+                    if best != MISS {
+                        return vec4f(best, f32(which), 0.0, 0.0);
+                    }
+                } else if look == LOOK_MIP {
+                    acc.x = max(acc.x, segment_max(c0, c1, a, b));
+                } else {
+                    // The samples in [t, tb): at most DVR_CELL_SAMPLES of them (a cell's
+                    // diagonal is √3 cells), the same k's a neighbouring cell would count.
+                    let k0 = ceil((t - t0) / dt - 0.5);
+                    let k1 = ceil((tb - t0) / dt - 0.5);
+                    for (var j = 0u; j < DVR_CELL_SAMPLES; j++) {
+                        let k = k0 + f32(j);
+                        if k < k1 {
+                            let p = clamp(q + e * (t0 + (k + 0.5) * dt) - vec3f(c), vec3f(0.0), vec3f(1.0));
+                            let f = transfer_at(vol, trilinear(c0, c1, p));
+                            let alpha = 1.0 - pow(1.0 - f.a, DVR_STEP);
+                            acc = vec4f(acc.rgb + (acc.w * alpha) * f.rgb, acc.w * (1.0 - alpha));
+                        }
+                    }
+                    if acc.w < DVR_EARLY_OUT {
+                        return acc;
+                    }
                 }
             }
         }
@@ -297,7 +387,56 @@ fn volume_hit(v: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec2f {
         cell = next;
         t = max(t, t_exit);
     }
-    return vec2f(MISS, 0.0);
+    return acc;
+}
+
+// What the volumes drawn by MIP or DVR do to o + t d up to t_max: (what they emit towards o,
+// what share of the light from behind them gets through), so that the ray brings back
+// emitted + share × what lies behind. Each volume goes over the ones behind it, in the order
+// the ray enters their boxes (twin: `reference::trace`'s `through_volumes`).
+fn through_volumes(o: vec3f, d: vec3f, t_max: f32) -> vec4f {
+    var acc = vec4f(0.0, 0.0, 0.0, 1.0);
+    var done = 0u;
+    for (var n = 0u; n < params.volume.y; n++) {
+        loop_iters += 1u;
+        // The farthest volume not composited yet.
+        var far = NO_HIT;
+        var far_t = -3.0e38;
+        for (var v = 0u; v < params.volume.y; v++) {
+            if volume_look(v) != LOOK_ISO && ((done >> v) & 1u) == 0u {
+                let te = volume_entry(v, o, d);
+                if te >= far_t {
+                    far = v;
+                    far_t = te;
+                }
+            }
+        }
+        if far == NO_HIT {
+            break;
+        }
+        done |= 1u << far;
+        let look = volume_look(far);
+        var r = volume_walk(far, o, d, 0.0, t_max, look);
+        if look == LOOK_MIP {
+            let f = transfer_at(load_volume(far), r.x);
+            let a = select(0.0, f.a, r.w > 0.0);
+            r = vec4f(a * f.rgb, 1.0 - a);
+        }
+        acc = vec4f(r.rgb + r.w * acc.rgb, r.w * acc.w);
+    }
+    return acc;
+}
+
+// Where o + t d enters volume v's box (its near slab distance; the walk clips for itself).
+fn volume_entry(v: u32, o: vec3f, d: vec3f) -> f32 {
+    let vol = load_volume(v);
+    let q = volume_point(vol, o);
+    let e0 = volume_dir(vol, d);
+    let e = select(e0, vec3f(1e-30), e0 == vec3f(0.0));
+    let fa = -q / e;
+    let fb = (vec3f(vol.dims - 1u) - q) / e;
+    let near = min(fa, fb);
+    return max(max(near.x, near.y), near.z);
 }
 
 // The outward normal (towards smaller values: the solid is where the samples exceed the

@@ -51,6 +51,12 @@ pub struct SceneArgs {
     /// i-th isosurface keeps the volume's i-th material (its last, past the ones it has).
     #[arg(long, value_name = "V[,V...]", value_delimiter = ',', allow_hyphen_values = true)]
     pub iso: Vec<f64>,
+    /// How every volume is drawn (overrides the scene's `mode`): iso (its isosurfaces), mip
+    /// (the greatest sample along each ray, in greys) or dvr (emission and absorption through
+    /// the inferno map); the transfer window is the samples' range unless the scene gives one.
+    /// See docs/volumes.md.
+    #[arg(long, value_name = "iso|mip|dvr", value_parser = irt::scene::transfer::Look::parse)]
+    pub volume_mode: Option<irt::scene::transfer::Look>,
     /// Radius of every light (overrides the scene; 0 is a point light, soft modes need > 0).
     #[arg(long, value_name = "R")]
     pub light_radius: Option<f64>,
@@ -116,6 +122,9 @@ pub fn load_scene_and_pick(args: &SceneArgs) -> Result<(Scene, Option<irt::scene
         Settings { light_radius: args.light_radius, max_depth: args.max_depth, ..Settings::default() };
     overrides.apply_to(&mut scene);
     set_isos(&mut scene, &args.iso)?;
+    if let Some(look) = args.volume_mode {
+        set_looks(&mut scene, look)?;
+    }
     // After the size and the lights' radius: `soft` weighs the modes on the scene as it is traced.
     // The command line's choice, else the scene file's `shadows = "soft"`.
     let setting = args.shadows.or(scene.trace.soft.then_some(irt::scene::ShadowSetting::Soft));
@@ -155,6 +164,22 @@ pub fn set_isos(scene: &mut Scene, isos: &[f64]) -> Result<()> {
                 material: materials[k.min(materials.len() - 1)],
             })
             .collect();
+    }
+    Ok(())
+}
+
+/// `--volume-mode`: every volume drawn with `look`. A volume that changes look gets the look's
+/// default colour map and opacity, and keeps its window (the scene's, or the samples' range).
+pub fn set_looks(scene: &mut Scene, look: irt::scene::transfer::Look) -> Result<()> {
+    if scene.volumes.is_empty() {
+        bail!("--volume-mode: the scene has no volume (give a .nrrd, .nhdr, .nii, .nii.gz or .vti file, or a [[volume]])");
+    }
+    for v in &mut scene.volumes {
+        if v.look != look {
+            let window = v.transfer.window;
+            *v = v.clone().with_look(look);
+            v.transfer.window = window;
+        }
     }
     Ok(())
 }

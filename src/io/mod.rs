@@ -221,12 +221,12 @@ fn load_volume_staged(path: &Path) -> Result<Scene, LoadError> {
     let iso = toml::volume::default_iso(&grid);
     let mut scene = stage::stage(stage::Model::default());
     let material = toml::volume::default_material(&mut scene);
-    let v = crate::scene::volume::Volume {
-        grid: std::sync::Arc::new(grid),
-        transform: glam::DAffine3::IDENTITY,
-        isos: vec![crate::scene::volume::Iso { value: iso, material }],
-        file: Some(path.to_path_buf()),
-    };
+    let v = crate::scene::volume::Volume::new(
+        std::sync::Arc::new(grid),
+        glam::DAffine3::IDENTITY,
+        vec![crate::scene::volume::Iso { value: iso, material }],
+        Some(path.to_path_buf()),
+    );
     let model = stage::Model { volumes: vec![v], materials: scene.materials, ..Default::default() };
     let scene = stage::stage(model);
     scene.validate().map_err(|e| LoadError::new(&path.display().to_string(), e.to_string()))?;

@@ -8,13 +8,19 @@
 //! material = "skin"       # default: a pale diffuse one
 //! # or several, each with its own material:
 //! # iso = [{ value = 80, material = "skin" }, { value = 300, material = "bone" }]
-//! mode = "iso"            # isosurfaces (MIP and DVR are not built yet)
+//! mode = "iso"            # isosurfaces; "mip" (maximum intensity) or "dvr" (emission and
+//!                         # absorption) map samples through a transfer function:
+//! colormap = "greys"      # mip: greys, dvr: inferno (docs/scene-format.md lists the maps)
+//! window = [40, 120]      # the samples the map spans (default: their whole range)
+//! opacity = 0.1           # at the window's top (dvr: per cell; default mip 1, dvr 0.1)
 //! scale = 1.0             # a number or [sx, sy, sz], then rotate (degrees), then translate
 //! ```
 
 use super::{err, located, scene_relative, vec3_or, Names, Numbers, Res, Scale, Span};
 use crate::io::stage::rotation;
 use crate::io::MAX_MATERIALS;
+use crate::scene::colour_map::ColourMap;
+use crate::scene::transfer::{Look, Transfer};
 use crate::scene::volume::{Iso, Volume, MAX_ISOS, MAX_VOLUMES};
 use crate::scene::{Material, MaterialKind, Scene};
 use ::toml::Spanned;
@@ -29,6 +35,9 @@ pub(super) struct VolumeDoc {
     iso: Option<Spanned<IsoDoc>>,
     material: Option<Spanned<String>>,
     mode: Option<Spanned<String>>,
+    colormap: Option<Spanned<String>>,
+    window: Option<Spanned<[f64; 2]>>,
+    opacity: Option<Spanned<f64>>,
     scale: Option<Spanned<Scale>>,
     rotate: Option<Numbers>,
     translate: Option<Numbers>,
@@ -73,17 +82,15 @@ pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str
     if scene.volumes.len() >= MAX_VOLUMES {
         return err(table.clone(), format!("a scene holds at most {MAX_VOLUMES} volumes"));
     }
-    if let Some(mode) = &v.mode {
-        if mode.get_ref() != "iso" {
-            return err(
-                mode.span(),
-                format!(
-                    "`mode` \"{}\": only \"iso\" (isosurfaces) is built yet; MIP and DVR are not",
-                    mode.get_ref()
-                ),
-            );
-        }
-    }
+    let look = match &v.mode {
+        Some(m) => Look::parse(m.get_ref()).map_err(|e| located(m.span(), e))?,
+        None => Look::Iso,
+    };
+    let map = v
+        .colormap
+        .as_ref()
+        .map(|m| ColourMap::parse(m.get_ref()).map_err(|e| located(m.span(), e)))
+        .transpose()?;
     let rotate = vec3_or(&v.rotate, "rotate", DVec3::ZERO)?;
     let translate = vec3_or(&v.translate, "translate", DVec3::ZERO)?;
     let scale = super::scale(&v.scale)?;
@@ -137,6 +144,30 @@ pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str
         .collect();
     let transform =
         DAffine3::from_mat3_translation(rotation(rotate) * DMat3::from_diagonal(scale), translate);
-    scene.volumes.push(Volume { grid: Arc::new(grid), transform, isos, file: Some(path) });
+    let mut volume = Volume::new(Arc::new(grid), transform, isos, Some(path)).with_look(look);
+    volume.transfer = transfer(volume.transfer, map, v.window.as_ref(), v.opacity.as_ref(), table)?;
+    scene.volumes.push(volume);
     Ok(())
+}
+
+/// The look's default transfer function with what the table gives instead.
+fn transfer(
+    default: Transfer,
+    map: Option<ColourMap>,
+    window: Option<&Spanned<[f64; 2]>>,
+    opacity: Option<&Spanned<f64>>,
+    table: &Span,
+) -> Res<Transfer> {
+    let t = Transfer {
+        map: map.unwrap_or(default.map),
+        window: window.map_or(default.window, |w| *w.get_ref()),
+        opacity: opacity.map_or(default.opacity, |o| *o.get_ref()),
+    };
+    if let Err(e) = t.check() {
+        let span =
+            if e.starts_with("opacity") { opacity.map(|o| o.span()) } else { window.map(|w| w.span()) };
+        // No span: the samples' own range is one value, so a window must be given.
+        return err(span.unwrap_or(table.clone()), e);
+    }
+    Ok(t)
 }

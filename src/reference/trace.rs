@@ -388,9 +388,14 @@ impl<'a> Reference<'a> {
         pixel: u32,
         stats: &mut Stats,
     ) -> DVec3 {
-        let Some(hit) = self.intersect(o, d, f64::INFINITY) else {
-            return self.scene.background;
+        let hit = self.intersect(o, d, f64::INFINITY);
+        // The volumes drawn by MIP or DVR in front of the hit: what they emit, and the share of
+        // the light from behind (the hit's and every ray it spawns) they let through.
+        let (fog, veil) = self.through_volumes(o, d, hit.as_ref().map_or(f64::INFINITY, |h| h.t));
+        let Some(hit) = hit else {
+            return fog + veil * self.scene.background;
         };
+        let weight = weight * veil;
         let m = &material_at(self.scene, hit.material, hit.uv);
         let (p, n, n_g, inside) = (hit.p, hit.n, hit.n_g, hit.inside);
         let e = -d;
@@ -449,7 +454,35 @@ impl<'a> Reference<'a> {
                 }
             }
         }
-        radiance
+        fog + veil * radiance
+    }
+
+    /// What the volumes drawn by MIP or DVR do to the ray `o + t d`, `t` in `[0, t_max]`: (the
+    /// light they emit towards `o`, the share of the light from behind them that gets through),
+    /// each volume over those behind it in the order the ray enters their boxes.
+    fn through_volumes(&self, o: DVec3, d: DVec3, t_max: f64) -> (DVec3, f64) {
+        use crate::scene::transfer::Look;
+        let mut seen: Vec<(f64, DVec3, f64)> = Vec::new();
+        for v in self.scene.volumes.iter().filter(|v| v.look != Look::Iso) {
+            let inv = v.transform.inverse();
+            let (og, dg) = (inv.transform_point3(o), inv.transform_vector3(d));
+            let entry = super::volume::entry(&v.grid, og, dg);
+            let table = v.transfer.table();
+            let (emit, through) = match v.look {
+                Look::Mip => match super::volume::mip(&v.grid, og, dg, [0.0, t_max]) {
+                    Some(m) => {
+                        let f = v.transfer.lookup(&table, m);
+                        (DVec3::new(f[0], f[1], f[2]) * f[3], 1.0 - f[3])
+                    }
+                    None => (DVec3::ZERO, 1.0),
+                },
+                _ => super::volume::dvr(&v.grid, &v.transfer, &table, og, dg, [0.0, t_max]),
+            };
+            seen.push((entry, emit, through));
+        }
+        // Farthest first, as the shader composites them.
+        seen.sort_by(|a, b| b.0.total_cmp(&a.0));
+        seen.iter().fold((DVec3::ZERO, 1.0), |(e, t), &(_, emit, through)| (emit + through * e, through * t))
     }
 
     /// Visibility `s` of `light` from the offset origin `so` (docs/shadows.md).
@@ -611,6 +644,9 @@ pub fn render_with_stats(scene: &Scene) -> (RadianceImage, Stats) {
 /// keeps `t`), where [`super::volume::iso_hit`] samples it densely; the normal comes back by the
 /// inverse transpose and points to smaller values (the solid is above the isovalue).
 fn volume_hit(v: &crate::scene::volume::Volume, o: DVec3, d: DVec3) -> Option<(f64, usize, DVec3)> {
+    if v.look != crate::scene::transfer::Look::Iso {
+        return None;
+    }
     let inv = v.transform.inverse();
     let (og, dg) = (inv.transform_point3(o), inv.transform_vector3(d));
     let normal_map = inv.matrix3.transpose();

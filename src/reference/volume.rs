@@ -1,7 +1,9 @@
 //! The f64 twin of a volume's ray queries, written apart from the macrocell walk and the cell's
 //! cubic (`accel::macrocells`, `scene::volume::cell_hit`): the interpolant sampled densely along
-//! the ray through the whole volume, a sign change bisected; MIP as the largest sample.
+//! the ray through the whole volume, a sign change bisected; MIP as the largest sample; DVR
+//! integrated on the shader's lattice of samples to the end (no early stop).
 
+use crate::scene::transfer::{step_opacity, Transfer, DVR_STEP};
 use crate::scene::volume::{trilinear, trilinear_gradient, Grid};
 use glam::DVec3;
 
@@ -102,4 +104,47 @@ pub fn mip(grid: &Grid, origin: DVec3, dir: DVec3, span: [f64; 2]) -> Option<f64
     (0..=n)
         .filter_map(|i| value_at(grid, origin + dir * (ta + (tb - ta) * i as f64 / n as f64)))
         .reduce(f64::max)
+}
+
+/// Where the ray enters the volume's box (the greatest near slab distance, not clipped).
+pub fn entry(grid: &Grid, origin: DVec3, dir: DVec3) -> f64 {
+    let (lo, hi) = grid.bounds();
+    (0..3)
+        .map(|a| {
+            let (p, q) = ((lo[a] - origin[a]) / dir[a], (hi[a] - origin[a]) / dir[a]);
+            if p.is_nan() || q.is_nan() {
+                f64::NEG_INFINITY
+            } else {
+                p.min(q)
+            }
+        })
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// Emission and absorption along the ray in `[t0, t1]` through `transfer` (its `table`): the
+/// light emitted towards the origin and the share of the light behind that gets through.
+/// Samples sit every [`DVR_STEP`] cells (in index units) from where the ray enters the box, at
+/// the middles of the steps, as the shader's do; the integral runs to the end.
+pub fn dvr(
+    grid: &Grid,
+    transfer: &Transfer,
+    table: &[[f32; 4]],
+    origin: DVec3,
+    dir: DVec3,
+    span: [f64; 2],
+) -> (DVec3, f64) {
+    let Some([ta, tb]) = clip(grid, origin, dir, span) else { return (DVec3::ZERO, 1.0) };
+    let dt = DVR_STEP / (dir / grid.spacing).length();
+    let (mut c, mut through) = (DVec3::ZERO, 1.0);
+    let mut k = 0.0;
+    while ta + (k + 0.5) * dt < tb {
+        if let Some(v) = value_at(grid, origin + dir * (ta + (k + 0.5) * dt)) {
+            let f = transfer.lookup(table, v);
+            let a = step_opacity(f[3]);
+            c += through * a * DVec3::new(f[0], f[1], f[2]);
+            through *= 1.0 - a;
+        }
+        k += 1.0;
+    }
+    (c, through)
 }

@@ -12,6 +12,7 @@ mod shadows;
 mod shells;
 mod soft;
 mod texture;
+pub mod transfer;
 pub mod volume;
 
 pub use builtin::default_scene;

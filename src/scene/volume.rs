@@ -69,6 +69,9 @@ pub struct Grid {
     /// Where sample (0, 0, 0) sits.
     pub origin: DVec3,
     pub voxels: Voxels,
+    /// The smallest and largest sample, found once (a scan of 1 GiB takes half a second; the
+    /// window's isovalue keys ask for it on every press).
+    range: (f32, f32),
 }
 
 impl Grid {
@@ -93,7 +96,11 @@ impl Grid {
                 return Err(format!("sample {i} is {}: a volume's samples must be finite", v[i]));
             }
         }
-        Ok(Grid { dims, spacing, origin, voxels })
+        let range = (0..voxels.len()).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), i| {
+            let v = voxels.get(i);
+            (lo.min(v), hi.max(v))
+        });
+        Ok(Grid { dims, spacing, origin, voxels, range })
     }
 
     /// Sample `(i, j, k)`.
@@ -122,10 +129,7 @@ impl Grid {
 
     /// The smallest and largest sample.
     pub fn range(&self) -> (f32, f32) {
-        (0..self.voxels.len()).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), i| {
-            let v = self.voxels.get(i);
-            (lo.min(v), hi.max(v))
-        })
+        self.range
     }
 }
 
@@ -152,6 +156,10 @@ pub struct Volume {
     /// [`Grid::spacing`]): the file's placement, then the scene's scale, rotation and move.
     pub transform: glam::DAffine3,
     pub isos: Vec<Iso>,
+    /// How it is drawn: its isosurfaces (`isos`), or MIP or DVR through `transfer`. The
+    /// isovalues stay when another look is chosen, so the window can switch back.
+    pub look: super::transfer::Look,
+    pub transfer: super::transfer::Transfer,
     /// Where the file came from (what `irt convert` writes back), if it came from one.
     pub file: Option<std::path::PathBuf>,
 }
@@ -163,11 +171,32 @@ impl PartialEq for Volume {
         (std::sync::Arc::ptr_eq(&self.grid, &o.grid) || self.grid == o.grid)
             && self.transform == o.transform
             && self.isos == o.isos
+            && self.look == o.look
+            && self.transfer == o.transfer
             && self.file == o.file
     }
 }
 
 impl Volume {
+    /// `grid` placed by `transform`, drawn as its isosurfaces `isos`, with the default transfer
+    /// function over its samples' range for when MIP or DVR is chosen.
+    pub fn new(
+        grid: std::sync::Arc<Grid>,
+        transform: glam::DAffine3,
+        isos: Vec<Iso>,
+        file: Option<std::path::PathBuf>,
+    ) -> Volume {
+        let transfer = super::transfer::Transfer::default_for(super::transfer::Look::Iso, grid.range());
+        Volume { grid, transform, isos, look: super::transfer::Look::Iso, transfer, file }
+    }
+
+    /// Draws it with `look`, and the look's default transfer function over the samples' range.
+    pub fn with_look(mut self, look: super::transfer::Look) -> Volume {
+        self.look = look;
+        self.transfer = super::transfer::Transfer::default_for(look, self.grid.range());
+        self
+    }
+
     /// Grid index coordinates (sample (i, j, k) at (i, j, k)) from world coordinates: what the
     /// tracers move a ray into before walking the cells. Affine, so a ray's `t` is kept.
     pub fn index_from_world(&self) -> glam::DAffine3 {
@@ -204,6 +233,7 @@ impl Volume {
                 return Err(format!("isovalue {} names material {} of {materials}", iso.value, iso.material));
             }
         }
+        self.transfer.check()?;
         let det = self.transform.matrix3.determinant();
         if !(det.is_finite() && det.abs() > 1e-300 && self.transform.translation.is_finite()) {
             return Err("its transform is not invertible (a scale of 0?)".into());

@@ -192,7 +192,8 @@ pub struct Params {
     /// (0/1), falloff | combine << 8.
     pub shadow: [u32; 4],
     pub lights: [GpuLight; MAX_LIGHTS],
-    /// The volumes (`layout::volume`): first record texel, count, unused, unused.
+    /// The volumes (`layout::volume`): first record texel, count, looks (`volume::look_bits`),
+    /// unused.
     pub volume: [u32; 4],
     /// Each volume's isovalues (live: a new one changes only this uniform).
     pub iso: [[f32; 4]; crate::scene::volume::MAX_VOLUMES],

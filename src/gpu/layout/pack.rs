@@ -495,7 +495,7 @@ pub fn params<'a>(
             ShadowMode::Shell { falloff, combine } => [2, 0, 0, falloff as u32 | (combine as u32) << 8],
         },
         lights,
-        volume: [packed.volume_base, scene.volumes.len() as u32, 0, 0],
+        volume: [packed.volume_base, scene.volumes.len() as u32, super::volume::look_bits(scene), 0],
         iso: super::volume::iso_values(scene),
     };
     match accel.into() {

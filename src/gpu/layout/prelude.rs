@@ -73,6 +73,14 @@ pub fn wgsl_constants() -> String {
     s += &c("PRIM_VOLUME", PrimKind::Volume as u32);
     s += &c("VOLUME_TEXELS", super::volume::VOLUME_TEXELS);
     s += &c("MAX_VOLUMES", crate::scene::volume::MAX_VOLUMES as u32);
+    s += &c("LOOK_ISO", crate::scene::transfer::Look::Iso.code());
+    s += &c("LOOK_MIP", crate::scene::transfer::Look::Mip.code());
+    s += &c("LOOK_DVR", crate::scene::transfer::Look::Dvr.code());
+    s += &c("TRANSFER_ENTRIES", crate::scene::transfer::TRANSFER_ENTRIES as u32);
+    s += &c("DVR_CELL_SAMPLES", crate::scene::transfer::DVR_CELL_SAMPLES);
+    let f = |name: &str, v: f64| format!("const {name}: f32 = {v:?};\n");
+    s += &f("DVR_STEP", crate::scene::transfer::DVR_STEP);
+    s += &f("DVR_EARLY_OUT", crate::scene::transfer::DVR_EARLY_OUT);
     for (name, kind) in [
         ("MAT_DIFFUSE", MaterialKind::Diffuse { color: DVec3::ZERO }),
         ("MAT_METAL", MaterialKind::Metal { color: DVec3::ZERO, exponent: 0.0 }),

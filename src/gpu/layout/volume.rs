@@ -6,17 +6,23 @@
 //! - record ([`VOLUME_TEXELS`]): three rows of the affine map from (origin-relative) world to
 //!   grid index coordinates, `[a00, a01, a02, b0]` ..., then `[nx, ny, nz, sample type]`
 //!   ([`sample_code`]), `[first sample texel, isovalues, levels, 0]`, `[first texel of level 0,
-//!   1, 2, 0]`, `[material of isovalue 0, 1, 2, 3]`;
+//!   1, 2, 0]`, `[material of isovalue 0, 1, 2, 3]`, `[transfer window lo, hi (f32), first
+//!   texel of its table, 0]`;
 //! - samples: x fastest, then y, then z, packed `32 / bits` to a word little end first, four
 //!   words a texel (16 bytes of samples, whatever their type);
-//! - each level's ranges, x fastest: `[lo0, hi0, lo1, hi1]` (f32), two macrocells a texel.
+//! - each level's ranges, x fastest: `[lo0, hi0, lo1, hi1]` (f32), two macrocells a texel;
+//! - the transfer function's table ([`TRANSFER_ENTRIES`] texels of linear RGB and opacity, f32).
+//!
+//! The looks (iso, MIP, DVR) are in [`super::Params::volume`] too, so the window switches them
+//! without packing anything.
 
 use crate::accel::macrocells::{Macrocells, MAX_LEVELS};
-use crate::scene::volume::{Volume, Voxels, MAX_ISOS};
+use crate::scene::transfer::TRANSFER_ENTRIES;
+use crate::scene::volume::{Volume, Voxels, MAX_ISOS, MAX_VOLUMES};
 use crate::scene::Scene;
 use glam::DVec3;
 
-pub const VOLUME_TEXELS: u32 = 7;
+pub const VOLUME_TEXELS: u32 = 8;
 /// Macrocells a texel of a level's ranges.
 pub const RANGES_PER_TEXEL: u32 = 2;
 const _: () = assert!(MAX_LEVELS <= 3 && MAX_ISOS == 4);
@@ -42,7 +48,7 @@ pub fn volume_texels(scene: &Scene) -> (usize, Vec<Macrocells>) {
             let samples = v.grid.voxels.len().div_ceil(1 << sample_code(&v.grid.voxels).1);
             let ranges: usize =
                 m.levels.iter().map(|l| l.ranges.len().div_ceil(RANGES_PER_TEXEL as usize)).sum();
-            VOLUME_TEXELS as usize + samples + ranges
+            VOLUME_TEXELS as usize + samples + ranges + TRANSFER_ENTRIES
         })
         .sum();
     (n, cells)
@@ -69,8 +75,12 @@ pub fn push_volumes(t: &mut Vec<[u32; 4]>, scene: &Scene, cells: &[Macrocells], 
                 t.push(texel);
             }
         }
+        let table = t.len() as u32;
+        t.extend(v.transfer.table().iter().map(|e| e.map(f32::to_bits)));
         let rec = &mut t[records + i * VOLUME_TEXELS as usize..][..VOLUME_TEXELS as usize];
         record(rec, v, samples, m.levels.len() as u32, levels, origin);
+        let [lo, hi] = v.transfer.window.map(|x| (x as f32).to_bits());
+        rec[7] = [lo, hi, table, 0];
     }
     base
 }
@@ -121,9 +131,16 @@ fn push_samples(t: &mut Vec<[u32; 4]>, v: &Voxels) {
     }
 }
 
+/// The looks of `scene`'s volumes as the frame uniform holds them: two bits each
+/// (`Look::code`), volume 0 lowest.
+pub fn look_bits(scene: &Scene) -> u32 {
+    const _: () = assert!(MAX_VOLUMES <= 16);
+    scene.volumes.iter().enumerate().fold(0, |bits, (i, v)| bits | v.look.code() << (2 * i))
+}
+
 /// The isovalues of `scene`'s volumes as the frame uniform holds them.
-pub fn iso_values(scene: &Scene) -> [[f32; 4]; crate::scene::volume::MAX_VOLUMES] {
-    let mut iso = [[0.0; 4]; crate::scene::volume::MAX_VOLUMES];
+pub fn iso_values(scene: &Scene) -> [[f32; 4]; MAX_VOLUMES] {
+    let mut iso = [[0.0; 4]; MAX_VOLUMES];
     for (v, out) in scene.volumes.iter().zip(&mut iso) {
         for (k, i) in v.isos.iter().enumerate() {
             out[k] = i.value as f32;
