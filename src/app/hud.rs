@@ -165,6 +165,10 @@ pub struct HudRequest {
     pub seek: Option<f64>,
     /// Playback speed ×this.
     pub speed: Option<f64>,
+    /// Volume `i`'s first isovalue becomes this.
+    pub iso: Option<(usize, f64)>,
+    /// Volume `i` is drawn with this look.
+    pub look: Option<(usize, crate::scene::transfer::Look)>,
 }
 
 fn ms(d: Duration) -> String {
@@ -174,6 +178,9 @@ fn ms(d: Duration) -> String {
 /// "1.2 ms (grid 0.8, pack 0.1, upload 0.3)": what an update cost, in milliseconds.
 pub fn update_cost(r: &UpdateReport) -> String {
     let f = |d: Duration| format!("{:.1}", d.as_secs_f64() * 1e3);
+    if r.uniform_only {
+        return format!("{} (the frame uniform alone)", ms(r.total()));
+    }
     let grid = match r.accel {
         Some(g) => format!("grid {}", f(g)),
         None => "grid kept".into(),
@@ -576,6 +583,11 @@ pub fn draw(ctx: &egui::Context, v: &HudView) -> (HudRequest, Option<egui::Rect>
             egui::CollapsingHeader::new("edit").default_open(true).show(ui, |ui| {
                 edit_section(ui, &v.edit, &mut req);
             });
+            if !v.edit.base.volumes.is_empty() {
+                egui::CollapsingHeader::new("volumes").default_open(true).show(ui, |ui| {
+                    super::volume_panel::volume_section(ui, v.edit.base, &mut req);
+                });
+            }
             if !v.status.is_empty() {
                 ui.label(v.status);
             }

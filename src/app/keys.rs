@@ -33,6 +33,8 @@ pub enum Action {
     Scale(i8),
     /// Every volume's isovalues down (-1) or up (+1) by a fiftieth of its samples' range.
     Iso(i8),
+    /// Every volume's look: the next of iso, MIP, DVR.
+    VolumeLook,
     Screenshot,
     Hud,
     /// Left click.
@@ -132,6 +134,7 @@ pub const TABLE: &[Binding] = &[
         &[(K::KeyU, A::Iso(-1)), (K::KeyI, A::Iso(1))],
         "volumes: isovalue down / up by 1/50 of the samples' range",
     ),
+    keys("`V`", &[(K::KeyV, A::VolumeLook)], "volumes: isosurfaces / MIP / DVR"),
     keys(
         "`P`",
         &[(K::KeyP, A::Screenshot)],

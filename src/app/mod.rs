@@ -17,6 +17,7 @@ pub mod present;
 pub mod scale;
 pub mod source;
 pub mod viewer;
+pub mod volume_panel;
 
 use crate::render::{Mode, Settings};
 use crate::scene::Scene;

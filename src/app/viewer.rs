@@ -458,6 +458,7 @@ impl<'a> Viewer<'a> {
             Action::Depth(d) => self.change_depth(d as i32),
             Action::Scale(d) => self.change_scale(d as i32),
             Action::Iso(d) => self.change_iso(d as f64),
+            Action::VolumeLook => self.next_look(),
             Action::Shadows(i) => {
                 let name = SHADOW_CHOICES[i as usize];
                 let mut s = self.next_settings();

@@ -34,12 +34,31 @@ pub struct UpdateReport {
     pub recompiled: bool,
     /// The scene outgrew its texture, which was replaced (with a quarter more rows to spare).
     pub reallocated: bool,
+    /// Only the frame uniform was written (volumes' isovalues or looks changed, nothing else).
+    pub uniform_only: bool,
 }
 
 impl UpdateReport {
     pub fn total(&self) -> Duration {
         self.pose + self.accel.unwrap_or_default() + self.pack + self.upload
     }
+}
+
+/// Whether `scene` differs from `old` only in what the frame uniform holds of its volumes: their
+/// isovalues (as many as before, with the same materials, which the texture holds) and looks.
+fn uniform_only(scene: &Scene, old: &Scene) -> bool {
+    if scene.volumes.is_empty() || scene.volumes.len() != old.volumes.len() {
+        return false;
+    }
+    let mut same = scene.clone();
+    for (v, o) in same.volumes.iter_mut().zip(&old.volumes) {
+        if v.isos.len() != o.isos.len() || v.isos.iter().zip(&o.isos).any(|(a, b)| a.material != b.material) {
+            return false;
+        }
+        v.isos.clone_from(&o.isos);
+        v.look = o.look;
+    }
+    same == *old
 }
 
 impl<D: Device> Session<D> {
@@ -81,6 +100,19 @@ impl<D: Device> Session<D> {
         self.settings.apply_to(&mut scene);
         if scene == self.scene {
             // Nothing changed (a time past the last key, an edit undone): keep refining.
+            return Ok(report);
+        }
+        if !motion && uniform_only(&scene, &self.scene) {
+            // A new isovalue or look: the frame uniform alone (PAPER.md §10: nothing rebuilt).
+            let t = Instant::now();
+            let mut params = self.gpu_scene.params;
+            params.iso = layout::volume::iso_values(&scene);
+            params.volume[2] = layout::volume::look_bits(&scene);
+            ctx.set_params(&mut self.gpu_scene, params);
+            report.upload = t.elapsed();
+            report.uniform_only = true;
+            self.scene = scene;
+            self.restart();
             return Ok(report);
         }
         let moved = scene.spheres != self.scene.spheres

@@ -180,3 +180,46 @@ fn an_mri_mip_matches_the_brute_force_maximum_along_each_ray() {
     let img = render_gpu_with(&ctx, &s, Settings::bands());
     assert_matches_reference("volume-mri-mip", &img, &reference);
 }
+
+/// A new isovalue, and a new look that keeps the transfer function, are written to the frame
+/// uniform alone (nothing packed, nothing rebuilt), and the session then draws what a session
+/// started on the edited scene draws.
+#[test]
+fn a_new_isovalue_or_look_changes_only_the_uniform_and_draws_the_edited_scene() {
+    use irt::render::{Mode, Schedule, Session};
+    let ctx = gpu();
+    let settings = Settings {
+        mode: Mode::Conventional { schedule: Schedule::Plain, workers: 0 },
+        max_samples: 1,
+        ..Settings::default()
+    };
+    let picture = |s: &mut Session| {
+        s.complete_pass(&ctx);
+        s.read_image(&ctx)
+    };
+    let start = scene("2.0", "");
+    let mut session = Session::new(&ctx, &start, settings.clone()).unwrap();
+    let before = picture(&mut session);
+    let mut edits = Vec::new();
+    let mut iso = start.clone();
+    iso.volumes[0].isos[0].value = 2.5;
+    edits.push(("isovalue", iso.clone(), true));
+    let mut mip = iso.clone();
+    mip.volumes[0].look = irt::scene::transfer::Look::Mip;
+    edits.push(("look", mip.clone(), true));
+    // A new transfer function is in the texture: packed again.
+    let mut map = mip.clone();
+    map.volumes[0].transfer.map = irt::scene::colour_map::ColourMap::Viridis;
+    edits.push(("colour map", map, false));
+    for (what, edited, uniform) in edits {
+        let report = session.set_scene(&ctx, &edited).unwrap();
+        assert_eq!(report.uniform_only, uniform, "{what}: {report:?}");
+        if uniform {
+            assert!(report.accel.is_none() && report.pack.is_zero() && !report.recompiled, "{what}");
+        }
+        let got = picture(&mut session);
+        let fresh = picture(&mut Session::new(&ctx, &edited, settings.clone()).unwrap());
+        assert!(got.pixels == fresh.pixels, "{what}: the edited session's picture");
+        assert!(got.pixels != before.pixels, "{what}: the picture changed");
+    }
+}

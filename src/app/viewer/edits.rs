@@ -120,6 +120,23 @@ impl Viewer<'_> {
         }
     }
 
+    /// V: every volume drawn with the look after the first volume's.
+    pub(super) fn next_look(&mut self) {
+        let Some(first) = self.source.base_scene().volumes.first() else {
+            self.say("the scene has no volume");
+            return;
+        };
+        let look = first.look.next();
+        let ok = self.edit("volume look", |s| {
+            for i in 0..s.volumes.len() {
+                crate::app::volume_panel::set_look(s, i, look);
+            }
+        });
+        if ok {
+            self.report_edit(format!("volumes drawn as {}", look.name()));
+        }
+    }
+
     /// L: selects the light after the selected one (the first if none is).
     pub(super) fn next_light(&mut self) {
         let n = self.source.scene().lights.len();
@@ -252,6 +269,16 @@ impl Viewer<'_> {
         }
         if let Some(f) = r.speed {
             self.play_speed(f);
+        }
+        if let Some((i, value)) = r.iso {
+            if self.edit("isovalue", |s| crate::app::volume_panel::set_first_iso(s, i, value)) {
+                self.report_edit(format!("volume {i}: isovalue {value:.4}"));
+            }
+        }
+        if let Some((i, look)) = r.look {
+            if self.edit("volume look", |s| crate::app::volume_panel::set_look(s, i, look)) {
+                self.report_edit(format!("volume {i} drawn as {}", look.name()));
+            }
         }
         if let Some(t) = r.seek {
             if let Some(p) = &mut self.playback {
