@@ -596,9 +596,19 @@ struct Outgoing {
 
 impl Outgoing {
     fn new(scene: &Scene) -> Result<Outgoing, MasterError> {
-        if !scene.volumes.is_empty() {
-            // The scene message names no volume files yet: workers would draw without them.
-            return Err(MasterError::Unsendable("it holds volumes, which MPI ranks do not take yet".into()));
+        // A volume's file goes like a particle file; a detached NRRD header names its data
+        // file relative to itself, which a copy beside the scene would lose.
+        for v in &scene.volumes {
+            match &v.file {
+                None => return Err(MasterError::Unsendable("it holds a volume made in code, with no file to send".into())),
+                Some(f) if f.extension().is_some_and(|e| e.eq_ignore_ascii_case("nhdr")) => {
+                    return Err(MasterError::Unsendable(format!(
+                        "volume {} is a detached NRRD header, whose data file MPI ranks are not sent: give it as one .nrrd",
+                        f.display()
+                    )))
+                }
+                Some(_) => {}
+            }
         }
         let (files, beside) = crate::io::toml_write::to_files_beside(scene, "scene")?;
         let shared = beside

@@ -14,6 +14,8 @@
 //! window = [40, 120]      # the samples the map spans (default: their whole range)
 //! opacity = 0.1           # at the window's top (dvr: per cell; default mip 1, dvr 0.1)
 //! scale = 1.0             # a number or [sx, sy, sz], then rotate (degrees), then translate
+//! # or, instead of those three, the placement as three rows [a, b, c, t] (what irt convert
+//! # writes): matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]
 //! ```
 
 use super::{err, located, scene_relative, vec3_or, Names, Numbers, Res, Scale, Span};
@@ -41,6 +43,7 @@ pub(super) struct VolumeDoc {
     scale: Option<Spanned<Scale>>,
     rotate: Option<Numbers>,
     translate: Option<Numbers>,
+    matrix: Option<Spanned<[[f64; 4]; 3]>>,
 }
 
 #[derive(Deserialize)]
@@ -142,8 +145,22 @@ pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str
             material: m.unwrap_or(fallback),
         })
         .collect();
-    let transform =
-        DAffine3::from_mat3_translation(rotation(rotate) * DMat3::from_diagonal(scale), translate);
+    let transform = match &v.matrix {
+        None => DAffine3::from_mat3_translation(rotation(rotate) * DMat3::from_diagonal(scale), translate),
+        Some(m) if v.scale.is_none() && v.rotate.is_none() && v.translate.is_none() => {
+            let r = m.get_ref();
+            let a = DAffine3::from_cols_array(&[
+                r[0][0], r[1][0], r[2][0], r[0][1], r[1][1], r[2][1], r[0][2], r[1][2], r[2][2], r[0][3],
+                r[1][3], r[2][3],
+            ]);
+            let det = a.matrix3.determinant();
+            if !(a.is_finite() && det.abs() > 1e-300) {
+                return err(m.span(), "`matrix` must be finite and invertible");
+            }
+            a
+        }
+        Some(m) => return err(m.span(), "give `matrix` or `scale`/`rotate`/`translate`, not both"),
+    };
     let mut volume = Volume::new(Arc::new(grid), transform, isos, Some(path)).with_look(look);
     volume.transfer = transfer(volume.transfer, map, v.window.as_ref(), v.opacity.as_ref(), table)?;
     scene.volumes.push(volume);
@@ -170,4 +187,34 @@ fn transfer(
         return err(span.unwrap_or(table.clone()), e);
     }
     Ok(t)
+}
+
+/// A `[[volume]]` table that loads back as `v` with its file named `file`: the isovalues with
+/// their materials (by the names `material` gives), the look and transfer function, the
+/// placement as its `matrix`.
+pub fn write(out: &mut String, v: &Volume, file: &str, material: &dyn Fn(u32) -> String) {
+    use std::fmt::Write as _;
+    let q = |s: &str| toml::Value::String(s.into()).to_string();
+    let _ = write!(out, "\n[[volume]]\nfile = {}\niso = [", q(file));
+    for (k, iso) in v.isos.iter().enumerate() {
+        let sep = if k > 0 { ", " } else { "" };
+        let _ = write!(out, "{sep}{{ value = {:?}, material = {} }}", iso.value, q(&material(iso.material)));
+    }
+    let t = &v.transfer;
+    let _ = write!(
+        out,
+        "]\nmode = {}\ncolormap = {}\nwindow = [{:?}, {:?}]\nopacity = {:?}\nmatrix = [",
+        q(v.look.name()),
+        q(t.map.name()),
+        t.window[0],
+        t.window[1],
+        t.opacity
+    );
+    let (m, tr) = (v.transform.matrix3, v.transform.translation);
+    for r in 0..3 {
+        let row = m.row(r);
+        let sep = if r > 0 { ", " } else { "" };
+        let _ = write!(out, "{sep}[{:?}, {:?}, {:?}, {:?}]", row.x, row.y, row.z, tr[r]);
+    }
+    out.push_str("]\n");
 }

@@ -49,24 +49,39 @@ pub fn to_files(scene: &Scene, stem: &str) -> Result<SceneFiles, TextureError> {
 }
 
 /// The scene as files for a directory of its own (a worker rank's, which may not see rank 0's
-/// file system): as [`to_files`], but particle file `i` named `<stem>.<i>.particles.ply` beside the
-/// TOML rather than by its path. Also gives each such name with the file it stands for.
+/// file system): as [`to_files`], but particle file `i` named `<stem>.<i>.particles.ply` and
+/// volume file `j` `<stem>.<j>.volume.<its extension>` beside the TOML rather than by their paths. Also gives each such name with the file it stands for.
 pub fn to_files_beside(
     scene: &Scene,
     stem: &str,
 ) -> Result<(SceneFiles, Vec<(String, std::path::PathBuf)>), TextureError> {
-    let beside: Vec<_> = (0..scene.particles.len()).map(|i| format!("{stem}.{i}.particles.ply")).collect();
-    let files = files_naming(scene, stem, Some(&beside))?;
-    let sources =
-        scene.particles.iter().map(|p| std::fs::canonicalize(&p.file).unwrap_or(p.file.clone().into()));
-    Ok((files, beside.into_iter().zip(sources).collect()))
+    let particles: Vec<_> = (0..scene.particles.len()).map(|i| format!("{stem}.{i}.particles.ply")).collect();
+    // A volume keeps its file's extension (the loader knows the format by it).
+    let volumes: Vec<_> = scene
+        .volumes
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let name = v.file.as_ref().and_then(|f| f.file_name()).map(|n| n.to_string_lossy().into_owned());
+            let ext = name.as_deref().and_then(|n| n.split_once('.')).map_or("nrrd", |(_, e)| e);
+            format!("{stem}.{i}.volume.{ext}")
+        })
+        .collect();
+    let files = files_naming(scene, stem, Some((&particles, &volumes)))?;
+    let canonical = |f: &std::path::Path| std::fs::canonicalize(f).unwrap_or(f.to_path_buf());
+    let sources = scene
+        .particles
+        .iter()
+        .map(|p| canonical(std::path::Path::new(&p.file)))
+        .chain(scene.volumes.iter().map(|v| v.file.as_deref().map(canonical).unwrap_or_default()));
+    Ok((files, particles.into_iter().chain(volumes).zip(sources).collect()))
 }
 
-/// [`to_files`], particle files named as [`to_toml_naming`] names them.
+/// [`to_files`], particle and volume files named as [`to_toml_naming`] names them.
 fn files_naming(
     scene: &Scene,
     stem: &str,
-    particle_files: Option<&[String]>,
+    beside: Option<(&[String], &[String])>,
 ) -> Result<SceneFiles, TextureError> {
     let names = texture_file_names(scene, stem);
     let textures = scene
@@ -79,7 +94,7 @@ fn files_naming(
             Ok((file.clone(), png))
         })
         .collect::<Result<_, TextureError>>()?;
-    Ok(SceneFiles { toml: to_toml_naming(scene, &names, particle_files), textures })
+    Ok(SceneFiles { toml: to_toml_naming(scene, &names, beside), textures })
 }
 
 /// File names for the scene's textures, unique (the index) and safe on any file system: the
@@ -131,8 +146,9 @@ pub fn to_toml(scene: &Scene, texture_files: &[String]) -> String {
     to_toml_naming(scene, texture_files, None)
 }
 
-/// [`to_toml`], particle file `i` named `particle_files[i]` if given, else by its absolute path.
-fn to_toml_naming(scene: &Scene, texture_files: &[String], particle_files: Option<&[String]>) -> String {
+/// [`to_toml`], particle file `i` and volume file `j` named `beside.0[i]` and `beside.1[j]` if
+/// given, else by their absolute paths.
+fn to_toml_naming(scene: &Scene, texture_files: &[String], beside: Option<(&[String], &[String])>) -> String {
     assert_eq!(texture_files.len(), scene.textures.len(), "one file name per texture");
     let names = unique_names(scene.materials.iter().map(|m| m.name.as_str()));
     let texture_names = unique_names(scene.textures.iter().map(|t| t.name.as_str()));
@@ -266,11 +282,21 @@ fn to_toml_naming(scene: &Scene, texture_files: &[String], particle_files: Optio
         motion(&mut out, "mesh", Target::Mesh(i as u32));
     }
     for (i, p) in scene.particles.iter().enumerate() {
-        let file = match particle_files {
-            Some(names) => names[i].clone(),
+        let file = match beside {
+            Some((names, _)) => names[i].clone(),
             None => std::fs::canonicalize(&p.file).map_or(p.file.clone(), |f| f.display().to_string()),
         };
         write_particles(&mut out, p, &file);
+    }
+    let material_name = |index: u32| names.get(index as usize).cloned().unwrap_or_default();
+    for (i, v) in scene.volumes.iter().enumerate() {
+        let file = match beside {
+            Some((_, names)) => names[i].clone(),
+            None => v.file.as_ref().map_or(String::new(), |f| {
+                std::fs::canonicalize(f).map_or(f.display().to_string(), |f| f.display().to_string())
+            }),
+        };
+        super::toml::volume::write(&mut out, v, &file, &material_name);
     }
     out
 }

@@ -226,6 +226,28 @@ fn particle_files_are_read_where_workers_see_them_and_sent_where_not() {
     assert!(err.contains(&format!("{:.1} MB of files sent", bytes.len() as f64 / 1e6)), "{err}");
 }
 
+/// A volume's file travels as a particle file does (read where a worker sees it, else sent);
+/// the picture, an isosurface or a MIP, is one process's. A detached NRRD header, whose data
+/// file would not travel with it, is refused in words before any rank traces.
+#[test]
+fn volume_files_are_read_or_sent_and_the_picture_is_one_process_s() {
+    let volume = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/volumes/mni152_t1.nii.gz");
+    let args = [volume, "--iso", "90", "--mode", "conventional"];
+    let err = assert_same_with_workers("volume-read", &args, &SMALL, &[]);
+    assert!(err.contains("every worker read its 1 file(s) itself"), "{err}");
+    let args = [volume, "--volume-mode", "mip", "--mode", "frameless", "--samples", "2"];
+    let err = assert_same_with_workers("volume-sent", &args, &SMALL, &[("IRT_FAULT", "unseen-files")]);
+    assert!(err.contains("rank 2 cannot read") && err.contains("sent it the file"), "{err}");
+    let nhdr = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/volumes/sphere_gzip.nhdr");
+    let out = dir().join("nhdr.png");
+    let mut job = Job::start(&[ranks(3, &["render", "--mpi", nhdr, "--out", out.to_str().unwrap()])]);
+    let status = job.wait(Duration::from_secs(120));
+    let err = job.stderr();
+    assert!(status.is_some_and(|s| !s.success()), "{status:?}\n{err}");
+    assert!(err.contains("detached NRRD header"), "{err}");
+    assert!(!out.exists(), "no picture from a refused job");
+}
+
 #[test]
 fn the_picture_is_one_process_s_bit_for_bit() {
     // The bands' one picture, traced as the tiles of a conventional frame.

@@ -173,3 +173,15 @@ fn a_task_killed_at_any_moment_leaves_a_whole_tile_or_none() {
     }
     eprintln!("no tile after {} kills, a whole one after {}", outcomes[0], outcomes[1]);
 }
+
+/// Volumes on the farm: each task loads the volume file itself, so a DVR and an isosurface
+/// picture split into tiles merge to the whole render.
+#[test]
+fn volume_pictures_merge_from_their_tiles() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/volumes/sphere_raw.nrrd");
+    for (name, look) in [("volume-iso", "iso"), ("volume-dvr", "dvr")] {
+        let mut args = size(75, 53);
+        args.extend([file, "--volume-mode", look].map(String::from));
+        assert_tiles_merge_to_the_render(name, &args, 3, "png");
+    }
+}
