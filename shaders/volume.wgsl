@@ -284,13 +284,9 @@ fn volume_walk(v: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32, look: u32) ->
     let e = select(e0, vec3f(1e-30), e0 == vec3f(0.0));
     let inv = 1.0 / e;
     let cells = vol.dims - 1u;
-    let top = vec3f(cells);
-    let fa = -q * inv;
-    let fb = (top - q) * inv;
-    let near = min(fa, fb);
-    let far = max(fa, fb);
-    let t0 = max(t_min, max(max(near.x, near.y), near.z));
-    let t1 = min(t_max, min(min(far.x, far.y), far.z));
+    let slabs = volume_slabs(vol, q, inv);
+    let t0 = max(t_min, slabs.x);
+    let t1 = min(t_max, slabs.y);
     var acc = select(vec4f(MISS, 0.0, 0.0, 0.0), vec4f(0.0, 0.0, 0.0, 1.0), look == LOOK_DVR);
     if look == LOOK_MIP {
         acc = vec4f(-3.0e38, 0.0, 0.0, 0.0);
@@ -427,16 +423,21 @@ fn through_volumes(o: vec3f, d: vec3f, t_max: f32) -> vec4f {
     return acc;
 }
 
-// Where o + t d enters volume v's box (its near slab distance; the walk clips for itself).
+// The ray's distances (index point q, inverse index direction inv) to where it enters and
+// leaves the volume's box of cells, unclipped.
+fn volume_slabs(vol: VolumeRec, q: vec3f, inv: vec3f) -> vec2f {
+    let fa = -q * inv;
+    let fb = (vec3f(vol.dims - 1u) - q) * inv;
+    let near = min(fa, fb);
+    let far = max(fa, fb);
+    return vec2f(max(max(near.x, near.y), near.z), min(min(far.x, far.y), far.z));
+}
+
+// Where o + t d enters volume v's box (the walk clips for itself).
 fn volume_entry(v: u32, o: vec3f, d: vec3f) -> f32 {
     let vol = load_volume(v);
-    let q = volume_point(vol, o);
     let e0 = volume_dir(vol, d);
-    let e = select(e0, vec3f(1e-30), e0 == vec3f(0.0));
-    let fa = -q / e;
-    let fb = (vec3f(vol.dims - 1u) - q) / e;
-    let near = min(fa, fb);
-    return max(max(near.x, near.y), near.z);
+    return volume_slabs(vol, volume_point(vol, o), 1.0 / select(e0, vec3f(1e-30), e0 == vec3f(0.0))).x;
 }
 
 // The outward normal (towards smaller values: the solid is where the samples exceed the

@@ -39,13 +39,9 @@ pub fn set_first_iso(scene: &mut Scene, i: usize, value: f64) {
     }
 }
 
-/// Volume `i` drawn with `look`: the look's default transfer function over the window it had.
+/// Volume `i` drawn with `look` ([`crate::scene::volume::Volume::switch_look`]).
 pub fn set_look(scene: &mut Scene, i: usize, look: crate::scene::transfer::Look) {
-    let Some(v) = scene.volumes.get_mut(i) else { return };
-    if v.look == look {
-        return;
+    if let Some(v) = scene.volumes.get_mut(i) {
+        v.switch_look(look);
     }
-    let window = v.transfer.window;
-    *v = v.clone().with_look(look);
-    v.transfer.window = window;
 }

@@ -174,13 +174,7 @@ pub fn set_looks(scene: &mut Scene, look: irt::scene::transfer::Look) -> Result<
     if scene.volumes.is_empty() {
         bail!("--volume-mode: the scene has no volume (give a .nrrd, .nhdr, .nii, .nii.gz or .vti file, or a [[volume]])");
     }
-    for v in &mut scene.volumes {
-        if v.look != look {
-            let window = v.transfer.window;
-            *v = v.clone().with_look(look);
-            v.transfer.window = window;
-        }
-    }
+    scene.volumes.iter_mut().for_each(|v| v.switch_look(look));
     Ok(())
 }
 

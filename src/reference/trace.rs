@@ -121,6 +121,8 @@ pub struct Reference<'a> {
     bundle: Vec<[f64; 2]>,
     /// Shell mode: each light's shell objects (`scene::light_shells`).
     shells: Vec<LightShells>,
+    /// Each volume's transfer table (`Transfer::table`), made once rather than per ray.
+    transfer_tables: Vec<Vec<[f32; 4]>>,
 }
 
 impl<'a> Reference<'a> {
@@ -195,6 +197,7 @@ impl<'a> Reference<'a> {
                 (ShadowMode::Shell { .. }, None) => scene_shells(scene),
                 _ => Vec::new(),
             },
+            transfer_tables: scene.volumes.iter().map(|v| v.transfer.table()).collect(),
         }
     }
 
@@ -463,20 +466,21 @@ impl<'a> Reference<'a> {
     fn through_volumes(&self, o: DVec3, d: DVec3, t_max: f64) -> (DVec3, f64) {
         use crate::scene::transfer::Look;
         let mut seen: Vec<(f64, DVec3, f64)> = Vec::new();
-        for v in self.scene.volumes.iter().filter(|v| v.look != Look::Iso) {
+        for (v, table) in
+            self.scene.volumes.iter().zip(&self.transfer_tables).filter(|(v, _)| v.look != Look::Iso)
+        {
             let inv = v.transform.inverse();
             let (og, dg) = (inv.transform_point3(o), inv.transform_vector3(d));
             let entry = super::volume::entry(&v.grid, og, dg);
-            let table = v.transfer.table();
             let (emit, through) = match v.look {
                 Look::Mip => match super::volume::mip(&v.grid, og, dg, [0.0, t_max]) {
                     Some(m) => {
-                        let f = v.transfer.lookup(&table, m);
+                        let f = v.transfer.lookup(table, m);
                         (DVec3::new(f[0], f[1], f[2]) * f[3], 1.0 - f[3])
                     }
                     None => (DVec3::ZERO, 1.0),
                 },
-                _ => super::volume::dvr(&v.grid, &v.transfer, &table, og, dg, [0.0, t_max]),
+                _ => super::volume::dvr(&v.grid, &v.transfer, table, og, dg, [0.0, t_max]),
             };
             seen.push((entry, emit, through));
         }

@@ -197,6 +197,19 @@ impl Volume {
         self
     }
 
+    /// Switches it to `look` (the window's key, `--volume-mode`): the look's default colour map
+    /// and opacity over the window it had. Nothing changes when it has that look already.
+    pub fn switch_look(&mut self, look: super::transfer::Look) {
+        if self.look != look {
+            let window = self.transfer.window;
+            self.look = look;
+            self.transfer = super::transfer::Transfer {
+                window,
+                ..super::transfer::Transfer::default_for(look, self.grid.range())
+            };
+        }
+    }
+
     /// Grid index coordinates (sample (i, j, k) at (i, j, k)) from world coordinates: what the
     /// tracers move a ray into before walking the cells. Affine, so a ray's `t` is kept.
     pub fn index_from_world(&self) -> glam::DAffine3 {

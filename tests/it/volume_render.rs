@@ -52,6 +52,17 @@ fn scene(iso: &str, extra: &str) -> irt::scene::Scene {
     irt::io::toml::parse_str(&src, "volume-test.toml").expect("scene")
 }
 
+/// Each scene on the GPU, with the BVH and the grid, against the f64 reference.
+fn assert_match_on_both_accelerators(ctx: &irt::gpu::GpuContext, scenes: &[(&str, irt::scene::Scene)]) {
+    for (name, s) in scenes {
+        let reference = reference_image(s);
+        for accel in [AccelChoice::Bvh, AccelChoice::Grid] {
+            let img = render_gpu_with(ctx, s, Settings { accel, ..Settings::bands() });
+            assert_matches_reference(&format!("volume-{name}-{accel}"), &img, &reference);
+        }
+    }
+}
+
 #[test]
 fn isosurfaces_match_the_reference_with_shadows_and_a_mirror() {
     let ctx = gpu();
@@ -66,13 +77,7 @@ fn isosurfaces_match_the_reference_with_shadows_and_a_mirror() {
             ),
         ),
     ];
-    for (name, s) in scenes {
-        let reference = reference_image(&s);
-        for accel in [AccelChoice::Bvh, AccelChoice::Grid] {
-            let img = render_gpu_with(&ctx, &s, Settings { accel, ..Settings::bands() });
-            assert_matches_reference(&format!("volume-{name}-{accel}"), &img, &reference);
-        }
-    }
+    assert_match_on_both_accelerators(&ctx, &scenes);
 }
 
 /// The isosurface r = 2 of the sampled distance field covers the pixels the analytic sphere of
@@ -141,13 +146,7 @@ fn mip_and_dvr_match_the_reference_in_front_of_and_in_mirrors() {
             scene("2.0", &format!("mode = \"dvr\"\ncolormap = \"viridis\"\nwindow = [2.0, 3.0]\n{sphere}")),
         ),
     ];
-    for (name, s) in scenes {
-        let reference = reference_image(&s);
-        for accel in [AccelChoice::Bvh, AccelChoice::Grid] {
-            let img = render_gpu_with(&ctx, &s, Settings { accel, ..Settings::bands() });
-            assert_matches_reference(&format!("volume-{name}-{accel}"), &img, &reference);
-        }
-    }
+    assert_match_on_both_accelerators(&ctx, &scenes);
 }
 
 /// The real MRI template as a MIP: the shader's walk, which passes over every macrocell whose
