@@ -632,6 +632,12 @@ fn mutated_toml_scenes() {
     for png in files("scenes/textures", &["png"]) {
         std::fs::copy(&png, textures.join(png.file_name().unwrap())).unwrap();
     }
+    // And the volumes, so that a mutated `[[volume]]` table reaches the volume readers.
+    let volumes = work_dir("toml").join("volumes");
+    std::fs::create_dir_all(&volumes).unwrap();
+    for v in files("scenes/volumes", &["nrrd"]) {
+        std::fs::copy(&v, volumes.join(v.file_name().unwrap())).unwrap();
+    }
     fuzz("toml", files("scenes", &["toml"]), |rng, b, _| mutate_text(rng, b));
 }
 
