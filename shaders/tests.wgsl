@@ -241,3 +241,21 @@ fn t_cell_hit(i: u32) {
     let closed = cell_hit_closed_form(test_in[4u * i], test_in[4u * i + 1u], a.xyz, test_in[4u * i + 3u].xyz, a.w);
     out_buf[i] = vec4f(s, closed, 0.0, 0.0);
 }
+
+// in: (i, j, k, 0) as u32 -> (sample (i, j, k) of volume 0, 0, 0, 0): its samples as the
+// brick layout stores them, decoded.
+@compute @workgroup_size(64, 1, 1)
+fn k_volume_sample(@builtin(global_invocation_id) g: vec3u) { if g.x < launch.rect.z { t_volume_sample(g.x); } }
+fn t_volume_sample(i: u32) {
+    out_buf[i] = vec4f(volume_sample(load_volume(0u), bitcast<vec3u>(test_in[i].xyz)), 0.0, 0.0, 0.0);
+}
+
+// in: (o, t_min), (d, t_max) -> (t or MISS, which isovalue, 0, 0): volume 0's macrocell walk
+// alone, in its isosurface look.
+@compute @workgroup_size(64, 1, 1)
+fn k_volume_walk(@builtin(global_invocation_id) g: vec3u) { if g.x < launch.rect.z { t_volume_walk(g.x); } }
+fn t_volume_walk(i: u32) {
+    let a = test_in[2u * i];
+    let b = test_in[2u * i + 1u];
+    out_buf[i] = vec4f(volume_walk(0u, a.xyz, b.xyz, a.w, b.w, LOOK_ISO).xy, 0.0, 0.0);
+}

@@ -158,6 +158,8 @@ struct VolumeRec {
     samples: u32,
     isos: u32,
     levels: u32,
+    // log2 of the bricks' edge (0: the file's order).
+    brick: u32,
     level_base: vec3u,
     materials: vec4u,
     // The transfer function: the samples its table spans, and the table's first texel.
@@ -170,7 +172,7 @@ fn load_volume(v: u32) -> VolumeRec {
     let d = texel(b + 3u);
     let r = texel(b + 4u);
     let w = texel(b + 7u);
-    return VolumeRec(ftexel(b), ftexel(b + 1u), ftexel(b + 2u), d.xyz, d.w, r.x, r.y, r.z, texel(b + 5u).xyz, texel(b + 6u), bitcast<vec2f>(w.xy), w.z);
+    return VolumeRec(ftexel(b), ftexel(b + 1u), ftexel(b + 2u), d.xyz, d.w, r.x, r.y, r.z, r.w, texel(b + 5u).xyz, texel(b + 6u), bitcast<vec2f>(w.xy), w.z);
 }
 
 // Volume v's look (`LOOK_*`), from the frame uniform: the window switches it live.
@@ -198,8 +200,14 @@ fn volume_dir(vol: VolumeRec, d: vec3f) -> vec3f {
 }
 
 // Sample c, decoded from its type (`layout::volume::sample_code`: 0 u8, 1 u16, 2 i16, 3 f32).
+// Bricks of 2^b a side lie x fastest, and the samples in each the same (b = 0 is one order for
+// all: bricks of one sample).
 fn volume_sample(vol: VolumeRec, c: vec3u) -> f32 {
-    let i = c.x + vol.dims.x * (c.y + vol.dims.y * c.z);
+    let b = vol.brick;
+    let bricks = (vol.dims + vec3u((1u << b) - 1u)) >> vec3u(b);
+    let o = c >> vec3u(b);
+    let l = c - (o << vec3u(b));
+    let i = ((o.x + bricks.x * (o.y + bricks.y * o.z)) << (3u * b)) + (l.x + ((l.y + (l.z << b)) << b));
     let shift = select(select(3u, 2u, vol.kind == 3u), 4u, vol.kind == 0u);
     let t = texel(vol.samples + (i >> shift));
     let w = t[(i >> (shift - 2u)) & 3u];

@@ -139,6 +139,42 @@ pub const MAX_VOLUMES: usize = 4;
 /// Isosurfaces one volume may draw at once.
 pub const MAX_ISOS: usize = 4;
 
+/// How a volume's samples and macrocells lie in the scene texture: a device matter (lavapipe's
+/// caches and a GPU's differ), so a scene may say, and the default is what docs/volumes.md
+/// measured best here. Pictures are the same whatever the layout: the macrocells only skip
+/// what is certainly empty, and a brick only moves samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Edge of the bricks the samples are stored in, a power of two: 1 stores them x fastest,
+    /// then y, then z; 4 stores 4x4x4 bricks, each one contiguous.
+    pub brick: u32,
+    /// Macrocell levels the walk uses, 0 to `accel::macrocells::MAX_LEVELS`.
+    pub levels: u32,
+}
+
+/// Largest brick edge (a 16-bit brick of 16³ is 8 KiB).
+pub const MAX_BRICK: u32 = 16;
+
+impl Default for Layout {
+    fn default() -> Layout {
+        Layout { brick: 1, levels: crate::accel::macrocells::MAX_LEVELS as u32 }
+    }
+}
+
+impl Layout {
+    /// Checks the fields, in words.
+    pub fn check(self) -> Result<Layout, String> {
+        if !self.brick.is_power_of_two() || self.brick > MAX_BRICK {
+            return Err(format!("brick {} is not a power of two from 1 to {MAX_BRICK}", self.brick));
+        }
+        let max = crate::accel::macrocells::MAX_LEVELS as u32;
+        if self.levels > max {
+            return Err(format!("macrocell_levels {} is more than {max}", self.levels));
+        }
+        Ok(self)
+    }
+}
+
 /// One isosurface of a volume: the sample value it is drawn at and its material.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Iso {
@@ -160,6 +196,8 @@ pub struct Volume {
     /// isovalues stay when another look is chosen, so the window can switch back.
     pub look: super::transfer::Look,
     pub transfer: super::transfer::Transfer,
+    /// How the device holds it ([`Layout`]).
+    pub layout: Layout,
     /// Where the file came from (what `irt convert` writes back), if it came from one.
     pub file: Option<std::path::PathBuf>,
 }
@@ -173,6 +211,7 @@ impl PartialEq for Volume {
             && self.isos == o.isos
             && self.look == o.look
             && self.transfer == o.transfer
+            && self.layout == o.layout
             && self.file == o.file
     }
 }
@@ -187,7 +226,15 @@ impl Volume {
         file: Option<std::path::PathBuf>,
     ) -> Volume {
         let transfer = super::transfer::Transfer::default_for(super::transfer::Look::Iso, grid.range());
-        Volume { grid, transform, isos, look: super::transfer::Look::Iso, transfer, file }
+        Volume {
+            grid,
+            transform,
+            isos,
+            look: super::transfer::Look::Iso,
+            transfer,
+            layout: Layout::default(),
+            file,
+        }
     }
 
     /// Draws it with `look`, and the look's default transfer function over the samples' range.

@@ -62,5 +62,6 @@ mod specialisation;
 mod textures;
 mod viewer;
 mod volume_render;
+mod volume_shader;
 mod volumes;
 mod watertight;

@@ -5,6 +5,13 @@
 //!
 //!     target/release/irt-lab volume write /tmp/woman.nrrd 512 512 1734
 //!     target/release/irt-lab volume stats /tmp/woman.nrrd 1200
+//!
+//! `sweep` renders a volume file at 512² on the default device for each sample brick edge, each
+//! macrocell depth and each look (the tables of docs/volumes.md), and then the isovalues one
+//! after another in one session, each a uniform-only edit:
+//!
+//!     target/release/irt-lab volume sweep tests/data/mni152_t1.nii.gz \
+//!         bricks=1,2,4,8 levels=0,1,2,3 looks=iso,mip,dvr isos=40,80,150,250 frames=5 rounds=3
 use irt::accel::macrocells::Macrocells;
 use std::io::Write;
 use std::time::Instant;
@@ -17,7 +24,11 @@ pub fn run(args: &[String]) -> anyhow::Result<()> {
             let isos = isos.iter().map(|s| s.parse::<f32>()).collect::<Result<Vec<_>, _>>()?;
             stats(path, &isos)
         }
-        _ => anyhow::bail!("usage: irt-lab volume write PATH NX NY NZ | irt-lab volume stats PATH [ISO ...]"),
+        ["sweep", path, ref opts @ ..] => sweep(path, opts),
+        _ => anyhow::bail!(
+            "usage: irt-lab volume write PATH NX NY NZ | irt-lab volume stats PATH [ISO ...] | \
+             irt-lab volume sweep PATH [bricks=1,4] [levels=0,3] [looks=iso,mip,dvr] [isos=A,B] [frames=N] [rounds=N] [size=N]"
+        ),
     }
 }
 
@@ -104,5 +115,109 @@ fn stats(path: &str, isos: &[f32]) -> anyhow::Result<()> {
         .map(|l| l.split_whitespace().nth(1).unwrap_or("?").to_string())
         .unwrap_or_default();
     println!("  peak resident {} MiB", hwm.parse::<u64>().map_or(0, |k| k / 1024));
+    Ok(())
+}
+
+/// `key=a,b,c` from `opts`, or `default`.
+fn list<T: std::str::FromStr>(opts: &[&str], key: &str, default: &[T]) -> anyhow::Result<Vec<T>>
+where
+    T: Clone,
+    T::Err: std::fmt::Display,
+{
+    let Some(v) = opts.iter().find_map(|o| o.strip_prefix(key)?.strip_prefix('=')) else {
+        return Ok(default.to_vec());
+    };
+    v.split(',').map(|x| x.parse::<T>().map_err(|e| anyhow::anyhow!("{key}={x}: {e}"))).collect()
+}
+
+fn sweep(path: &str, opts: &[&str]) -> anyhow::Result<()> {
+    use irt::render::{Session, Settings};
+    use irt::scene::transfer::Look;
+    use irt::scene::volume::Layout;
+    if let Some(bad) = opts.iter().find(|o| {
+        !["bricks=", "levels=", "looks=", "isos=", "frames=", "size=", "rounds="]
+            .iter()
+            .any(|k| o.starts_with(k))
+    }) {
+        anyhow::bail!("unknown option {bad}");
+    }
+    let bricks: Vec<u32> = list(opts, "bricks", &[1, 2, 4, 8])?;
+    let levels: Vec<u32> = list(opts, "levels", &[0, 1, 2, 3])?;
+    let looks: Vec<String> = list(opts, "looks", &["iso".to_string(), "mip".into(), "dvr".into()])?;
+    let looks =
+        looks.iter().map(|l| Look::parse(l).map_err(anyhow::Error::msg)).collect::<Result<Vec<_>, _>>()?;
+    let isos: Vec<f64> = list(opts, "isos", &[])?;
+    let frames = list(opts, "frames", &[5u32])?[0];
+    let size = list(opts, "size", &[512u32])?[0];
+    let rounds = list(opts, "rounds", &[1usize])?[0].max(1);
+
+    let mut scene = irt::io::load(std::path::Path::new(path))?;
+    (scene.camera.width, scene.camera.height) = (size, size);
+    let ctx = irt::gpu::GpuContext::new(&irt::gpu::AdapterChoice::from_arg_or_env(None))?;
+    let iso0 = scene.volumes[0].isos[0].value;
+    println!(
+        "{path} at {size}x{size} on {} ({}), iso {iso0}; medians of {frames} frames, {rounds} round(s)",
+        ctx.info.name, ctx.info.driver_info
+    );
+    // Rounds over every configuration in turn, so that load from other processes falls on all
+    // alike; each row is the median over rounds of each round's median frame.
+    let mut rows: Vec<(String, u32, u32, Vec<f64>, Vec<f64>, usize)> = Vec::new();
+    for round in 0..rounds {
+        let mut at = 0;
+        for &look in &looks {
+            let mut first: Option<Vec<[f32; 3]>> = None;
+            for &brick in &bricks {
+                for &lv in &levels {
+                    let mut s = scene.clone();
+                    s.volumes[0].switch_look(look);
+                    s.volumes[0].layout = Layout { brick, levels: lv }.check().map_err(anyhow::Error::msg)?;
+                    let t = Instant::now();
+                    let mut session = Session::new(&ctx, &s, Settings::bands())?;
+                    let setup = t.elapsed().as_secs_f64();
+                    let pixels = session.try_picture(&ctx, &mut |_, _| {})?.image.pixels;
+                    let (frame, _) = session.try_median_picture_times(&ctx, frames)?;
+                    let reference = first.get_or_insert_with(|| pixels.clone());
+                    let unlike = reference.iter().zip(&pixels).filter(|(a, b)| a != b).count();
+                    if round == 0 {
+                        rows.push((format!("{look:?}").to_lowercase(), brick, lv, vec![], vec![], 0));
+                    }
+                    let row = &mut rows[at];
+                    row.3.push(setup);
+                    row.4.push(frame.as_secs_f64() * 1e3);
+                    row.5 = row.5.max(unlike);
+                    at += 1;
+                }
+            }
+        }
+    }
+    let median = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    println!(
+        "\n| look | brick | macrocell levels | set-up s | frame ms | pixels unlike the look's first row |"
+    );
+    println!("| --- | --- | --- | --- | --- | --- |");
+    for (look, brick, lv, setup, frame, unlike) in &rows {
+        println!("| {look} | {brick} | {lv} | {:.2} | {:.1} | {unlike} |", median(setup), median(frame));
+    }
+    if !isos.is_empty() {
+        let mut session = Session::new(&ctx, &scene, Settings::bands())?;
+        println!("\n| isovalue | edit ms | uniform only | frame ms |");
+        println!("| --- | --- | --- | --- |");
+        for &iso in &isos {
+            let mut s = scene.clone();
+            s.volumes[0].isos[0].value = iso;
+            let report = session.set_scene(&ctx, &s)?;
+            let (frame, _) = session.try_median_picture_times(&ctx, frames)?;
+            println!(
+                "| {iso} | {:.2} | {} | {:.1} |",
+                report.total().as_secs_f64() * 1e3,
+                report.uniform_only,
+                frame.as_secs_f64() * 1e3
+            );
+        }
+    }
     Ok(())
 }

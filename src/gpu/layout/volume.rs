@@ -8,8 +8,10 @@
 //!   ([`sample_code`]), `[first sample texel, isovalues, levels, 0]`, `[first texel of level 0,
 //!   1, 2, 0]`, `[material of isovalue 0, 1, 2, 3]`, `[transfer window lo, hi (f32), first
 //!   texel of its table, 0]`;
-//! - samples: x fastest, then y, then z, packed `32 / bits` to a word little end first, four
-//!   words a texel (16 bytes of samples, whatever their type);
+//! - samples: in bricks of `B`³ ([`Layout::brick`]; `B` = 1 is the file's own order), bricks x
+//!   fastest, then y, then z, and inside a brick the same; the last bricks padded with zeros;
+//!   packed `32 / bits` to a word little end first, four words a texel (16 bytes of samples,
+//!   whatever their type). Record texel 4's `w` is log2 `B`;
 //! - each level's ranges, x fastest: `[lo0, hi0, lo1, hi1]` (f32), two macrocells a texel;
 //! - the transfer function's table ([`TRANSFER_ENTRIES`] texels of linear RGB and opacity, f32).
 //!
@@ -18,7 +20,7 @@
 
 use crate::accel::macrocells::{Macrocells, MAX_LEVELS};
 use crate::scene::transfer::TRANSFER_ENTRIES;
-use crate::scene::volume::{Volume, Voxels, MAX_ISOS, MAX_VOLUMES};
+use crate::scene::volume::{Layout, Volume, Voxels, MAX_ISOS, MAX_VOLUMES};
 use crate::scene::Scene;
 use glam::DVec3;
 
@@ -45,9 +47,9 @@ pub fn volume_texels(scene: &Scene) -> (usize, Vec<Macrocells>) {
         .iter()
         .zip(&cells)
         .map(|(v, m)| {
-            let samples = v.grid.voxels.len().div_ceil(1 << sample_code(&v.grid.voxels).1);
+            let samples = stored_samples(v.grid.dims, v.layout).div_ceil(1 << sample_code(&v.grid.voxels).1);
             let ranges: usize =
-                m.levels.iter().map(|l| l.ranges.len().div_ceil(RANGES_PER_TEXEL as usize)).sum();
+                levels(m, v.layout).iter().map(|l| l.ranges.len().div_ceil(RANGES_PER_TEXEL as usize)).sum();
             VOLUME_TEXELS as usize + samples + ranges + TRANSFER_ENTRIES
         })
         .sum();
@@ -62,10 +64,11 @@ pub fn push_volumes(t: &mut Vec<[u32; 4]>, scene: &Scene, cells: &[Macrocells], 
     t.resize(records + VOLUME_TEXELS as usize * scene.volumes.len(), [0; 4]);
     for (i, (v, m)) in scene.volumes.iter().zip(cells).enumerate() {
         let samples = t.len() as u32;
-        push_samples(t, &v.grid.voxels);
-        let mut levels = [0u32; 4];
-        for (l, level) in m.levels.iter().enumerate() {
-            levels[l] = t.len() as u32;
+        push_samples(t, &v.grid.voxels, v.grid.dims, v.layout.brick);
+        let used = levels(m, v.layout);
+        let mut bases = [0u32; 4];
+        for (l, level) in used.iter().enumerate() {
+            bases[l] = t.len() as u32;
             for pair in level.ranges.chunks(RANGES_PER_TEXEL as usize) {
                 let mut texel = [0u32; 4];
                 for (k, r) in pair.iter().enumerate() {
@@ -78,7 +81,7 @@ pub fn push_volumes(t: &mut Vec<[u32; 4]>, scene: &Scene, cells: &[Macrocells], 
         let table = t.len() as u32;
         t.extend(v.transfer.table().iter().map(|e| e.map(f32::to_bits)));
         let rec = &mut t[records + i * VOLUME_TEXELS as usize..][..VOLUME_TEXELS as usize];
-        record(rec, v, samples, m.levels.len() as u32, levels, origin);
+        record(rec, v, samples, used.len() as u32, bases, origin);
         let [lo, hi] = v.transfer.window.map(|x| (x as f32).to_bits());
         rec[7] = [lo, hi, table, 0];
     }
@@ -95,7 +98,7 @@ fn record(rec: &mut [[u32; 4]], v: &Volume, samples: u32, levels: u32, bases: [u
     }
     let [nx, ny, nz] = v.grid.dims;
     rec[3] = [nx, ny, nz, sample_code(&v.grid.voxels).0];
-    rec[4] = [samples, v.isos.len() as u32, levels, 0];
+    rec[4] = [samples, v.isos.len() as u32, levels, v.layout.brick.trailing_zeros()];
     rec[5] = [bases[0], bases[1], bases[2], 0];
     let mut materials = [0u32; 4];
     for (k, iso) in v.isos.iter().enumerate() {
@@ -104,26 +107,72 @@ fn record(rec: &mut [[u32; 4]], v: &Volume, samples: u32, levels: u32, bases: [u
     rec[6] = materials;
 }
 
-fn push_samples(t: &mut Vec<[u32; 4]>, v: &Voxels) {
-    let words: Box<dyn Iterator<Item = u32> + '_> = match v {
-        Voxels::U8(s) => Box::new(s.chunks(4).map(|c| c.iter().rev().fold(0u32, |w, &b| w << 8 | b as u32))),
-        Voxels::U16(s) => {
-            Box::new(s.chunks(2).map(|c| c.iter().rev().fold(0u32, |w, &x| w << 16 | x as u32)))
-        }
-        Voxels::I16(s) => {
-            Box::new(s.chunks(2).map(|c| c.iter().rev().fold(0u32, |w, &x| w << 16 | x as u16 as u32)))
-        }
-        Voxels::F32(s) => Box::new(s.iter().map(|x| x.to_bits())),
-    };
+/// The macrocell levels `layout` keeps: the finest ones (the walk descends from the last kept).
+fn levels(m: &Macrocells, layout: Layout) -> &[crate::accel::macrocells::Level] {
+    &m.levels[..m.levels.len().min(layout.levels as usize)]
+}
+
+/// Samples stored for a grid of `dims` in `layout`: whole bricks.
+pub fn stored_samples(dims: [u32; 3], layout: Layout) -> usize {
+    dims.iter().map(|&d| d.div_ceil(layout.brick) as usize * layout.brick as usize).product()
+}
+
+/// The samples in the order [`Layout::brick`] stores them, as words.
+fn push_samples(t: &mut Vec<[u32; 4]>, v: &Voxels, dims: [u32; 3], brick: u32) {
+    match v {
+        Voxels::U8(s) => pack(t, s, dims, brick, 8, |&x| x as u32),
+        Voxels::U16(s) => pack(t, s, dims, brick, 16, |&x| x as u32),
+        Voxels::I16(s) => pack(t, s, dims, brick, 16, |&x| x as u16 as u32),
+        Voxels::F32(s) => pack(t, s, dims, brick, 32, |x| x.to_bits()),
+    }
+}
+
+/// Packs `samples` (x fastest) brick by brick, `bits` to a sample, low bits first. A brick's
+/// rows are runs of the file's own rows, so this copies runs, not single samples.
+fn pack<T: Copy + Default>(
+    t: &mut Vec<[u32; 4]>,
+    samples: &[T],
+    [nx, ny, nz]: [u32; 3],
+    brick: u32,
+    bits: u32,
+    word: impl Fn(&T) -> u32,
+) {
+    let per_texel = (128 / bits) as usize;
+    let per_word = 32 / bits as usize;
     let mut texel = [0u32; 4];
     let mut k = 0;
-    for w in words {
-        texel[k] = w;
+    let mut put = |x: &T| {
+        let w = k / per_word;
+        texel[w] |= word(x) << (bits as usize * (k % per_word));
         k += 1;
-        if k == 4 {
+        if k == per_texel {
             t.push(texel);
             texel = [0; 4];
             k = 0;
+        }
+    };
+    let (nx, ny, nz, b) = (nx as usize, ny as usize, nz as usize, brick as usize);
+    if b == 1 {
+        samples.iter().for_each(&mut put);
+    } else {
+        let pad = T::default();
+        for bz in (0..nz).step_by(b) {
+            for by in (0..ny).step_by(b) {
+                for bx in (0..nx).step_by(b) {
+                    for z in bz..bz + b {
+                        for y in by..by + b {
+                            if z < nz && y < ny {
+                                let row = &samples[nx * (y + ny * z)..][..nx];
+                                let run = &row[bx..(bx + b).min(nx)];
+                                run.iter().for_each(&mut put);
+                                (run.len()..b).for_each(|_| put(&pad));
+                            } else {
+                                (0..b).for_each(|_| put(&pad));
+                            }
+                        }
+                    }
+                }
+            }
         }
     }
     if k > 0 {
