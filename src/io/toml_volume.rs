@@ -16,6 +16,9 @@
 //! scale = 1.0             # a number or [sx, sy, sz], then rotate (degrees), then translate
 //! # or, instead of those three, the placement as three rows [a, b, c, t] (what irt convert
 //! # writes): matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]
+//! brick = 8               # how the device stores the samples (1: as the file; 2 to 16: in
+//! macrocell_levels = 3    # bricks of that edge) and the macrocell levels the walk uses (0
+//!                         # to 3); pictures are the same, speed is not (docs/volumes.md)
 //! ```
 
 use super::{err, located, scene_relative, vec3_or, Names, Numbers, Res, Scale, Span};
@@ -23,7 +26,7 @@ use crate::io::stage::rotation;
 use crate::io::MAX_MATERIALS;
 use crate::scene::colour_map::ColourMap;
 use crate::scene::transfer::{Look, Transfer};
-use crate::scene::volume::{Iso, Volume, MAX_ISOS, MAX_VOLUMES};
+use crate::scene::volume::{Iso, Layout, Volume, MAX_ISOS, MAX_VOLUMES};
 use crate::scene::{Material, MaterialKind, Scene};
 use ::toml::Spanned;
 use glam::{DAffine3, DMat3, DVec3};
@@ -44,6 +47,8 @@ pub(super) struct VolumeDoc {
     rotate: Option<Numbers>,
     translate: Option<Numbers>,
     matrix: Option<Spanned<[[f64; 4]; 3]>>,
+    brick: Option<Spanned<u32>>,
+    macrocell_levels: Option<Spanned<u32>>,
 }
 
 #[derive(Deserialize)]
@@ -163,6 +168,14 @@ pub(super) fn place(scene: &mut Scene, v: &VolumeDoc, table: &Span, origin: &str
     };
     let mut volume = Volume::new(Arc::new(grid), transform, isos, Some(path)).with_look(look);
     volume.transfer = transfer(volume.transfer, map, v.window.as_ref(), v.opacity.as_ref(), table)?;
+    let layout = Layout {
+        brick: v.brick.as_ref().map_or(volume.layout.brick, |b| *b.get_ref()),
+        levels: v.macrocell_levels.as_ref().map_or(volume.layout.levels, |l| *l.get_ref()),
+    };
+    volume.layout = layout.check().or_else(|e| {
+        let span = if e.starts_with("brick") { v.brick.as_ref() } else { v.macrocell_levels.as_ref() };
+        err(span.map_or(table.clone(), |s| s.span()), e)
+    })?;
     scene.volumes.push(volume);
     Ok(())
 }
@@ -216,5 +229,5 @@ pub fn write(out: &mut String, v: &Volume, file: &str, material: &dyn Fn(u32) ->
         let sep = if r > 0 { ", " } else { "" };
         let _ = write!(out, "{sep}[{:?}, {:?}, {:?}, {:?}]", row.x, row.y, row.z, tr[r]);
     }
-    out.push_str("]\n");
+    let _ = writeln!(out, "]\nbrick = {}\nmacrocell_levels = {}", v.layout.brick, v.layout.levels);
 }

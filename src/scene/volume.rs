@@ -157,7 +157,7 @@ pub const MAX_BRICK: u32 = 16;
 
 impl Default for Layout {
     fn default() -> Layout {
-        Layout { brick: 1, levels: crate::accel::macrocells::MAX_LEVELS as u32 }
+        Layout { brick: 8, levels: crate::accel::macrocells::MAX_LEVELS as u32 }
     }
 }
 

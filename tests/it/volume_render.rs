@@ -224,13 +224,49 @@ fn a_new_isovalue_or_look_changes_only_the_uniform_and_draws_the_edited_scene() 
 }
 
 /// `irt convert` keeps volumes: a MIP volume with a window, a colour map and a placement is
-/// written as a `[[volume]]` table that loads back as the same volume.
+/// written as a `[[volume]]` table that loads back as the same volume, its layout too.
 #[test]
 fn a_volume_round_trips_through_the_toml_writer() {
-    let s = scene("2.0", "mode = \"mip\"\ncolormap = \"viridis\"\nwindow = [1.0, 6.0]\nrotate = [0, 30, 10]\ntranslate = [1, 2, 3]");
+    let s = scene(
+        "2.0",
+        "mode = \"mip\"\ncolormap = \"viridis\"\nwindow = [1.0, 6.0]\nrotate = [0, 30, 10]\ntranslate = [1, 2, 3]\nbrick = 4\nmacrocell_levels = 1",
+    );
     let toml = irt::io::toml_write::to_toml(&s, &[]);
     let back = irt::io::toml::parse_str(&toml, "round-trip.toml").expect(&toml);
     let (a, b) = (&s.volumes[0], &back.volumes[0]);
     assert!(a.grid == b.grid && a.isos == b.isos && a.look == b.look && a.transfer == b.transfer);
+    assert_eq!((a.layout.brick, a.layout.levels), (4, 1));
+    assert_eq!(a.layout, b.layout, "{toml}");
     assert_eq!(a.transform, b.transform, "{toml}");
+}
+
+/// Bad `[[volume]]` keys fail in words, each at its own line of the file: the message names
+/// what is wrong and the line holds the key.
+#[test]
+fn bad_volume_tables_fail_in_words_at_their_key() {
+    for (key, words) in [
+        ("window = [6.0, 1.0]", &["window"][..]),
+        ("opacity = 2.0", &["opacity"]),
+        ("mode = \"xray\"", &["unknown volume mode `xray`", "mip"]),
+        ("colormap = \"jet\"", &["unknown colour map `jet`"]),
+        ("matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 0]]", &["invertible"]),
+        ("matrix = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]\nscale = 2", &["not both"]),
+        ("brick = 3", &["brick 3 is not a power of two from 1 to 16"]),
+        ("brick = 32", &["brick 32"]),
+        ("macrocell_levels = 4", &["macrocell_levels 4 is more than 3"]),
+    ] {
+        let src = format!(
+            "[camera]\neye = [0, 0, 9]\nlook_at = [0, 0, 0]\n[[volume]]\nfile = \"{}\"\niso = 2.0\n{key}\n",
+            data("sphere_raw.nrrd")
+        );
+        let e = irt::io::toml::parse_str(&src, "bad.toml").expect_err(key).to_string();
+        for w in words {
+            assert!(e.contains(w), "{key}: message lacks '{w}': {e}");
+        }
+        let line = src.lines().position(|l| l == key.lines().next().unwrap()).unwrap() + 1;
+        assert!(
+            e.contains(&format!("line {line}")) || e.contains(&format!(":{line}:")),
+            "{key}: not at line {line}: {e}"
+        );
+    }
 }
