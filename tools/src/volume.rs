@@ -119,9 +119,9 @@ fn stats(path: &str, isos: &[f32]) -> anyhow::Result<()> {
 }
 
 /// `key=a,b,c` from `opts`, or `default`.
-fn list<T: std::str::FromStr>(opts: &[&str], key: &str, default: &[T]) -> anyhow::Result<Vec<T>>
+fn list<T>(opts: &[&str], key: &str, default: &[T]) -> anyhow::Result<Vec<T>>
 where
-    T: Clone,
+    T: Clone + std::str::FromStr,
     T::Err: std::fmt::Display,
 {
     let Some(v) = opts.iter().find_map(|o| o.strip_prefix(key)?.strip_prefix('=')) else {
@@ -161,7 +161,9 @@ fn sweep(path: &str, opts: &[&str]) -> anyhow::Result<()> {
     );
     // Rounds over every configuration in turn, so that load from other processes falls on all
     // alike; each row is the median over rounds of each round's median frame.
-    let mut rows: Vec<(String, u32, u32, Vec<f64>, Vec<f64>, usize)> = Vec::new();
+    // (look, brick, levels, set-up s and frame ms of each round, most pixels unlike).
+    type Row = (String, u32, u32, Vec<f64>, Vec<f64>, usize);
+    let mut rows: Vec<Row> = Vec::new();
     for round in 0..rounds {
         let mut at = 0;
         for &look in &looks {
