@@ -149,6 +149,22 @@ fn mip_and_dvr_match_the_reference_in_front_of_and_in_mirrors() {
     assert_match_on_both_accelerators(&ctx, &scenes);
 }
 
+/// Volumes seen through glass: a glass sphere between the eye and the volume refracts the
+/// rays that then meet the isosurface, the MIP or the DVR (and the mirror floor behind), on
+/// both accelerators against the f64 twin.
+#[test]
+fn volumes_show_through_glass() {
+    let ctx = gpu();
+    let glass = "[[material]]\nname = \"glass\"\ntype = \"dielectric\"\neta = 1.5\n\
+                 [[sphere]]\ncenter = [0.4, 1.2, 5.5]\nradius = 1.3\nmaterial = \"glass\"";
+    let scenes = [
+        ("glass-iso", scene("2.0", glass)),
+        ("glass-mip", scene("2.0", &format!("mode = \"mip\"\nwindow = [1.0, 6.0]\n{glass}"))),
+        ("glass-dvr", scene("2.0", &format!("mode = \"dvr\"\nwindow = [0.5, 5.0]\nopacity = 0.25\n{glass}"))),
+    ];
+    assert_match_on_both_accelerators(&ctx, &scenes);
+}
+
 /// The real MRI template as a MIP: the shader's walk, which passes over every macrocell whose
 /// greatest sample cannot raise the maximum found so far, against the reference's brute force
 /// along each whole ray.
