@@ -8,6 +8,7 @@ mod builtin;
 pub mod colour_map;
 mod motion;
 pub mod particles;
+pub mod patch;
 mod shadows;
 mod shells;
 mod soft;
