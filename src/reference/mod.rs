@@ -6,6 +6,7 @@
 
 pub(crate) mod bvh;
 mod geometry;
+pub mod patch;
 mod shading;
 pub mod shadows;
 mod texture;
