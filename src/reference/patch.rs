@@ -58,11 +58,14 @@ impl Piece {
     }
 }
 
+/// A curve's Bezier pieces (their points) and each one's parameter span.
+type Pieces1 = (Vec<Vec<DVec4>>, Vec<[f64; 2]>);
+
 /// Inserts knots into one B-spline curve (homogeneous points) until every knot value in its
 /// domain has multiplicity at least `p`, and returns its Bezier pieces' points (`p + 1` each)
 /// with each piece's parameter span (Boehm's insertion, one knot at a time). Unclamped ends
 /// are handled alike: the domain's ends are knots to fill up too.
-fn curve_to_bezier(knots: &[f64], p: usize, points: &[DVec4]) -> (Vec<Vec<DVec4>>, Vec<[f64; 2]>) {
+fn curve_to_bezier(knots: &[f64], p: usize, points: &[DVec4]) -> Pieces1 {
     let (mut k, mut pts) = (knots.to_vec(), points.to_vec());
     let (lo, hi) = (knots[p], knots[points.len()]);
     let mut values: Vec<f64> = knots.iter().copied().filter(|&t| lo <= t && t <= hi).collect();
@@ -105,7 +108,7 @@ fn pieces(patch: &Patch) -> Vec<Piece> {
     let [nu, nv] = patch.counts;
     let h: Vec<DVec4> = patch.points.iter().map(|c| (c.truncate() * c.w).extend(c.w)).collect();
     // Rows in u, then the resulting columns in v.
-    let rows: Vec<(Vec<Vec<DVec4>>, Vec<[f64; 2]>)> =
+    let rows: Vec<Pieces1> =
         (0..nv).map(|j| curve_to_bezier(&patch.knots[0], p, &h[nu * j..nu * (j + 1)])).collect();
     let uspans = rows[0].1.clone();
     let mut out = Vec::new();
