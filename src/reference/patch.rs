@@ -220,31 +220,10 @@ mod tests {
         (*seed >> 11) as f64 / (1u64 << 53) as f64
     }
 
-    /// The unit sphere as a rational biquadratic NURBS (its knots have interior doubles, so
-    /// knot insertion is exercised: 4 x 2 pieces).
+    /// The unit sphere: its knots have interior doubles, so knot insertion is exercised (4 x 2
+    /// pieces).
     fn sphere() -> Patch {
-        let h = std::f64::consts::FRAC_1_SQRT_2;
-        let circle = [
-            (1.0, 0.0, 1.0),
-            (1.0, 1.0, h),
-            (0.0, 1.0, 1.0),
-            (-1.0, 1.0, h),
-            (-1.0, 0.0, 1.0),
-            (-1.0, -1.0, h),
-            (0.0, -1.0, 1.0),
-            (1.0, -1.0, h),
-            (1.0, 0.0, 1.0),
-        ];
-        let meridian = [(0.0, -1.0, 1.0), (1.0, -1.0, h), (1.0, 0.0, 1.0), (1.0, 1.0, h), (0.0, 1.0, 1.0)];
-        let mut points = Vec::new();
-        for &(r, z, wv) in &meridian {
-            for &(x, y, wu) in &circle {
-                points.push(DVec4::new(r * x, r * y, z, wu * wv));
-            }
-        }
-        let ku = vec![0.0, 0.0, 0.0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1.0, 1.0, 1.0];
-        let kv = vec![0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0];
-        Patch::new([2, 2], [9, 5], [ku, kv], points, 0).expect("the sphere")
+        Patch::sphere(DVec3::ZERO, 1.0, 0)
     }
 
     /// A quintic by cubic B-spline with random weights, interior knots single and double, and

@@ -113,6 +113,34 @@ impl Patch {
         Patch::new(degree, degree.map(|p| p + 1), knots, points, material)
     }
 
+    /// The sphere about `center` as one rational biquadratic NURBS: 9 x 5 points, the
+    /// standard construction (circles of weights 1 and √½ at the corners), u around the z axis
+    /// and v from the south pole to the north.
+    pub fn sphere(center: DVec3, radius: f64, material: u32) -> Patch {
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let circle = [
+            (1.0, 0.0, 1.0),
+            (1.0, 1.0, h),
+            (0.0, 1.0, 1.0),
+            (-1.0, 1.0, h),
+            (-1.0, 0.0, 1.0),
+            (-1.0, -1.0, h),
+            (0.0, -1.0, 1.0),
+            (1.0, -1.0, h),
+            (1.0, 0.0, 1.0),
+        ];
+        let meridian = [(0.0, -1.0, 1.0), (1.0, -1.0, h), (1.0, 0.0, 1.0), (1.0, 1.0, h), (0.0, 1.0, 1.0)];
+        let mut points = Vec::with_capacity(45);
+        for &(r, z, wv) in &meridian {
+            for &(x, y, wu) in &circle {
+                points.push((center + DVec3::new(r * x, r * y, z) * radius).extend(wu * wv));
+            }
+        }
+        let ku = vec![0.0, 0.0, 0.0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1.0, 1.0, 1.0];
+        let kv = vec![0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0];
+        Patch::new([2, 2], [9, 5], [ku, kv], points, material).expect("a valid net")
+    }
+
     /// The parameter domain `[[u0, u1], [v0, v1]]`.
     pub fn domain(&self) -> [[f64; 2]; 2] {
         std::array::from_fn(|a| [self.knots[a][self.degree[a]], self.knots[a][self.counts[a]]])
@@ -215,36 +243,9 @@ fn basis_ders(knots: &[f64], p: usize, n: usize, t: f64) -> (usize, Vec<[f64; 3]
 mod tests {
     use super::*;
 
-    /// The unit sphere as one rational biquadratic NURBS (9 x 5 points, the standard
-    /// construction: circles of weights 1, √½ at the corners).
-    fn sphere() -> Patch {
-        let h = std::f64::consts::FRAC_1_SQRT_2;
-        let circle = [
-            (1.0, 0.0, 1.0),
-            (1.0, 1.0, h),
-            (0.0, 1.0, 1.0),
-            (-1.0, 1.0, h),
-            (-1.0, 0.0, 1.0),
-            (-1.0, -1.0, h),
-            (0.0, -1.0, 1.0),
-            (1.0, -1.0, h),
-            (1.0, 0.0, 1.0),
-        ];
-        let meridian = [(0.0, -1.0, 1.0), (1.0, -1.0, h), (1.0, 0.0, 1.0), (1.0, 1.0, h), (0.0, 1.0, 1.0)];
-        let mut points = Vec::new();
-        for &(r, z, wv) in &meridian {
-            for &(x, y, wu) in &circle {
-                points.push(DVec4::new(r * x, r * y, z, wu * wv));
-            }
-        }
-        let ku = vec![0.0, 0.0, 0.0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1.0, 1.0, 1.0];
-        let kv = vec![0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0];
-        Patch::new([2, 2], [9, 5], [ku, kv], points, 0).expect("the sphere")
-    }
-
     #[test]
     fn a_rational_sphere_is_the_unit_sphere_with_radial_normals_and_unit_curvature() {
-        let s = sphere();
+        let s = Patch::sphere(DVec3::ZERO, 1.0, 0);
         for i in 0..=40 {
             for j in 1..40 {
                 let (u, v) = (i as f64 / 40.0, j as f64 / 40.0);
