@@ -8,7 +8,7 @@
 //!   ([`sample_code`]), `[first sample texel, isovalues, levels, 0]`, `[first texel of level 0,
 //!   1, 2, 0]`, `[material of isovalue 0, 1, 2, 3]`, `[transfer window lo, hi (f32), first
 //!   texel of its table, 0]`;
-//! - samples: in bricks of `B`³ ([`Layout::brick`]; `B` = 1 is the file's own order), bricks x
+//! - samples: in bricks of `B`³ ([`brick`]: `Layout::brick` unless padding costs too much; `B` = 1 is the file's own order), bricks x
 //!   fastest, then y, then z, and inside a brick the same; the last bricks padded with zeros;
 //!   packed `32 / bits` to a word little end first, four words a texel (16 bytes of samples,
 //!   whatever their type). Record texel 4's `w` is log2 `B`;
@@ -47,7 +47,7 @@ pub fn volume_texels(scene: &Scene) -> (usize, Vec<Macrocells>) {
         .iter()
         .zip(&cells)
         .map(|(v, m)| {
-            let samples = stored_samples(v.grid.dims, v.layout).div_ceil(1 << sample_code(&v.grid.voxels).1);
+            let samples = stored_samples(v.grid.dims, brick(v)).div_ceil(1 << sample_code(&v.grid.voxels).1);
             let ranges: usize =
                 levels(m, v.layout).iter().map(|l| l.ranges.len().div_ceil(RANGES_PER_TEXEL as usize)).sum();
             VOLUME_TEXELS as usize + samples + ranges + TRANSFER_ENTRIES
@@ -64,7 +64,7 @@ pub fn push_volumes(t: &mut Vec<[u32; 4]>, scene: &Scene, cells: &[Macrocells], 
     t.resize(records + VOLUME_TEXELS as usize * scene.volumes.len(), [0; 4]);
     for (i, (v, m)) in scene.volumes.iter().zip(cells).enumerate() {
         let samples = t.len() as u32;
-        push_samples(t, &v.grid.voxels, v.grid.dims, v.layout.brick);
+        push_samples(t, &v.grid.voxels, v.grid.dims, brick(v));
         let used = levels(m, v.layout);
         let mut bases = [0u32; 4];
         for (l, level) in used.iter().enumerate() {
@@ -98,7 +98,7 @@ fn record(rec: &mut [[u32; 4]], v: &Volume, samples: u32, levels: u32, bases: [u
     }
     let [nx, ny, nz] = v.grid.dims;
     rec[3] = [nx, ny, nz, sample_code(&v.grid.voxels).0];
-    rec[4] = [samples, v.isos.len() as u32, levels, v.layout.brick.trailing_zeros()];
+    rec[4] = [samples, v.isos.len() as u32, levels, brick(v).trailing_zeros()];
     rec[5] = [bases[0], bases[1], bases[2], 0];
     let mut materials = [0u32; 4];
     for (k, iso) in v.isos.iter().enumerate() {
@@ -112,9 +112,21 @@ fn levels(m: &Macrocells, layout: Layout) -> &[crate::accel::macrocells::Level] 
     &m.levels[..m.levels.len().min(layout.levels as usize)]
 }
 
-/// Samples stored for a grid of `dims` in `layout`: whole bricks.
-pub fn stored_samples(dims: [u32; 3], layout: Layout) -> usize {
-    dims.iter().map(|&d| d.div_ceil(layout.brick) as usize * layout.brick as usize).product()
+/// Samples stored for a grid of `dims` in bricks of `brick`: whole bricks.
+pub fn stored_samples(dims: [u32; 3], brick: u32) -> usize {
+    dims.iter().map(|&d| d.div_ceil(brick) as usize * brick as usize).product()
+}
+
+/// The brick edge volume `v` is stored in: its layout's, halved while padding to whole bricks
+/// would add more than a quarter to its samples (a thin slab in bricks of 8 would take 4 times
+/// its size; the shader's u32 sample index stays in range too). Pictures are the same in any.
+pub fn brick(v: &Volume) -> u32 {
+    let n = v.grid.voxels.len();
+    let mut b = v.layout.brick;
+    while b > 1 && stored_samples(v.grid.dims, b) > n + n / 4 {
+        b /= 2;
+    }
+    b
 }
 
 /// The samples in the order [`Layout::brick`] stores them, as words.
@@ -196,4 +208,37 @@ pub fn iso_values(scene: &Scene) -> [[f32; 4]; MAX_VOLUMES] {
         }
     }
     iso
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::volume::{Grid, Iso};
+    use std::sync::Arc;
+
+    fn volume(dims: [u32; 3], brick: u32) -> Volume {
+        let n = dims.iter().product::<u32>() as usize;
+        let grid = Grid::new(dims, DVec3::ONE, DVec3::ZERO, Voxels::U8(vec![0; n])).expect("grid");
+        let iso = vec![Iso { value: 0.5, material: 0 }];
+        let mut v = Volume::new(Arc::new(grid), glam::DAffine3::IDENTITY, iso, None);
+        v.layout = Layout { brick, levels: 3 };
+        v
+    }
+
+    #[test]
+    fn padding_to_whole_bricks_never_adds_more_than_a_quarter() {
+        // The MRI template's shape keeps bricks of 8 (6% padding); a thin slab and a 9³ cube
+        // fall back to smaller bricks rather than take 4 and 5.6 times their samples.
+        assert_eq!(brick(&volume([197, 233, 189], 8)), 8);
+        assert_eq!(brick(&volume([512, 512, 2], 8)), 2);
+        assert_eq!(brick(&volume([9, 9, 9], 8)), 1);
+        assert_eq!(brick(&volume([64, 64, 64], 16)), 16);
+        for dims in [[2, 2, 1000], [17, 3, 40], [100, 101, 102], [5, 300, 7]] {
+            for b in [1, 2, 4, 8, 16] {
+                let v = volume(dims, b);
+                let n = v.grid.voxels.len();
+                assert!(stored_samples(dims, brick(&v)) <= n + n / 4, "{dims:?} in bricks of {b}");
+            }
+        }
+    }
 }
