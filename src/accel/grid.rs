@@ -780,6 +780,7 @@ pub(in crate::accel) mod tests {
             motions: Vec::new(),
             particles: Vec::new(),
             volumes: Vec::new(),
+            patches: Vec::new(),
         }
     }
 

@@ -159,6 +159,7 @@ impl Picker {
                 motions: Vec::new(),
                 particles: Vec::new(),
                 volumes: Vec::new(),
+                patches: Vec::new(),
             };
             self.geometry = Some(Reference::new(&copy).into_geometry());
             self.scene = Some(copy);

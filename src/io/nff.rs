@@ -509,6 +509,7 @@ impl<'a> Parser<'a> {
             motions: Vec::new(),
             particles: Vec::new(),
             volumes: Vec::new(),
+            patches: Vec::new(),
         };
         // What is left to find is about the viewpoint (an `up` along the view, `at` on `from`,
         // too many pixels): point there.

@@ -23,6 +23,8 @@ use super::toml::{
     DEFAULT_COAT_EXPONENT, DEFAULT_DIFFUSE_COLOR, DEFAULT_ETA, DEFAULT_METAL_EXPONENT, MAX_TEXTURE_FILE_BYTES,
 };
 use super::{read_limited, unique_name, LoadError, MAX_MATERIALS, MAX_TRIANGLES, MAX_VERTICES};
+
+mod freeform;
 use crate::scene::{Filter, Material, MaterialKind, Mesh, Scene, Texture, Wrap, MAX_TEXTURES};
 use glam::{DVec2, DVec3};
 use std::collections::{HashMap, HashSet};
@@ -40,11 +42,6 @@ pub const MAX_MTL_BYTES: u64 = 64 << 20;
 const TRANSPARENT_ILLUM: [u32; 4] = [4, 6, 7, 9];
 /// `illum` models with a ray-traced reflection of strength Ks.
 const REFLECTIVE_ILLUM: [u32; 3] = [3, 5, 8];
-/// Free-form geometry statements (curves and surfaces), skipped with a warning.
-const FREE_FORM: &[&str] = &[
-    "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp",
-    "end", "con",
-];
 /// Grouping and display statements that change nothing irt draws.
 const SILENT: &[&str] = &[
     "o",
@@ -114,12 +111,32 @@ impl<'a> Text<'a> {
         LoadError::at(self.origin, self.src, self.offset(part), message)
     }
 
-    /// Every line with a statement (not blank, not a comment).
+    /// Every line with a statement (not blank, not a comment). A line ending in `\\` goes on
+    /// in the next (what exporters do with long `surf` and `parm` lists): the statement's text
+    /// spans both, and its number is its first line's.
     fn lines(&self) -> impl Iterator<Item = Line<'a>> {
-        self.src.split('\n').enumerate().filter_map(|(i, line)| {
+        let mut rest = self.src;
+        let mut number = 0;
+        std::iter::from_fn(move || loop {
+            if rest.is_empty() {
+                return None;
+            }
+            let first = number + 1;
+            let mut end = 0;
+            let line = loop {
+                let len = rest[end..].find('\n').map_or(rest.len() - end, |n| n + 1);
+                number += 1;
+                let piece = &rest[end..end + len];
+                end += len;
+                if !(piece.trim_end().ends_with('\\') && end < rest.len()) {
+                    break &rest[..end];
+                }
+            };
+            rest = &rest[end..];
             let mut words = args(line);
-            let keyword = words.next()?;
-            Some(Line { keyword, rest: words.0, number: i + 1 })
+            if let Some(keyword) = words.next() {
+                return Some(Line { keyword, rest: words.0, number: first });
+            }
         })
     }
 
@@ -200,13 +217,14 @@ impl<'a> Iterator for Args<'a> {
 
     fn next(&mut self) -> Option<&'a str> {
         let bytes = self.0.as_bytes();
-        let start = bytes.iter().position(|b| !b.is_ascii_whitespace())?;
+        // A backslash is a line continuation (`Text::lines`), a space between words.
+        let space = |b: &u8| b.is_ascii_whitespace() || *b == b'\\';
+        let start = bytes.iter().position(|b| !space(b))?;
         if bytes[start] == b'#' {
             self.0 = "";
             return None;
         }
-        let end =
-            bytes[start..].iter().position(|b| b.is_ascii_whitespace()).map_or(bytes.len(), |n| start + n);
+        let end = bytes[start..].iter().position(space).map_or(bytes.len(), |n| start + n);
         let word = &self.0[start..end];
         self.0 = &self.0[end..];
         Some(word)
@@ -341,6 +359,9 @@ struct Obj<'a> {
     text: Text<'a>,
     base: PathBuf,
     positions: Vec<DVec3>,
+    /// The `w` of `v x y z w` (rational surfaces' weights), filled in once a line has one.
+    weights: Vec<f64>,
+    freeform: freeform::FreeForm,
     texcoords: Vec<DVec2>,
     /// Unit length; `None` for a zero normal in the file.
     normals: Vec<Option<DVec3>>,
@@ -378,6 +399,8 @@ impl<'a> Obj<'a> {
             text,
             base: Path::new(text.origin).parent().unwrap_or(Path::new("")).to_path_buf(),
             positions: Vec::with_capacity(c.positions),
+            weights: Vec::new(),
+            freeform: freeform::FreeForm::default(),
             texcoords: Vec::with_capacity(c.texcoords),
             normals: Vec::with_capacity(c.normals),
             libraries: Vec::new(),
@@ -410,6 +433,9 @@ impl<'a> Obj<'a> {
                     self.positions.push(DVec3::new(n[0], n[1], n[2]));
                     if n.len() >= 6 {
                         self.colours.get_or_insert(line.number);
+                    } else if n.len() == 4 {
+                        self.weights.resize(self.positions.len() - 1, 1.0);
+                        self.weights.push(n[3]);
                     }
                 }
                 "vt" => {
@@ -427,6 +453,11 @@ impl<'a> Obj<'a> {
                 }
                 "mtllib" => self.libraries.push((text.name(&line)?, line.number)),
                 k if SILENT.contains(&k) => {}
+                k if freeform::STATEMENTS.contains(&k) && !freeform::SKIPPED.contains(&k) => {
+                    // A surface takes the current material, as a face does.
+                    let slot = if k == "surf" { Some(self.slot(&line)?) } else { None };
+                    self.freeform.statement(&text, &line, &self.positions, &self.weights, slot)?;
+                }
                 k => {
                     let s = self.skipped.entry(k).or_insert(Skipped { count: 0, line: line.number });
                     s.count += 1;
@@ -470,21 +501,7 @@ impl<'a> Obj<'a> {
         statement: &str,
         count: usize,
     ) -> Result<u32, LoadError> {
-        let bad = |m: String| Err(self.text.error(part, m));
-        let Ok(i) = part.parse::<i64>() else {
-            return bad(format!("expected a {what} index (a whole number) in `{token}`, found `{part}`"));
-        };
-        let k = match i {
-            0 => return bad(format!("{what} index 0 in `{token}`: OBJ indices start at 1 (-1 is the last)")),
-            i if i > 0 => i - 1,
-            i => count as i64 + i,
-        };
-        if k < 0 || k >= count as i64 {
-            return bad(format!(
-                "{what} index {i} in `{token}` is out of range: {count} {statement} lines come before this line"
-            ));
-        }
-        Ok(k as u32)
+        index_in(&self.text, part, token, what, statement, count)
     }
 
     fn face(&mut self, line: &Line<'a>) -> Result<(), LoadError> {
@@ -571,20 +588,7 @@ impl<'a> Obj<'a> {
 
     /// The mesh for a face (on `line`) of the current material with or without normals and uvs.
     fn mesh(&mut self, line: &Line, normals: bool, uvs: bool) -> Result<usize, LoadError> {
-        let next = self.slots.len();
-        let slot =
-            *self.current_slot.get_or_insert_with(|| *self.slot_of.entry(self.current).or_insert(next));
-        if slot == next {
-            // Here, before the slot's mesh is made: one face per material would take memory fast.
-            if next == MAX_MATERIALS {
-                return Err(self.text.error(
-                    line.keyword,
-                    format!("this face's material is one more than irt's limit of {MAX_MATERIALS}"),
-                ));
-            }
-            let line = if self.current.is_some() { self.current_line } else { line.number };
-            self.slots.push(Slot { name: self.current.map(str::to_string), line });
-        }
+        let slot = self.slot(line)?;
         let next = self.meshes.len();
         let m = *self.mesh_of.entry((slot, normals, uvs)).or_insert(next);
         if m == next {
@@ -601,16 +605,36 @@ impl<'a> Obj<'a> {
         Ok(m)
     }
 
+    /// The material slot of a face or surface (on `line`) of the current material.
+    fn slot(&mut self, line: &Line) -> Result<usize, LoadError> {
+        let next = self.slots.len();
+        let slot =
+            *self.current_slot.get_or_insert_with(|| *self.slot_of.entry(self.current).or_insert(next));
+        if slot == next {
+            // Here, before the slot's mesh is made: one face per material would take memory fast.
+            if next == MAX_MATERIALS {
+                return Err(self.text.error(
+                    line.keyword,
+                    format!("this face's material is one more than irt's limit of {MAX_MATERIALS}"),
+                ));
+            }
+            let line = if self.current.is_some() { self.current_line } else { line.number };
+            self.slots.push(Slot { name: self.current.map(str::to_string), line });
+        }
+        Ok(slot)
+    }
+
     fn warn_at(&mut self, line: usize, message: String) {
         self.warnings.warn(format!("{}:{line}: {message}", self.text.origin));
     }
 
     fn finish(mut self) -> Result<Model, LoadError> {
         self.warn_skipped();
-        if self.meshes.is_empty() {
+        self.freeform.finish(&self.text)?;
+        if self.meshes.is_empty() && self.freeform.patches.is_empty() {
             return Err(LoadError::new(
                 self.text.origin,
-                "the file has no faces to render: add polygons (`f` lines) with an area",
+                "the file has no faces to render: add polygons (`f` lines) with an area, or surfaces (`surf`)",
             ));
         }
         let libraries = std::mem::take(&mut self.libraries);
@@ -651,7 +675,17 @@ impl<'a> Obj<'a> {
                 material: *material,
             });
         }
-        Ok(Model { meshes, materials: materials.out, textures: materials.textures, ..Default::default() })
+        let patches = std::mem::take(&mut self.freeform.patches)
+            .into_iter()
+            .map(|(patch, slot)| crate::scene::patch::Patch { material: slot_material[slot].0, ..patch })
+            .collect();
+        Ok(Model {
+            meshes,
+            patches,
+            materials: materials.out,
+            textures: materials.textures,
+            ..Default::default()
+        })
     }
 
     fn warn_skipped(&mut self) {
@@ -678,7 +712,7 @@ impl<'a> Obj<'a> {
             let why = match keyword {
                 "l" => "lines have no surface to ray trace",
                 "p" => "points have no surface to ray trace",
-                k if FREE_FORM.contains(&k) => "irt reads polygons, not free-form curves and surfaces",
+                k if freeform::SKIPPED.contains(&k) => "curves and points have no surface to trace",
                 "call" => "irt does not include other files",
                 "csh" => "irt runs no commands",
                 _ => "an unknown statement",
@@ -687,6 +721,38 @@ impl<'a> Obj<'a> {
             self.warnings.warn(format!("{}:{}: `{keyword}` ignored{times}: {why}", self.text.origin, s.line));
         }
     }
+}
+
+/// A 1-based index, or a negative one counting back from the last defined so far: `part` of
+/// `token`, into `count` items of `what` (defined by `statement` lines).
+fn index_in(
+    text: &Text,
+    part: &str,
+    token: &str,
+    what: &str,
+    statement: &str,
+    count: usize,
+) -> Result<u32, LoadError> {
+    let bad = |m: String| Err(text.error(part, m));
+    let Ok(i) = part.parse::<i64>() else {
+        return bad(format!("expected a {what} index (a whole number) in `{token}`, found `{part}`"));
+    };
+    let k = match i {
+        0 => return bad(format!("{what} index 0 in `{token}`: OBJ indices start at 1 (-1 is the last)")),
+        i if i > 0 => i - 1,
+        i => count as i64 + i,
+    };
+    if k < 0 || k >= count as i64 {
+        return bad(format!(
+            "{what} index {i} in `{token}` is out of range: {count} {statement} lines come before this line"
+        ));
+    }
+    Ok(k as u32)
+}
+
+/// A control point's index (`v` of a `surf`).
+fn vertex_index(text: &Text, part: &str, token: &str, count: usize) -> Result<u32, LoadError> {
+    index_in(text, part, token, "vertex", "`v`", count)
 }
 
 /// Warnings, each logged once.

@@ -25,6 +25,8 @@ pub struct Model {
     pub particles: Vec<Particles>,
     /// Sampled volumes (a volume file staged alone, or `[[volume]]`).
     pub volumes: Vec<crate::scene::volume::Volume>,
+    /// Spline patches (OBJ free-form surfaces, STEP faces, `[[patch]]`).
+    pub patches: Vec<crate::scene::patch::Patch>,
 }
 
 impl Model {
@@ -63,6 +65,12 @@ impl Model {
         }
         for v in &mut self.volumes {
             v.transform = placement * v.transform;
+        }
+        // A NURBS surface is affine invariant: its control points move, its weights stay.
+        for patch in &mut self.patches {
+            for q in &mut patch.points {
+                *q = placement.transform_point3(q.truncate()).extend(q.w);
+            }
         }
         for (mesh, _) in self.meshes.iter_mut().zip(moving).filter(|(_, moving)| !moving) {
             for p in &mut mesh.positions {
@@ -108,9 +116,9 @@ pub fn stage(model: Model) -> Scene {
 /// `model` with the given camera (else [`framing_camera`]) and lights (if none,
 /// [`headlight`]), the default ambient and background.
 pub fn stage_with(mut model: Model, camera: Option<Camera>, mut lights: Vec<Light>) -> Scene {
-    // Spheres and volumes are framed by the corners of their boxes, a mesh of points without
-    // triangles.
-    let proxy = !model.spheres.is_empty() || !model.volumes.is_empty();
+    // Spheres, volumes and patches are framed by the corners of their boxes (a patch's: its
+    // control points'), a mesh of points without triangles.
+    let proxy = !model.spheres.is_empty() || !model.volumes.is_empty() || !model.patches.is_empty();
     if proxy {
         let mut corners = sphere_box_corners(&model.spheres);
         if model.spheres.is_empty() {
@@ -119,6 +127,9 @@ pub fn stage_with(mut model: Model, camera: Option<Camera>, mut lights: Vec<Ligh
         for v in &model.volumes {
             let (lo, hi) = v.world_bounds();
             corners.positions.extend([lo, hi]);
+        }
+        for p in &model.patches {
+            corners.positions.extend(p.points.iter().map(|q| q.truncate()));
         }
         model.meshes.push(corners);
     }
@@ -144,6 +155,7 @@ pub fn stage_with(mut model: Model, camera: Option<Camera>, mut lights: Vec<Ligh
         motions: model.motions,
         particles: model.particles,
         volumes: model.volumes,
+        patches: model.patches,
     }
 }
 

@@ -361,6 +361,7 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
         motions: Vec::new(),
         particles: Vec::new(),
         volumes: Vec::new(),
+        patches: Vec::new(),
     };
     scene.motions = motions(doc)?;
     for m in &doc.model {

@@ -34,6 +34,7 @@ fn scene(eye: DVec3, look_at: DVec3, materials: Vec<MaterialKind>) -> Scene {
         motions: Vec::new(),
         particles: Vec::new(),
         volumes: Vec::new(),
+        patches: Vec::new(),
     }
 }
 

@@ -59,6 +59,8 @@ pub struct Scene {
     pub particles: Vec<particles::Particles>,
     /// Sampled volumes drawn as isosurfaces (PAPER.md §10), at most [`volume::MAX_VOLUMES`].
     pub volumes: Vec<volume::Volume>,
+    /// Spline surfaces traced directly (PAPER.md §8): NURBS and Bezier patches.
+    pub patches: Vec<patch::Patch>,
 }
 
 /// Pinhole camera. Rays go through pixel centres; `vfov_deg` is the full vertical angle
@@ -223,7 +225,11 @@ impl Scene {
     }
 
     pub fn primitive_count(&self) -> usize {
-        self.spheres.len() + self.triangle_count() + self.cones.len() + self.volumes.len()
+        self.spheres.len()
+            + self.triangle_count()
+            + self.cones.len()
+            + self.volumes.len()
+            + self.patches.len()
     }
 
     /// All mesh triangles in mesh order; triangle `i` here is triangle `i` everywhere.
@@ -307,6 +313,12 @@ impl Scene {
         }
         for (i, v) in self.volumes.iter().enumerate() {
             v.check(self.materials.len()).or_else(|why| bad(format!("volume {i}: {why}")))?;
+        }
+        for (i, p) in self.patches.iter().enumerate() {
+            p.check(self.materials.len()).or_else(|why| bad(format!("patch {i}: {why}")))?;
+        }
+        if let Err(why) = patch::leaves::check_size(&self.patches) {
+            return bad(why);
         }
         for (i, l) in self.lights.iter().enumerate() {
             finite3(format_args!("light {i} position"), l.position)?;

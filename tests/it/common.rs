@@ -107,6 +107,7 @@ pub fn scene_of(spheres: Vec<Sphere>, triangles: Vec<[DVec3; 3]>) -> Scene {
         motions: Vec::new(),
         particles: Vec::new(),
         volumes: Vec::new(),
+        patches: Vec::new(),
     }
 }
 

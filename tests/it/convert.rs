@@ -389,6 +389,7 @@ fn scene() -> impl Strategy<Value = Scene> {
                     motions: Vec::new(),
                     particles: Vec::new(),
                     volumes: Vec::new(),
+                    patches: Vec::new(),
                 },
             )
     })

@@ -3,7 +3,11 @@
 //! is what a scene holds and what every tracer evaluates: the point and its exact first and
 //! second derivatives (the normal, and the curvature a designer reads), from the basis
 //! functions' derivatives (de Boor–Cox, Piegl and Tiller's A2.3) and the quotient rule for the
-//! weights. Tracing them (subdivision, boxes, Newton at a leaf) is still to be built on this.
+//! weights. [`bezier`] cuts a patch into rational Bezier pieces, [`leaves`] cuts those into
+//! the leaves the accelerators hold.
+
+pub mod bezier;
+pub mod leaves;
 
 use glam::{DVec3, DVec4};
 
@@ -65,6 +69,23 @@ impl Patch {
         points: Vec<DVec4>,
         material: u32,
     ) -> Result<Patch, String> {
+        let patch = Patch { degree, counts, knots, points, material };
+        patch.check_net()?;
+        Ok(patch)
+    }
+
+    /// [`Patch::new`]'s checks and a material below `materials`: what `Scene::validate` asks
+    /// of a patch however it was made.
+    pub fn check(&self, materials: usize) -> Result<(), String> {
+        self.check_net()?;
+        if self.material as usize >= materials {
+            return Err(format!("material {} does not exist ({materials} materials)", self.material));
+        }
+        Ok(())
+    }
+
+    fn check_net(&self) -> Result<(), String> {
+        let Patch { degree, counts, knots, points, .. } = self;
         for a in 0..2 {
             let name = ["u", "v"][a];
             let (p, n) = (degree[a], counts[a]);
@@ -104,7 +125,7 @@ impl Patch {
                 points[i]
             ));
         }
-        Ok(Patch { degree, counts, knots, points, material })
+        Ok(())
     }
 
     /// A Bezier patch of degree `degree` (one span, knots clamped to [0, 1]), points u fastest.
