@@ -168,7 +168,8 @@ fn cone_normal(p: vec3f, base: vec3f, r0: f32, axis: vec3f, r1: f32) -> vec3f {
     return normalize(u - ((r1 - r0) / h) * a);
 }
 
-// A ray's hit: distance, primitive reference (NO_HIT: none), barycentrics b1, b2 on triangles.
+// A ray's hit: distance, primitive reference (NO_HIT: none), barycentrics b1, b2 on triangles
+// (on a patch, its piece's (u, v)).
 struct Hit {
     t: f32,
     prim: u32,
@@ -195,6 +196,10 @@ fn intersect_prim(r: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
         // b1: which of the volume's isovalues was met.
         let h = volume_hit(i, o, d, t_min, t_max);
         return vec3f(h.x, h.y, 0.0);
+    }
+    if HAS_PATCHES && prim_kind(r) == PRIM_PATCH {
+        // b1, b2: the hit's (u, v) in its piece.
+        return intersect_patch(i, o, d, t_min, t_max);
     }
     return vec3f(MISS, 0.0, 0.0);
 }

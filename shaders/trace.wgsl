@@ -104,6 +104,17 @@ fn surface_at(h: Hit, o: vec3f, d: vec3f) -> Surface {
         // p stays the ray's, as on a cone.
         scale = vmax(abs(o)) + h.t;
         material = load_volume(i).materials[u32(h.b1)];
+    } else if HAS_PATCHES && prim_kind(h.prim) == PRIM_PATCH {
+        let ps = patch_surface(i, vec2f(h.b1, h.b2));
+        p = ps.p;
+        ng = unit_or(ps.n, -d);
+        n = ng;
+        // Recomputed from the piece: its error is relative to the piece's numbers.
+        scale = ps.size;
+        material = ps.material;
+        if HAS_TEXTURES {
+            uv = ps.uv;
+        }
     } else if HAS_CONES && prim_kind(h.prim) == PRIM_CONE {
         let c = load_cone(i);
         ng = unit_or(cone_normal(p, c.base, c.r0, c.axis, c.r1), -d);

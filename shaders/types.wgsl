@@ -31,6 +31,7 @@ struct Params {
     lights: array<Light, MAX_LIGHTS>,
     volume: vec4u,
     iso: array<vec4f, MAX_VOLUMES>,
+    patches: vec4u,
 }
 
 // A BVH node of the stack walk (two texels of the scene texture; src/gpu/layout.rs, BvhNode).

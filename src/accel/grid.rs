@@ -18,18 +18,20 @@ pub enum PrimKind {
     Cone = 2,
     /// A volume's isosurfaces: its macrocells are the leaf's inside (`shaders/volume.wgsl`).
     Volume = 3,
+    /// A leaf of a spline patch (`scene::patch::leaves`): solved by Newton (`shaders/patch.wgsl`).
+    Patch = 4,
 }
 
-/// A primitive reference as stored in the grid: kind in bits 30..32, index into that kind's array (`Scene::spheres`, `Scene::triangles()`, `Scene::cones`)
-/// in bits 0..29 (bit 29 is free: shell mode no longer lists shell-only references, see
-/// docs/shadows.md, Shell objects).
+/// A primitive reference as stored in the grid: kind in bits 29..32, index into that kind's
+/// array (`Scene::spheres`, `Scene::triangles()`, `Scene::cones`, `Scene::volumes`, the patches'
+/// leaves) in bits 0..29. All ones is the shader's "no hit", kind 7, which no primitive has.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(transparent)]
 pub struct PrimRef(pub u32);
 
 impl PrimRef {
     pub const INDEX_BITS: u32 = 29;
-    pub const KIND_SHIFT: u32 = 30;
+    pub const KIND_SHIFT: u32 = 29;
     pub const MAX_INDEX: u32 = (1 << Self::INDEX_BITS) - 1;
     pub fn new(kind: PrimKind, index: u32) -> Self {
         assert!(index <= Self::MAX_INDEX);
@@ -40,7 +42,8 @@ impl PrimRef {
             0 => PrimKind::Sphere,
             1 => PrimKind::Triangle,
             2 => PrimKind::Cone,
-            _ => PrimKind::Volume,
+            3 => PrimKind::Volume,
+            _ => PrimKind::Patch,
         }
     }
     pub fn index(self) -> u32 {
@@ -259,6 +262,8 @@ const MIN_PRIMS_PER_THREAD: usize = 1 << 15;
 /// for a large mesh is more than the mesh itself.
 struct Prims<'a> {
     scene: &'a Scene,
+    /// The patches' leaves (after the volumes in the global order).
+    leaves: crate::scene::patch::leaves::Leaves,
     /// Index of each mesh's first triangle among all triangles, and the total at the end.
     mesh_start: Vec<usize>,
 }
@@ -269,7 +274,7 @@ impl<'a> Prims<'a> {
         for m in &scene.meshes {
             mesh_start.push(mesh_start.last().unwrap() + m.indices.len());
         }
-        Prims { scene, mesh_start }
+        Prims { scene, leaves: crate::scene::patch::leaves::Leaves::build(&scene.patches), mesh_start }
     }
 
     fn len(&self) -> usize {
@@ -277,6 +282,7 @@ impl<'a> Prims<'a> {
             + self.mesh_start.last().unwrap()
             + self.scene.cones.len()
             + self.scene.volumes.len()
+            + self.leaves.leaves.len()
     }
 
     fn bounds(&self, ranges: &[std::ops::Range<usize>]) -> Aabb {
@@ -322,10 +328,18 @@ impl<'a> Prims<'a> {
             let shape = Shape::Cone { base: c.base, r0: c.base_radius, apex: c.apex, r1: c.apex_radius };
             f(PrimRef::new(PrimKind::Cone, k as u32), shape);
         }
-        for i in range.start.max(first_volume)..range.end.max(first_volume) {
+        let first_leaf = first_volume + s.volumes.len();
+        for i in range.start.clamp(first_volume, first_leaf)..range.end.clamp(first_volume, first_leaf) {
             let v = i - first_volume;
             let (lo, hi) = s.volumes[v].world_bounds();
             f(PrimRef::new(PrimKind::Volume, v as u32), Shape::Box(Aabb { lo, hi }));
+        }
+        for i in range.start.max(first_leaf)..range.end.max(first_leaf) {
+            let leaf = &self.leaves.leaves[i - first_leaf];
+            f(
+                PrimRef::new(PrimKind::Patch, (i - first_leaf) as u32),
+                Shape::Box(Aabb { lo: leaf.lo, hi: leaf.hi }),
+            );
         }
     }
 }
@@ -433,6 +447,9 @@ impl Grid {
             PrimKind::Triangle => spheres + r.index() as usize,
             PrimKind::Cone => spheres + triangles + r.index() as usize,
             PrimKind::Volume => spheres + triangles + scene.cones.len() + r.index() as usize,
+            PrimKind::Patch => {
+                spheres + triangles + scene.cones.len() + scene.volumes.len() + r.index() as usize
+            }
         };
         let is_moving = |r: PrimRef| {
             let g = global(r);
@@ -979,6 +996,7 @@ pub(in crate::accel) mod tests {
                                 let (vlo, vhi) = s.volumes[r.index() as usize].world_bounds();
                                 vlo.cmple(hi).all() && lo.cmple(vhi).all()
                             }
+                            PrimKind::Patch => unreachable!("this scene holds no patches"),
                         };
                         assert!(touches, "{r:?} listed in cell {x},{y},{z} it does not touch");
                     }

@@ -30,6 +30,7 @@ impl Selection {
             Selection::Object(Primitive::Sphere(i)) => format!("sphere {i}"),
             Selection::Object(Primitive::Cone(i)) => format!("cone {i}"),
             Selection::Object(Primitive::Volume(i)) => format!("volume {i}"),
+            Selection::Object(Primitive::Patch(i)) => format!("patch {i}"),
             Selection::Object(Primitive::Triangle { mesh, triangle }) => {
                 format!("mesh {mesh} (triangle {triangle})")
             }
@@ -61,14 +62,17 @@ pub fn object_material(scene: &Scene, p: Primitive) -> Option<u32> {
         Primitive::Triangle { mesh, .. } => scene.meshes.get(mesh).map(|m| m.material),
         // Its first isosurface's (the one a material edit changes).
         Primitive::Volume(i) => scene.volumes.get(i).and_then(|v| v.isos.first()).map(|iso| iso.material),
+        Primitive::Patch(i) => scene.patches.get(i).map(|p| p.material),
     }
 }
 
-/// How many spheres, cones and meshes use material `m` (an edit of it changes them all).
+/// How many spheres, cones, meshes and patches use material `m` (an edit of it changes them
+/// all).
 pub fn material_users(scene: &Scene, m: u32) -> usize {
     scene.spheres.iter().filter(|s| s.material == m).count()
         + scene.cones.iter().filter(|c| c.material == m).count()
         + scene.meshes.iter().filter(|x| x.material == m).count()
+        + scene.patches.iter().filter(|x| x.material == m).count()
 }
 
 /// A window position (physical pixels from the top-left, as the cursor reports it) as an image

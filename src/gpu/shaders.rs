@@ -5,12 +5,13 @@ use super::layout;
 use crate::scene::ShadowMode;
 
 /// Shared modules before the accelerator's, in dependency order.
-const MODULES: [(&str, &str); 5] = [
+const MODULES: [(&str, &str); 6] = [
     ("types.wgsl", include_str!("../../shaders/types.wgsl")),
     ("scene.wgsl", include_str!("../../shaders/scene.wgsl")),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
     ("intersect.wgsl", include_str!("../../shaders/intersect.wgsl")),
     ("volume.wgsl", include_str!("../../shaders/volume.wgsl")),
+    ("patch.wgsl", include_str!("../../shaders/patch.wgsl")),
 ];
 /// The accelerators' walks: a variant compiles the one its scene was packed with
 /// (`Variant::accel`; the test kernels always have the grid's, whose DDA they step).
@@ -58,6 +59,9 @@ pub struct Variant {
     pub cones: bool,
     /// Volumes' isosurfaces (`shaders/volume.wgsl`).
     pub volumes: bool,
+    /// Spline patches (`shaders/patch.wgsl`): 0 for none, else the pieces' degree (1 to
+    /// `patch::MAX_DEGREE`, a constant the loops unroll by), or `layout::patch::PATCH_ANY`.
+    pub patches: u32,
     /// Count rays by kind into the stats buffer (costs four atomics per pixel).
     pub count_rays: bool,
     /// The shadow mode compiled in (`ShadowMode::kind_index`), or [`SHADOWS_ANY`]: chosen at run
@@ -102,6 +106,7 @@ impl Variant {
         triangles: true,
         cones: true,
         volumes: true,
+        patches: layout::patch::PATCH_ANY,
         count_rays: true,
         shadows: SHADOWS_ANY,
         materials: ALL_MATERIALS,
@@ -119,6 +124,7 @@ impl Variant {
             triangles: scene.triangle_count() > 0,
             cones: !scene.cones.is_empty(),
             volumes: !scene.volumes.is_empty(),
+            patches: scene.patches.iter().flat_map(|p| p.degree).max().unwrap_or(0) as u32,
             count_rays,
             shadows: scene.trace.shadows.kind_index(),
             materials: scene.materials.iter().fold(0, |m, mat| m | 1 << layout::material_code(&mat.kind)),
@@ -144,6 +150,7 @@ impl Variant {
                     triangles: bits & 2 != 0,
                     cones: bits & 8 != 0,
                     volumes: bits & 8 != 0,
+                    patches: if bits & 8 != 0 { 3 } else { 0 },
                     count_rays: bits & 4 != 0,
                     shadows,
                     materials: ALL_MATERIALS,
@@ -161,6 +168,9 @@ impl Variant {
         }
         v.extend((0..ALL_MATERIALS).map(|materials| Variant { materials, ..Variant::FULL }));
         v.extend([false, true].map(|count_rays| Variant { f64: true, count_rays, ..Variant::FULL }));
+        v.extend(
+            (1..=crate::scene::patch::MAX_DEGREE as u32).map(|patches| Variant { patches, ..Variant::FULL }),
+        );
         v.push(Variant { textures: false, ..Variant::FULL });
         v.push(Variant { shell_walk: false, ..Variant::FULL });
         v.push(Variant { simd_stats: true, ..Variant::FULL });
@@ -185,6 +195,8 @@ impl Variant {
         s += &b("HAS_TRIANGLES", self.triangles);
         s += &b("HAS_CONES", self.cones);
         s += &b("HAS_VOLUMES", self.volumes);
+        s += &b("HAS_PATCHES", self.patches != 0);
+        s += &format!("const PATCH_DEGREE: u32 = {}u;\n", self.patches);
         s += &b("COUNT_RAYS", self.count_rays);
         s += &b("SIMD_STATS", self.simd_stats);
         // The lane that counts a SIMD group's iteration (shaders/trace.wgsl, `loop_tick`): the

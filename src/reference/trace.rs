@@ -80,6 +80,7 @@ pub enum Primitive {
     Triangle { mesh: usize, triangle: usize },
     Cone(usize),
     Volume(usize),
+    Patch(usize),
 }
 
 /// The parts of a [`Reference`] that depend on the primitives alone (resolved triangles and the
@@ -104,6 +105,12 @@ enum Prim {
         index: usize,
         iso: usize,
         n: DVec3,
+    },
+    /// Patch `index` at its parameters `(u, v)`.
+    Patch {
+        index: usize,
+        u: f64,
+        v: f64,
     },
 }
 
@@ -137,7 +144,10 @@ impl<'a> Reference<'a> {
             r.triangles.iter().map(|t| (t.p[0].min(t.p[1]).min(t.p[2]), t.p[0].max(t.p[1]).max(t.p[2])));
         let cones = scene.cones.iter().map(|c| cone_bounds(c.base, c.base_radius, c.apex, c.apex_radius));
         let volumes = scene.volumes.iter().map(|v| v.world_bounds());
-        r.bvh = Some(Bvh::build(&spheres.chain(tris).chain(cones).chain(volumes).collect::<Vec<_>>()));
+        let patches = scene.patches.iter().map(patch_bounds);
+        r.bvh = Some(Bvh::build(
+            &spheres.chain(tris).chain(cones).chain(volumes).chain(patches).collect::<Vec<_>>(),
+        ));
         r
     }
 
@@ -256,6 +266,7 @@ impl<'a> Reference<'a> {
             Prim::Sphere(i) => Primitive::Sphere(i),
             Prim::Cone(i) => Primitive::Cone(i),
             Prim::Volume { index, .. } => Primitive::Volume(index),
+            Prim::Patch { index, .. } => Primitive::Patch(index),
             Prim::Triangle { index, .. } => {
                 let mut first = 0;
                 for (mesh, m) in self.scene.meshes.iter().enumerate() {
@@ -291,8 +302,11 @@ impl<'a> Reference<'a> {
     }
 
     fn prim_count(&self) -> PrimId {
-        (self.scene.spheres.len() + self.triangles.len() + self.scene.cones.len() + self.scene.volumes.len())
-            as PrimId
+        (self.scene.spheres.len()
+            + self.triangles.len()
+            + self.scene.cones.len()
+            + self.scene.volumes.len()
+            + self.scene.patches.len()) as PrimId
     }
 
     /// Nearest hit of primitive `id` with `t > 0` (no upper bound: the nearest root does not
@@ -308,6 +322,12 @@ impl<'a> Reference<'a> {
             let [p0, p1, p2] = self.triangles[index].p;
             intersect_triangle(o, d, p0, p1, p2, 0.0, f64::INFINITY)
                 .map(|(t, b1, b2)| (t, Prim::Triangle { index, b1, b2 }))
+        } else if id >= ns + self.triangles.len() + self.scene.cones.len() + self.scene.volumes.len() {
+            let index = id - ns - self.triangles.len() - self.scene.cones.len() - self.scene.volumes.len();
+            let patch = &self.scene.patches[index];
+            let (lo, hi) = patch_bounds(patch);
+            super::patch::hit(patch, o, d, [0.0, f64::INFINITY], PATCH_TOLERANCE * (hi - lo).length())
+                .map(|(t, u, v)| (t, Prim::Patch { index, u, v }))
         } else if id >= ns + self.triangles.len() + self.scene.cones.len() {
             let index = id - ns - self.triangles.len() - self.scene.cones.len();
             volume_hit(&self.scene.volumes[index], o, d)
@@ -363,6 +383,15 @@ impl<'a> Reference<'a> {
                 (n, n, c.material)
             }
             Prim::Volume { index, iso, n } => (n, n, self.scene.volumes[index].isos[iso].material),
+            Prim::Patch { index, u, v } => {
+                let patch = &self.scene.patches[index];
+                scale = patch.points.iter().fold(scale, |m, q| m.max(q.truncate().abs().max_element()));
+                let [[u0, u1], [v0, v1]] = patch.domain();
+                uv = DVec2::new((u - u0) / (u1 - u0), (v - v0) / (v1 - v0));
+                // At a pole the surface has no normal: the ray's own, as the shader does.
+                let n = patch.eval(u, v).normal().unwrap_or(-d.normalize());
+                (n, n, patch.material)
+            }
         };
         // Decision: flip when n_g·d > 0; at exactly 0 (grazing) the normal is kept.
         let inside = n_g.dot(d) > 0.0;
@@ -644,6 +673,17 @@ pub fn render_with_stats(scene: &Scene) -> (RadianceImage, Stats) {
 }
 
 /// The nearest crossing with `t > 0` of any of `v`'s isosurfaces: (t, which isovalue, outward
+/// The twin finds a patch's hits to this fraction of its box's diagonal: far below a pixel and
+/// the shader's f32 Newton, so that the pictures' differences are the shader's.
+pub const PATCH_TOLERANCE: f64 = 1e-7;
+
+/// A patch's box: its control points'.
+fn patch_bounds(patch: &crate::scene::patch::Patch) -> (DVec3, DVec3) {
+    patch.points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), q| {
+        (lo.min(q.truncate()), hi.max(q.truncate()))
+    })
+}
+
 /// unit normal in world units). The ray moves into the grid's own coordinates (an affine map
 /// keeps `t`), where [`super::volume::iso_hit`] samples it densely; the normal comes back by the
 /// inverse transpose and points to smaller values (the solid is above the isovalue).

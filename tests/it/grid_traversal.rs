@@ -240,7 +240,7 @@ fn grazing(scene: &Scene, kind: PrimKind, idx: u32, o: DVec3, d: DVec3) -> bool 
                 (a, b) => a.is_some() != b.is_some(),
             }
         }
-        PrimKind::Volume => unreachable!("these scenes hold no volumes"),
+        PrimKind::Volume | PrimKind::Patch => unreachable!("these scenes hold no volumes or patches"),
     }
 }
 
@@ -265,7 +265,7 @@ fn surface_distance(scene: &Scene, kind: PrimKind, idx: u32, p: DVec3) -> f64 {
             let k = (c.apex_radius - c.base_radius) / h;
             (across - (c.base_radius + k * s)).abs() / (1.0 + k * k).sqrt()
         }
-        PrimKind::Volume => unreachable!("these scenes hold no volumes"),
+        PrimKind::Volume | PrimKind::Patch => unreachable!("these scenes hold no volumes or patches"),
     }
 }
 

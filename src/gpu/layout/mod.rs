@@ -11,6 +11,7 @@
 
 pub mod bvh;
 pub mod pack;
+pub mod patch;
 pub mod prelude;
 pub mod volume;
 
@@ -197,6 +198,9 @@ pub struct Params {
     pub volume: [u32; 4],
     /// Each volume's isovalues (live: a new one changes only this uniform).
     pub iso: [[f32; 4]; crate::scene::volume::MAX_VOLUMES],
+    /// The patches (`layout::patch`): first leaf texel, leaf count, the pieces' degree (what a
+    /// pipeline not specialised to one reads), 0.
+    pub patches: [u32; 4],
 }
 
 /// The per-dispatch uniform: what one dispatch covers and how its pixels update the frame
@@ -383,6 +387,8 @@ pub struct PackedScene {
     pub bvh_lattice: Option<BvhLattice>,
     /// First texel of the volume records (`layout::volume`).
     pub volume_base: u32,
+    /// The patches (`layout::patch`): first leaf texel, leaf count, degree, 0.
+    pub patch: [u32; 4],
 }
 
 impl PackedScene {

@@ -65,7 +65,9 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         _ => 0,
     };
     let (volume_texels, macrocells) = super::volume::volume_texels(scene);
+    let (patch_texels, leaves) = super::patch::patch_texels(scene);
     let capacity = volume_texels
+        + patch_texels
         + SPHERE_TEXELS as usize * scene.spheres.len()
         + (TRIANGLE_TEXELS as usize) * scene.triangle_count()
         + NORMAL_TEXELS as usize * normal_tris
@@ -148,6 +150,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         t.push(texel);
     }
     let volume_base = super::volume::push_volumes(&mut t, scene, &macrocells, origin);
+    let patch_base = super::patch::push_patches(&mut t, scene, &leaves, origin);
     let (accel_base, bvh_lattice) = push_accel(&mut t, accel, origin);
     let bundle_base = push_bundle(&mut t, scene.trace.shadows);
     let mut shell_sections = vec![];
@@ -166,6 +169,7 @@ pub fn pack_scene<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, origin: DVe
         shell_sections,
         bvh_lattice,
         volume_base,
+        patch: [patch_base, leaves.leaves.len() as u32, leaves.degree as u32, 0],
     }
 }
 
@@ -319,6 +323,7 @@ pub struct Prefix {
     prim_base: [u32; 4],
     aux_base: [u32; 4],
     volume_base: u32,
+    patch: [u32; 4],
 }
 
 impl PackedScene {
@@ -337,6 +342,7 @@ impl PackedScene {
             prim_base: self.prim_base,
             aux_base: self.aux_base,
             volume_base: self.volume_base,
+            patch: self.patch,
         })
     }
 }
@@ -369,6 +375,7 @@ pub fn swap_accel(prefix: &Prefix, section: AccelSection, shadows: ShadowMode) -
         shell_sections: vec![],
         bvh_lattice: section.lattice,
         volume_base: prefix.volume_base,
+        patch: prefix.patch,
     };
     (row, packed)
 }
@@ -497,6 +504,7 @@ pub fn params<'a>(
         lights,
         volume: [packed.volume_base, scene.volumes.len() as u32, super::volume::look_bits(scene), 0],
         iso: super::volume::iso_values(scene),
+        patches: packed.patch,
     };
     match accel.into() {
         AccelRef::Grid(grid) => {

@@ -81,6 +81,13 @@ pub fn wgsl_constants() -> String {
     let f = |name: &str, v: f64| format!("const {name}: f32 = {v:?};\n");
     s += &f("DVR_STEP", crate::scene::transfer::DVR_STEP);
     s += &f("DVR_EARLY_OUT", crate::scene::transfer::DVR_EARLY_OUT);
+    s += &c("PRIM_PATCH", PrimKind::Patch as u32);
+    s += &c("LEAF_TEXELS", super::patch::LEAF_TEXELS);
+    s += &c("PIECE_HEADER_TEXELS", super::patch::PIECE_HEADER_TEXELS);
+    s += &c("PATCH_ANY", super::patch::PATCH_ANY);
+    s += &c("PATCH_NEWTON_STEPS", super::patch::NEWTON_STEPS);
+    s += &f("PATCH_TOLERANCE", super::patch::TOLERANCE);
+    s += &f("PATCH_OVERLAP", crate::scene::patch::leaves::OVERLAP);
     for (name, kind) in [
         ("MAT_DIFFUSE", MaterialKind::Diffuse { color: DVec3::ZERO }),
         ("MAT_METAL", MaterialKind::Metal { color: DVec3::ZERO, exponent: 0.0 }),

@@ -21,7 +21,7 @@ pub enum PeerError {
     NotTheWorkload { peer: &'static str },
     #[error("the {peer} peer shades diffuse materials only (use the primary-shadow workload)")]
     NotDiffuse { peer: &'static str },
-    #[error("the {peer} peer traces spheres, triangles and cones, not volumes")]
+    #[error("the {peer} peer traces spheres, triangles and cones, not volumes or spline patches")]
     Volumes { peer: &'static str },
     /// An Embree call that returned nothing (`call`: "rtcNewDevice", "rtcNewGeometry(2)").
     #[error("{call}: {error}")]

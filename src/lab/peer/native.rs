@@ -181,7 +181,7 @@ impl Shade {
         if scene.trace.max_depth != 1 || scene.trace.shadows != ShadowMode::Hard {
             return Err(PeerError::NotTheWorkload { peer });
         }
-        if !scene.volumes.is_empty() {
+        if !scene.volumes.is_empty() || !scene.patches.is_empty() {
             return Err(PeerError::Volumes { peer });
         }
         let eye = scene.camera.eye;
@@ -400,7 +400,9 @@ impl Shade {
                 }
                 color = t.color;
             }
-            PrimKind::Volume => unreachable!("the native peer refuses scenes with volumes"),
+            PrimKind::Volume | PrimKind::Patch => {
+                unreachable!("the native peer refuses scenes with volumes and patches")
+            }
             PrimKind::Cone => {
                 let c = &self.cones[h.prim.index() as usize];
                 ng = unit_or(cone_normal(ray_p, c), -d);
@@ -614,8 +616,8 @@ impl NativePeer {
             PrimKind::Cone => {
                 cone_t(o, d, &self.shade.cones[i], t_min, t_max).map(|t| Hit { t, prim: r, b: (0.0, 0.0) })
             }
-            // `new` refuses scenes with volumes.
-            PrimKind::Volume => None,
+            // `new` refuses scenes with volumes and patches.
+            PrimKind::Volume | PrimKind::Patch => None,
         }
     }
 }

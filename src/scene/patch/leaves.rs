@@ -24,7 +24,8 @@ pub const FLATNESS: f64 = 0.08;
 pub const WEIGHT_SPREAD: f64 = 2.0;
 /// Halvings per parameter of one piece, at most: a leaf's `(i, j)` fit 8 bits each.
 pub const MAX_DEPTH: u8 = 8;
-/// Leaves of one scene, at most (each is a primitive reference and a texel).
+/// Leaves of one scene cut by the depth rule, at most (each is a primitive reference and a
+/// texel); past it pieces are cut no further.
 pub const MAX_LEAVES: usize = 1 << 22;
 /// Bezier pieces of one scene, at most (checked before any is made).
 pub const MAX_PIECES: usize = 1 << 20;
@@ -76,10 +77,10 @@ pub fn check_size(patches: &[Patch]) -> Result<usize, String> {
 }
 
 impl Leaves {
-    /// Cuts `patches` (valid, within [`check_size`]) into leaves by the depth rule. Fails only
-    /// when the leaves would pass [`MAX_LEAVES`].
-    pub fn build(patches: &[Patch]) -> Result<Leaves, String> {
-        check_size(patches)?;
+    /// Cuts `patches` (valid, within [`check_size`]) into leaves by the depth rule. Past
+    /// [`MAX_LEAVES`] the rest are cut no further (a coarser leaf is still exact, its Newton
+    /// only slower to meet it), with a warning.
+    pub fn build(patches: &[Patch]) -> Leaves {
         let degree = patches.iter().flat_map(|p| p.degree).max().unwrap_or(0);
         let mut out = Leaves { degree, ..Default::default() };
         for (k, patch) in patches.iter().enumerate() {
@@ -91,16 +92,16 @@ impl Leaves {
                 for leaf in &mut out.leaves[first..] {
                     (leaf.lo, leaf.hi) = piece.sub(leaf.range(OVERLAP)).bounds();
                 }
-                if out.leaves.len() > MAX_LEAVES {
-                    return Err(format!(
-                        "the patches make more than {MAX_LEAVES} leaves (patch {k} is where they pass it)"
-                    ));
+                if out.leaves.len() >= MAX_LEAVES && first < MAX_LEAVES {
+                    log::warn!(
+                        "the patches reach {MAX_LEAVES} leaves at patch {k}; the rest are cut no further"
+                    );
                 }
                 out.pieces.push(piece);
                 out.patch.push(k as u32);
             }
         }
-        Ok(out)
+        out
     }
 }
 
@@ -134,7 +135,7 @@ fn refine(piece: &Piece, index: u32, cell: [u8; 4], out: &mut Vec<Leaf>) {
     let (wlo, whi) = piece.points.iter().fold((f64::INFINITY, 0.0f64), |(a, b), h| (a.min(h.w), b.max(h.w)));
     let flat = bends[0] <= FLATNESS && bends[1] <= FLATNESS && whi <= WEIGHT_SPREAD * wlo;
     let room = [cell[2] < MAX_DEPTH, cell[3] < MAX_DEPTH];
-    if out.len() > MAX_LEAVES || flat || !(room[0] || room[1]) {
+    if out.len() >= MAX_LEAVES || flat || !(room[0] || room[1]) {
         // Boxed by `Leaves::build`, from the grown square (this piece is the exact one).
         out.push(Leaf { piece: index, cell, lo: DVec3::ZERO, hi: DVec3::ZERO });
         return;
@@ -169,10 +170,10 @@ mod tests {
             0,
         )
         .unwrap();
-        assert_eq!(Leaves::build(&[plane]).unwrap().leaves.len(), 1);
-        let sphere = Leaves::build(&[Patch::sphere(DVec3::ZERO, 1.0, 0)]).unwrap();
+        assert_eq!(Leaves::build(&[plane]).leaves.len(), 1);
+        let sphere = Leaves::build(&[Patch::sphere(DVec3::ZERO, 1.0, 0)]);
         let pot = teapot();
-        let leaves = Leaves::build(&pot).unwrap();
+        let leaves = Leaves::build(&pot);
         println!(
             "sphere: {} pieces, {} leaves; teapot: {} pieces, {} leaves, degree {}",
             sphere.pieces.len(),

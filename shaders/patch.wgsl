@@ -1,0 +1,151 @@
+// Spline patches traced directly (PAPER.md §8; issue #45): a leaf of a rational Bezier piece
+// (src/gpu/layout/patch.rs has the records, src/scene/patch/leaves.rs the depth rule) met by
+// Newton's method from the leaf's middle, on the ray written as two planes (Martin et al., JGT
+// 2000). Its f64 twin finds the same hits by subdivision alone (src/reference/patch.rs).
+// Everything here runs only where `HAS_PATCHES` lets `intersect_prim` call it.
+
+// The pieces' degree: a constant in a specialised pipeline, so every loop below unrolls and
+// spends none of lavapipe's loop budget; the uber-shader reads it from the frame uniform.
+fn patch_degree() -> u32 {
+    if PATCH_DEGREE == PATCH_ANY {
+        return params.patches.z;
+    }
+    return PATCH_DEGREE;
+}
+
+// The Bernstein polynomials of degree n at t, and their derivatives.
+struct Bernstein {
+    b: array<f32, 6>,
+    db: array<f32, 6>,
+}
+
+fn bernstein(n: u32, t: f32) -> Bernstein {
+    let s = 1.0 - t;
+    // Degree n - 1 first, raised one degree at a time in place (from the top down).
+    var c = array<f32, 6>(1.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for (var k = 1u; k < n; k++) {
+        c[k] = t * c[k - 1u];
+        for (var r = 1u; r < k; r++) {
+            let i = k - r;
+            c[i] = s * c[i] + t * c[i - 1u];
+        }
+        c[0] = s * c[0];
+    }
+    var out: Bernstein;
+    for (var i = 0u; i <= n; i++) {
+        let below = select(0.0, c[max(i, 1u) - 1u], i > 0u);
+        let here = select(0.0, c[min(i, 5u)], i < n);
+        out.b[i] = s * here + t * below;
+        out.db[i] = f32(n) * (below - here);
+    }
+    return out;
+}
+
+// A piece's point at (u, v) (fractions of its spans) and its first derivatives.
+struct PatchPoint {
+    p: vec3f,
+    du: vec3f,
+    dv: vec3f,
+}
+
+fn patch_eval(points: u32, n: u32, uv: vec2f) -> PatchPoint {
+    let bu = bernstein(n, uv.x);
+    let bv = bernstein(n, uv.y);
+    var a = vec4f(0.0);
+    var au = vec4f(0.0);
+    var av = vec4f(0.0);
+    for (var j = 0u; j <= n; j++) {
+        var row = vec4f(0.0);
+        var row_u = vec4f(0.0);
+        for (var i = 0u; i <= n; i++) {
+            let h = ftexel(points + i + (n + 1u) * j);
+            row += bu.b[i] * h;
+            row_u += bu.db[i] * h;
+        }
+        a += bv.b[j] * row;
+        au += bv.b[j] * row_u;
+        av += bv.db[j] * row;
+    }
+    // S = a.xyz / a.w and the quotient rule.
+    let p = a.xyz / a.w;
+    return PatchPoint(p, (au.xyz - au.w * p) / a.w, (av.xyz - av.w * p) / a.w);
+}
+
+struct Leaf {
+    piece: u32,
+    // The leaf's square in its piece, grown by PATCH_OVERLAP of its side on every side.
+    lo: vec2f,
+    hi: vec2f,
+}
+
+fn load_leaf(i: u32) -> Leaf {
+    let rec = texel(params.patches.x + i * LEAF_TEXELS);
+    let cell = vec2u(rec.y & 0xffu, (rec.y >> 8u) & 0xffu);
+    let side = vec2f(1.0) / vec2f(vec2u(1u << ((rec.y >> 16u) & 0xffu), 1u << (rec.y >> 24u)));
+    let lo = vec2f(cell) * side;
+    let grow = PATCH_OVERLAP * side;
+    return Leaf(rec.x, max(lo - grow, vec2f(0.0)), min(lo + side + grow, vec2f(1.0)));
+}
+
+// The ray's nearest crossing with leaf `i` in (t_min, t_max): (t, u, v), (u, v) in fractions of
+// the piece's spans, or t = MISS. Newton from the leaf's middle on F(u, v) = (n1·(S - o),
+// n2·(S - o)), n1 and n2 unit normals of two planes through the ray; a solve that does not
+// converge in PATCH_NEWTON_STEPS, leaves the leaf's grown square or meets a singular Jacobian
+// (a pole, a ray along the surface) misses here.
+fn intersect_patch(i: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
+    let leaf = load_leaf(i);
+    let n = patch_degree();
+    let head = texel(leaf.piece);
+    let points = leaf.piece + PIECE_HEADER_TEXELS;
+    let tol = PATCH_TOLERANCE * bitcast<f32>(head.z);
+    let ad = abs(d);
+    let n1 = normalize(select(vec3f(0.0, d.z, -d.y), vec3f(d.y, -d.x, 0.0), ad.x > ad.y && ad.x > ad.z));
+    let n2 = normalize(cross(n1, d));
+    var uv = 0.5 * (leaf.lo + leaf.hi);
+    var met = false;
+    var q = vec3f(0.0);
+    for (var k = 0u; k < PATCH_NEWTON_STEPS; k++) {
+        let s = patch_eval(points, n, uv);
+        q = s.p - o;
+        let f = vec2f(dot(n1, q), dot(n2, q));
+        if max(abs(f.x), abs(f.y)) <= tol {
+            met = true;
+            break;
+        }
+        let j = mat2x2f(vec2f(dot(n1, s.du), dot(n2, s.du)), vec2f(dot(n1, s.dv), dot(n2, s.dv)));
+        let det = determinant(j);
+        if !(abs(det) > 0.0) {
+            break;
+        }
+        let step = vec2f(j[1].y * f.x - j[1].x * f.y, j[0].x * f.y - j[0].y * f.x) / det;
+        // Kept within the piece (beyond it the polynomial is not the surface), and not far
+        // outside the leaf, whose neighbours hold the rest.
+        uv = clamp(uv - step, max(leaf.lo - (leaf.hi - leaf.lo), vec2f(0.0)), min(leaf.hi + (leaf.hi - leaf.lo), vec2f(1.0)));
+    }
+    let inside = all(uv >= leaf.lo) && all(uv <= leaf.hi);
+    let t = dot(q, d) / dot(d, d);
+    if met && inside && t > t_min && t < t_max {
+        return vec3f(t, uv);
+    }
+    return vec3f(MISS, 0.0, 0.0);
+}
+
+// The surface at a hit of leaf `i` at (u, v): the point (recomputed from the piece), the
+// geometric normal du × dv (`unit_or` takes over at a pole), the material and the texture
+// coordinates (the patch's own parameters, as fractions of its domain).
+struct PatchSurface {
+    p: vec3f,
+    n: vec3f,
+    material: u32,
+    uv: vec2f,
+    size: f32,
+}
+
+fn patch_surface(i: u32, uv: vec2f) -> PatchSurface {
+    let leaf = load_leaf(i);
+    let head = texel(leaf.piece);
+    let s = patch_eval(leaf.piece + PIECE_HEADER_TEXELS, patch_degree(), uv);
+    let span = ftexel(leaf.piece + 1u);
+    let tex = vec2f(mix(span.x, span.y, uv.x), mix(span.z, span.w, uv.y));
+    return PatchSurface(s.p, cross(s.du, s.dv), head.x, tex, bitcast<f32>(head.z));
+}
