@@ -45,13 +45,14 @@ pub fn run(args: ConvertArgs) -> Result<()> {
     irt::image::write_atomic(&args.output, files.toml.as_bytes())
         .with_context(|| format!("writing {}", args.output.display()))?;
     eprintln!(
-        "wrote {} ({} materials, {} textures, {} spheres, {} triangles, {} volumes, {} lights)",
+        "wrote {} ({} materials, {} textures, {} spheres, {} triangles, {} volumes, {} patches, {} lights)",
         args.output.display(),
         scene.materials.len(),
         scene.textures.len(),
         scene.spheres.len(),
         scene.triangle_count(),
         scene.volumes.len(),
+        scene.patches.len(),
         scene.lights.len()
     );
     Ok(())

@@ -11,10 +11,13 @@
 mod motion;
 #[path = "toml_particles.rs"]
 mod particles;
+#[path = "toml_patch.rs"]
+pub mod patch;
 #[path = "toml_volume.rs"]
 pub mod volume;
 
 use super::shapes::{self, Geometry, MAX_ICOSPHERE_SUBDIVISIONS};
+use crate::scene::patch::Patch;
 use super::{
     line_column, png, LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES,
 };
@@ -45,7 +48,7 @@ pub const DEFAULT_ICOSPHERE_SUBDIVISIONS: u32 = 2;
 /// filter byte per row and chunk headers; this leaves room for that and no more.
 pub const MAX_TEXTURE_FILE_BYTES: u64 = MAX_TEXTURE_PIXELS * 8 + (16 << 20);
 pub const EMPTY_SCENE: &str =
-    "scene has nothing to render: add a [[sphere]], [[mesh]], [[cone]], [[model]] or [[particles]]";
+    "scene has nothing to render: add a [[sphere]], [[mesh]], [[cone]], [[patch]], [[model]] or [[particles]]";
 
 /// Parses and validates a scene; `origin` names the source in error messages, and texture
 /// `file`s are found relative to its directory (for a `<built-in …>` origin: the current one).
@@ -96,6 +99,8 @@ struct Doc {
     particles: Vec<Spanned<particles::ParticlesDoc>>,
     #[serde(default)]
     volume: Vec<Spanned<volume::VolumeDoc>>,
+    #[serde(default)]
+    patch: Vec<Spanned<patch::PatchDoc>>,
 }
 
 /// A model file placed in the scene: its meshes and materials (or `material` for all of them),
@@ -373,6 +378,7 @@ fn build(doc: &Doc, src: &str, origin: &str) -> Res<Scene> {
     for v in &doc.volume {
         volume::place(&mut scene, v.get_ref(), &v.span(), origin, &names)?;
     }
+    patch::place(&mut scene, &doc.patch, &names)?;
     Ok(scene)
 }
 
@@ -437,6 +443,7 @@ fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, name
     }));
     if let Some(material) = material {
         scene.meshes.extend(model.meshes.into_iter().map(|mesh| Mesh { material, ..mesh }));
+        scene.patches.extend(model.patches.into_iter().map(|p| Patch { material, ..p }));
         return Ok(());
     }
     let (material_base, texture_base) = (scene.materials.len() as u32, scene.textures.len() as u32);
@@ -457,6 +464,7 @@ fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, name
     scene.meshes.extend(
         model.meshes.into_iter().map(|mesh| Mesh { material: mesh.material + material_base, ..mesh }),
     );
+    scene.patches.extend(model.patches.into_iter().map(|p| Patch { material: p.material + material_base, ..p }));
     Ok(())
 }
 

@@ -298,6 +298,9 @@ fn to_toml_naming(scene: &Scene, texture_files: &[String], beside: Option<(&[Str
         };
         super::toml::volume::write(&mut out, v, &file, &material_name);
     }
+    for p in &scene.patches {
+        super::toml::patch::write(&mut out, p, &material_name(p.material));
+    }
     out
 }
 
