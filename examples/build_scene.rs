@@ -45,6 +45,7 @@ fn main() -> anyhow::Result<()> {
         motions: vec![],
         particles: Vec::new(),
         volumes: Vec::new(),
+        patches: Vec::new(),
     };
     // Limits and consistency (indices, materials, finite numbers), in words a user can act on.
     scene.validate().map_err(|e| anyhow::anyhow!(e.0))?;

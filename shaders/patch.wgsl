@@ -87,13 +87,37 @@ fn load_leaf(i: u32) -> Leaf {
     return Leaf(rec.x, max(lo - grow, vec2f(0.0)), min(lo + side + grow, vec2f(1.0)));
 }
 
-// The ray's nearest crossing with leaf `i` in (t_min, t_max): (t, u, v), (u, v) in fractions of
-// the piece's spans, or t = MISS. Newton from the leaf's middle on F(u, v) = (n1·(S - o),
-// n2·(S - o)), n1 and n2 unit normals of two planes through the ray; a solve that does not
-// converge in PATCH_NEWTON_STEPS, leaves the leaf's grown square or meets a singular Jacobian
-// (a pole, a ray along the surface) misses here.
-fn intersect_patch(i: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
+// The ray's nearest crossing with leaf `i` in (t_min, t_max): (t, u, v), (u, v) in fractions
+// of the piece's spans, or t = MISS; w: the Newton steps taken. Newton from the leaf's middle on
+// F(u, v) = (n1·(S - o), n2·(S - o)), n1 and n2 unit normals of two planes through the ray; a
+// solve that does not converge in PATCH_NEWTON_STEPS (within the piece) misses here.
+fn patch_newton(i: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec4f {
     let leaf = load_leaf(i);
+    let first = patch_solve(leaf, o, d, t_min, t_max, 0.5 * (leaf.lo + leaf.hi));
+    // A ray near the silhouette crosses a leaf twice. Met where the surface faces away from
+    // it (the far crossing, for a ray from outside), the solve is tried once more from the
+    // middle's mirror image about that root, on the near crossing's side; the nearer wins.
+    if first.t == MISS || !first.away {
+        return vec4f(first.t, first.uv, f32(first.steps));
+    }
+    let start = clamp(leaf.lo + leaf.hi - first.uv, leaf.lo, leaf.hi);
+    let second = patch_solve(leaf, o, d, t_min, first.t, start);
+    let steps = f32(first.steps + second.steps);
+    if second.t != MISS {
+        return vec4f(second.t, second.uv, steps);
+    }
+    return vec4f(first.t, first.uv, steps);
+}
+
+struct Solve {
+    t: f32,
+    uv: vec2f,
+    steps: u32,
+    // The surface there faces away from the ray (du × dv · d > 0).
+    away: bool,
+}
+
+fn patch_solve(leaf: Leaf, o: vec3f, d: vec3f, t_min: f32, t_max: f32, start: vec2f) -> Solve {
     let n = patch_degree();
     let head = texel(leaf.piece);
     let points = leaf.piece + PIECE_HEADER_TEXELS;
@@ -101,33 +125,48 @@ fn intersect_patch(i: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f 
     let ad = abs(d);
     let n1 = normalize(select(vec3f(0.0, d.z, -d.y), vec3f(d.y, -d.x, 0.0), ad.x > ad.y && ad.x > ad.z));
     let n2 = normalize(cross(n1, d));
-    var uv = 0.5 * (leaf.lo + leaf.hi);
+    var uv = start;
     var met = false;
     var q = vec3f(0.0);
+    var facing = 0.0;
+    var steps = 0u;
     for (var k = 0u; k < PATCH_NEWTON_STEPS; k++) {
         let s = patch_eval(points, n, uv);
         q = s.p - o;
         let f = vec2f(dot(n1, q), dot(n2, q));
+        facing = dot(cross(s.du, s.dv), d);
         if max(abs(f.x), abs(f.y)) <= tol {
             met = true;
             break;
         }
         let j = mat2x2f(vec2f(dot(n1, s.du), dot(n2, s.du)), vec2f(dot(n1, s.dv), dot(n2, s.dv)));
         let det = determinant(j);
+        steps += 1u;
         if !(abs(det) > 0.0) {
-            break;
+            // A pole (du or dv vanishes on a degenerate edge, where a clamped step can land)
+            // or a ray along the surface: halfway back to the middle, and on.
+            uv = 0.5 * (uv + 0.5 * (leaf.lo + leaf.hi));
+            continue;
         }
+        // A step goes at most a leaf's side in each parameter (a ray along the tangent plane
+        // would throw it across the piece, into another sheet of the surface), and stays
+        // within the piece: beyond it the polynomial is not the surface.
         let step = vec2f(j[1].y * f.x - j[1].x * f.y, j[0].x * f.y - j[0].y * f.x) / det;
-        // Kept within the piece (beyond it the polynomial is not the surface), and not far
-        // outside the leaf, whose neighbours hold the rest.
-        uv = clamp(uv - step, max(leaf.lo - (leaf.hi - leaf.lo), vec2f(0.0)), min(leaf.hi + (leaf.hi - leaf.lo), vec2f(1.0)));
+        let side = leaf.hi - leaf.lo;
+        uv = clamp(uv - clamp(step, -side, side), vec2f(0.0), vec2f(1.0));
     }
-    let inside = all(uv >= leaf.lo) && all(uv <= leaf.hi);
+    // A root met outside the leaf is still the surface's (only a nearer one matters, and the
+    // leaf that holds it is tested too: its box is entered before this root): kept, so that a
+    // solve drawn to a pole's degenerate edge or just across a seam still counts.
     let t = dot(q, d) / dot(d, d);
-    if met && inside && t > t_min && t < t_max {
-        return vec3f(t, uv);
+    if met && t > t_min && t < t_max {
+        return Solve(t, uv, steps, facing > 0.0);
     }
-    return vec3f(MISS, 0.0, 0.0);
+    return Solve(MISS, uv, steps, false);
+}
+
+fn intersect_patch(i: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
+    return patch_newton(i, o, d, t_min, t_max).xyz;
 }
 
 // The surface at a hit of leaf `i` at (u, v): the point (recomputed from the piece), the

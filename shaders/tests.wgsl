@@ -259,3 +259,13 @@ fn t_volume_walk(i: u32) {
     let b = test_in[2u * i + 1u];
     out_buf[i] = vec4f(volume_walk(0u, a.xyz, b.xyz, a.w, b.w, LOOK_ISO).xy, 0.0, 0.0);
 }
+
+// in: (o, t_min), (d, t_max), (leaf as u32, 0, 0, 0) -> (t or MISS, u, v, Newton steps): one
+// patch leaf's solve alone.
+@compute @workgroup_size(64, 1, 1)
+fn k_patch_newton(@builtin(global_invocation_id) g: vec3u) { if g.x < launch.rect.z { t_patch_newton(g.x); } }
+fn t_patch_newton(i: u32) {
+    let a = test_in[3u * i];
+    let b = test_in[3u * i + 1u];
+    out_buf[i] = patch_newton(bitcast<u32>(test_in[3u * i + 2u].x), a.xyz, b.xyz, a.w, b.w);
+}

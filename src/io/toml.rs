@@ -17,10 +17,10 @@ pub mod patch;
 pub mod volume;
 
 use super::shapes::{self, Geometry, MAX_ICOSPHERE_SUBDIVISIONS};
-use crate::scene::patch::Patch;
 use super::{
     line_column, png, LoadError, MAX_CONES, MAX_MATERIALS, MAX_SPHERES, MAX_TRIANGLES, MAX_VERTICES,
 };
+use crate::scene::patch::Patch;
 use crate::scene::{
     Ambient, Animated, Camera, Cone, Filter, Light, Material, MaterialKind, Mesh, Scene, ShadowMode,
     ShadowSetting, Sphere, Target, Texture, TraceSettings, Wrap, MAX_LIGHTS, MAX_TEXTURES,
@@ -464,7 +464,9 @@ fn place_model(scene: &mut Scene, m: &ModelDoc, table: &Span, origin: &str, name
     scene.meshes.extend(
         model.meshes.into_iter().map(|mesh| Mesh { material: mesh.material + material_base, ..mesh }),
     );
-    scene.patches.extend(model.patches.into_iter().map(|p| Patch { material: p.material + material_base, ..p }));
+    scene
+        .patches
+        .extend(model.patches.into_iter().map(|p| Patch { material: p.material + material_base, ..p }));
     Ok(())
 }
 

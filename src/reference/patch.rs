@@ -10,12 +10,22 @@ use crate::scene::patch::bezier::{pieces, Piece};
 use crate::scene::patch::Patch;
 use glam::DVec3;
 
+/// Where `o + t d` (`inv` = 1 / d) enters the box, `t >= 0`, if it does. An axis the ray runs
+/// parallel to is a containment test (0 × ∞ would be NaN for a ray in a face's plane).
 fn slab(o: DVec3, inv: DVec3, (lo, hi): (DVec3, DVec3)) -> Option<f64> {
-    let a = (lo - o) * inv;
-    let b = (hi - o) * inv;
-    let near = a.min(b).max_element();
-    let far = a.max(b).min_element();
-    (near <= far && far >= 0.0).then_some(near.max(0.0))
+    let (mut near, mut far) = (0.0f64, f64::INFINITY);
+    for a in 0..3 {
+        if inv[a].is_infinite() {
+            if o[a] < lo[a] || o[a] > hi[a] {
+                return None;
+            }
+            continue;
+        }
+        let (t0, t1) = ((lo[a] - o[a]) * inv[a], (hi[a] - o[a]) * inv[a]);
+        near = near.max(t0.min(t1));
+        far = far.min(t0.max(t1));
+    }
+    (near <= far).then_some(near)
 }
 
 fn triangle(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64, f64)> {
@@ -30,7 +40,11 @@ fn triangle(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64, f64)
     let qv = s.cross(e1);
     let v = d.dot(qv) / det;
     let t = e2.dot(qv) / det;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some((t, u, v))
+    // Slack of a thousandth of a triangle already under the tolerance: the halves of two
+    // neighbouring pieces need not meet at the same points along their seam, and a ray aimed
+    // at the seam must not slip through the sliver between their chords.
+    const SLACK: f64 = 1e-3;
+    (u >= -SLACK && v >= -SLACK && u + v <= 1.0 + SLACK).then_some((t, u, v))
 }
 
 /// The nearest hit of `o + t d` with the patch in `(t_min, t_max)`: `(t, u, v)`, found to

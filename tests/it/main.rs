@@ -47,6 +47,7 @@ mod native_peer;
 mod obj;
 mod output_format;
 mod particles;
+mod patches;
 mod pieces;
 mod pipeline_cache;
 mod ply;

@@ -25,9 +25,10 @@ pub const PIECE_HEADER_TEXELS: u32 = 2;
 /// `Variant::patches` of a pipeline for any degree (the uber-shader): the degree is read from
 /// `Params::patch` at run time, and the loops over control points do not unroll.
 pub const PATCH_ANY: u32 = 255;
-/// Newton steps at a leaf, at most (the paper: under three per hit on average). A ray that has
-/// not met the surface by then misses this leaf; its neighbours overlap it.
-pub const NEWTON_STEPS: u32 = 8;
+/// Newton steps of one solve at a leaf, at most (the paper: under three per hit on average). A
+/// ray that has not met the surface by then misses this leaf; its neighbours overlap it. Near
+/// a pole, where du × dv vanishes, Newton converges only linearly and needs this many.
+pub const NEWTON_STEPS: u32 = 16;
 /// A Newton solve has met the surface when the ray passes within this fraction of the piece's
 /// size (`[material, patch, bits(size), 0]`) of the point: a few f32 ulps of its coordinates,
 /// and well under the 256 ulps a secondary ray starts off the surface (`offset_origin`), so a

@@ -109,7 +109,7 @@ impl Leaves {
 fn bend(piece: &Piece, a: usize) -> f64 {
     let (lo, hi) = piece.bounds();
     let size = (hi - lo).length();
-    if !(size > 0.0) {
+    if size.is_nan() || size <= 0.0 {
         return 0.0;
     }
     let [n, m] = piece.degree;
