@@ -712,7 +712,7 @@ impl<'a> Obj<'a> {
             let why = match keyword {
                 "l" => "lines have no surface to ray trace",
                 "p" => "points have no surface to ray trace",
-                k if freeform::SKIPPED.contains(&k) => "curves and points have no surface to trace",
+                k if freeform::SKIPPED.contains(&k) => "free-form curves and points have no surface to trace",
                 "call" => "irt does not include other files",
                 "csh" => "irt runs no commands",
                 _ => "an unknown statement",

@@ -47,7 +47,7 @@ fn rust_structs_match_wgsl() {
         "Params",
         rust_layout!(Params; eye, cam_u, cam_v, cam_w, ambient_sky, ambient_ground, ambient_up,
             background, accel_min, accel_max, cell, inv_cell, cells, macro_res,
-            prim_base, aux_base, accel_base, image, eye_grid, trace, shadow, lights, volume, iso),
+            prim_base, aux_base, accel_base, image, eye_grid, trace, shadow, lights, volume, iso, patches),
     );
 }
 

@@ -313,3 +313,64 @@ fn make(text: &Text, open: &Open, positions: &[DVec3], weights: &[f64]) -> Resul
         .collect();
     Patch::new(open.degree, counts, knots, points, 0).map_err(|why| here(format!("this surface: {why}")))
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::io::obj::parse_model;
+
+    const NET: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0.5 2\n";
+
+    fn fails(src: &str, line: usize, words: &[&str]) {
+        let e = parse_model(src.as_bytes(), "t.obj").err().unwrap_or_else(|| panic!("accepted: {src}"));
+        assert_eq!(e.line, Some(line), "{e}");
+        for w in words {
+            assert!(e.message.contains(w), "'{w}' not in: {e}");
+        }
+    }
+
+    /// A bilinear rational Bezier surface: its weights come from `v x y z w`, the current
+    /// material is its, and the line continuation joins its `surf`.
+    #[test]
+    fn a_rational_bezier_surface_loads() {
+        let src = format!(
+            "{NET}cstype rat bezier\ndeg 1 1\nsurf 0 1 0 1 1 2 \\\n 3 4\nparm u 0 1\nparm v 0 1\nend\n"
+        );
+        let m = parse_model(src.as_bytes(), "t.obj").unwrap();
+        assert_eq!(m.patches.len(), 1);
+        let p = &m.patches[0];
+        assert_eq!((p.degree, p.counts), ([1, 1], [2, 2]));
+        assert_eq!(p.points[3].w, 2.0);
+        assert_eq!(p.points[0].w, 1.0);
+    }
+
+    /// Each malformed surface fails in words at its line.
+    #[test]
+    fn malformed_surfaces_fail_at_their_line() {
+        let body = "surf 0 1 0 1 1 2 3 4\nparm u 0 1\nparm v 0 1\nend\n";
+        fails(&format!("{NET}deg 1 1\n{body}"), 6, &["cstype"]);
+        fails(&format!("{NET}cstype bezier\n{body}"), 6, &["deg"]);
+        fails(&format!("{NET}cstype taylor\n"), 5, &["bezier and bspline"]);
+        fails(&format!("{NET}cstype bezier\ndeg 6\n"), 6, &["degrees 1 to 5"]);
+        fails(&format!("{NET}cstype bezier\ndeg 1 1\nsurf 0 1 0 1 1 2 3 9\n"), 7, &["out of range"]);
+        fails(
+            &format!("{NET}cstype bezier\ndeg 1 1\nsurf 0 1 0 1 1 2 3\nend\n"),
+            7,
+            &["3 control points", "2 x 2"],
+        );
+        fails(
+            &format!("{NET}cstype bspline\ndeg 1 1\nsurf 0 1 0 1 1 2 3 4\nparm u 0 0 1 1\nend\n"),
+            7,
+            &["parm v"],
+        );
+        fails(
+            &format!(
+                "{NET}cstype bspline\ndeg 1 1\nsurf 0 1 0 1 1 2 3 4\nparm u 0 1 0 1\nparm v 0 0 1 1\nend\n"
+            ),
+            8,
+            &["decrease"],
+        );
+        fails(&format!("{NET}cstype bezier\ndeg 1 1\nsurf 0 1 0 1 1 2 3 4\n"), 7, &["no `end`"]);
+        fails(&format!("{NET}cstype bezier\ndeg 1 1\nsurf 0 1 0 1 1 2 3 4\ntrim 0 1 1\n"), 8, &["trimmed"]);
+        fails(&format!("{NET}end\n"), 5, &["without a `surf`"]);
+    }
+}
