@@ -487,21 +487,9 @@ impl<'a> Obj<'a> {
             if part.is_empty() && k > 0 {
                 continue;
             }
-            key[k] = self.index(part, token, what, statement, count)?;
+            key[k] = index_in(&self.text, part, token, what, statement, count)?;
         }
         Ok(key)
-    }
-
-    /// A 1-based index, or a negative one counting back from the last defined so far.
-    fn index(
-        &self,
-        part: &str,
-        token: &str,
-        what: &str,
-        statement: &str,
-        count: usize,
-    ) -> Result<u32, LoadError> {
-        index_in(&self.text, part, token, what, statement, count)
     }
 
     fn face(&mut self, line: &Line<'a>) -> Result<(), LoadError> {
