@@ -443,21 +443,26 @@ fn replay_across_ranks_measures_latency_and_pixel_age() {
         assert!(text.contains(head), "no `{head}` in\n{text}");
     }
     // Every input of the 3 s path reached 100% of the screen (else the replay would not end),
-    // within a sane time: the worst "100%" latency is finite and under a second.
+    // within a sane time: the worst "100%" latency is finite and under the path's own 3 s. This
+    // bound catches an input that is lost or waits for the path to end; it is not a speed
+    // target (that lives in docs/distributed.md). On CI's 2 cores, 3 ranks share them and the
+    // worst input reached 1018 ms once while the mean was 200 ms, so a 1 s bound was a timing
+    // test in disguise.
     let latency = text.lines().find(|l| l.starts_with("latency")).unwrap();
     let worst = latency.rsplit("100% ").next().unwrap();
     let max_ms: f64 = worst.split(" / ").nth(1).unwrap().trim_end_matches(" ms").parse().unwrap();
-    assert!(max_ms.is_finite() && max_ms > 0.0 && max_ms < 1000.0, "{latency}");
+    assert!(max_ms.is_finite() && max_ms > 0.0 && max_ms < 3000.0, "{latency}");
     let inputs: u32 = latency.split("of ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     assert!(inputs > 100, "{latency}");
-    // Pixel ages at the presents are in the CSV, each finite and under a second.
+    // Pixel ages at the presents are in the CSV, each finite and under the path's 3 s (the same
+    // reason as above).
     let ages = std::fs::read_to_string(&csv).unwrap();
     let presents: Vec<f64> = ages
         .lines()
         .filter(|l| l.starts_with("present,"))
         .map(|l| l.split(',').nth(4).unwrap().parse().unwrap())
         .collect();
-    assert!(presents.len() > 100 && presents.iter().all(|a| a.is_finite() && *a < 1.0), "{ages}");
+    assert!(presents.len() > 100 && presents.iter().all(|a| a.is_finite() && *a < 3.0), "{ages}");
 }
 
 #[test]
