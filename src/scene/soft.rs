@@ -270,7 +270,10 @@ pub fn choose_soft(scene: &Scene) -> SoftChoice {
     // it (balls_s5's would take a minute; a shell frame there costs 101x a hard one, depth
     // slabs and all).
     let crowd = crowded(scene);
-    let shells = if crowd.is_none() { Some(scene_shells(scene)) } else { None };
+    // Shells hold spheres, cones and meshes only: a patch would cast no shell shadow at all,
+    // so a scene with patches picks among the bundles (which trace patches like hard rays).
+    let patches = !scene.patches.is_empty();
+    let shells = if crowd.is_none() && !patches { Some(scene_shells(scene)) } else { None };
     let estimates = pilot(scene, shells.as_deref());
     let best = estimates
         .iter()
@@ -280,6 +283,8 @@ pub fn choose_soft(scene: &Scene) -> SoftChoice {
         estimates.iter().map(|e| format!("{} {:.2}x error {:.2}x time", e.mode, e.error, e.cost)).collect();
     if let Some(load) = crowd {
         why.push(format!("no shells: {load:.0} per light-buffer cell at the finest resolution"));
+    } else if patches {
+        why.push("no shells: patches cast no shell shadow".into());
     }
     let why = format!("estimated {}; budget {SOFT_COST_BUDGET}x", why.join(", "));
     SoftChoice { mode: best.map_or(ShadowMode::Hard, |e| e.mode), estimates, why }

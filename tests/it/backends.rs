@@ -50,6 +50,11 @@ fn bands_agree_bit_for_bit() {
     assert_same("textured", &ctx, &vk, &load("scenes/textured.toml", 80, 60), Settings::bands());
     assert_same("dielectric", &ctx, &vk, &load("scenes/dielectric.toml", 80, 60), counting.clone());
     assert_same("cones", &ctx, &vk, &load("scenes/cones.toml", 64, 48), Settings::bands());
+    // Bezier patches: the Newton solve at a leaf, on the BVH and the grid.
+    let teapot = load("scenes/teapot-patches.obj", 64, 48);
+    assert_same("teapot patches", &ctx, &vk, &teapot, counting.clone());
+    let grid = Settings { accel: AccelChoice::Grid, ..Settings::bands() };
+    assert_same("teapot patches, grid", &ctx, &vk, &teapot, grid);
     // Split soft-shadow bundles: several passes per band.
     let mut soft = load("scenes/default.toml", 64, 48);
     soft.trace.shadows = "bundle:24".parse().expect("bundle mode");

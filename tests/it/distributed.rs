@@ -281,6 +281,14 @@ fn the_picture_is_one_process_s_bit_for_bit() {
     );
 }
 
+/// Newell's teapot as Bezier patches: the OBJ's free-form surfaces reach the workers inside the
+/// scene message (as `[[patch]]`), and their tiles give one process's picture.
+#[test]
+fn patches_across_ranks_are_one_process_s_picture() {
+    let teapot = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/teapot-patches.obj");
+    assert_same_as_one_process("patches", &[teapot, "--mode", "conventional", "--shadows", "bundle:8"]);
+}
+
 #[test]
 fn a_picture_past_the_device_s_buffers_is_one_process_s_bit_for_bit() {
     // 4096×2304 is more than lavapipe's 128 MiB bindings hold: one process traces it in pieces,

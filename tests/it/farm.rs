@@ -185,3 +185,12 @@ fn volume_pictures_merge_from_their_tiles() {
         assert_tiles_merge_to_the_render(name, &args, 3, "png");
     }
 }
+
+/// Newell's teapot as Bezier patches: each tile's Newton solves are the whole render's.
+#[test]
+fn patch_pictures_merge_from_their_tiles() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/teapot-patches.obj");
+    let mut args = size(81, 57);
+    args.extend([file, "--mode", "conventional", "--samples", "2"].map(String::from));
+    assert_tiles_merge_to_the_render("patches", &args, 3, "png");
+}
