@@ -217,7 +217,32 @@ fn patch_solve(leaf: Leaf, o: vec3f, d: vec3f, t_min: f32, t_max: f32, start: ve
 }
 
 fn intersect_patch(i: u32, o: vec3f, d: vec3f, t_min: f32, t_max: f32) -> vec3f {
-    return patch_newton(i, o, d, t_min, t_max).xyz;
+    let h = patch_newton(i, o, d, t_min, t_max).xyz;
+    if h.x == MISS || patch_kept(load_leaf(i).piece, h.yz) {
+        return h;
+    }
+    return vec3f(MISS, h.yz);
+}
+
+// Whether the piece's point at `uv` (fractions of the piece's spans) is surface: inside an odd
+// number of its patch's trim loops, by the crossings of a ray towards +u (the f64 twin:
+// `scene::patch::trim::kept`); true for an untrimmed patch.
+fn patch_kept(piece: u32, uv: vec2f) -> bool {
+    let record = texel(piece).w;
+    if record == 0u {
+        return true;
+    }
+    let span = ftexel(piece + 1u);
+    let p = vec2f(mix(span.x, span.y, uv.x), mix(span.z, span.w, uv.y));
+    let edges = texel(record).x;
+    var inside = false;
+    for (var k = 0u; k < edges; k++) {
+        let e = ftexel(record + 1u + k);
+        if (e.y > p.y) != (e.w > p.y) && p.x < e.x + (p.y - e.y) * (e.z - e.x) / (e.w - e.y) {
+            inside = !inside;
+        }
+    }
+    return inside;
 }
 
 // The surface at a hit of leaf `i` at (u, v): the point (recomputed from the piece), the

@@ -10,13 +10,17 @@
 //! points = [[0, 0, 0], [1, 0, 0.5, 0.8], ...]   # u fastest; [x, y, z] or [x, y, z, w]
 //! knots_u = [0, 0, 0, 0, 1, 1, 1, 1]  # counts + degree + 1 each; default: clamped and
 //! knots_v = [0, 0, 0, 0, 1, 1, 1, 1]  # uniform over [0, 1] (a Bezier patch at counts = degree + 1)
+//! trim = [[[0.2, 0.2], [0.8, 0.2], [0.5, 0.8], [0.2, 0.2]]]  # optional: closed loops in (u, v)
 //! ```
+//!
+//! `trim` loops are polygons in the patch's parameter domain, each closed (its last point its
+//! first); the part inside an odd number of them is surface (`scene::patch::trim`).
 
 use super::{err, Names, Res, Span};
 use crate::scene::patch::{Patch, MAX_DEGREE, MAX_POINTS_A_SIDE};
 use crate::scene::Scene;
 use ::toml::Spanned;
-use glam::DVec4;
+use glam::{DVec2, DVec4};
 use serde::Deserialize;
 
 /// `[[patch]]` tables in one scene, at most (each is at least one Bezier piece).
@@ -31,6 +35,7 @@ pub(super) struct PatchDoc {
     points: Spanned<Vec<Vec<f64>>>,
     knots_u: Option<Spanned<Vec<f64>>>,
     knots_v: Option<Spanned<Vec<f64>>>,
+    trim: Option<Spanned<Vec<Vec<[f64; 2]>>>>,
 }
 
 #[derive(Deserialize)]
@@ -115,7 +120,15 @@ pub(super) fn place(scene: &mut Scene, docs: &[Spanned<PatchDoc>], names: &Names
                 _ => doc.span(),
             }
         };
-        scene.patches.push(patch.or_else(|why| err(at(&why), format!("patch: {why}")))?);
+        let mut patch = patch.or_else(|why| err(at(&why), format!("patch: {why}")))?;
+        if let Some(trim) = &d.trim {
+            patch.trim =
+                trim.get_ref().iter().map(|l| l.iter().map(|&[u, v]| DVec2::new(u, v)).collect()).collect();
+            if let Err(why) = crate::scene::patch::trim::check(&patch.trim, patch.domain()) {
+                return err(trim.span(), format!("patch: {why}"));
+            }
+        }
+        scene.patches.push(patch);
     }
     Ok(())
 }
@@ -141,6 +154,14 @@ pub fn write(out: &mut String, p: &Patch, material: &str) {
         let _ = if c.w == 1.0 { writeln!(out, "  [{xyz}],") } else { writeln!(out, "  [{xyz}, {:?}],", c.w) };
     }
     out.push_str("]\n");
+    if !p.trim.is_empty() {
+        out.push_str("trim = [\n");
+        for l in &p.trim {
+            let pts: Vec<String> = l.iter().map(|q| format!("[{:?}, {:?}]", q.x, q.y)).collect();
+            let _ = writeln!(out, "  [{}],", pts.join(", "));
+        }
+        out.push_str("]\n");
+    }
 }
 
 #[cfg(test)]

@@ -47,8 +47,8 @@ fn triangle(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<(f64, f64, f64)
     (u >= -SLACK && v >= -SLACK && u + v <= 1.0 + SLACK).then_some((t, u, v))
 }
 
-/// The nearest hit of `o + t d` with the patch in `(t_min, t_max)`: `(t, u, v)`, found to
-/// `tolerance` (a world length: a piece is met as flat once its box's diagonal is under it).
+/// The nearest hit of `o + t d` with the patch in `(t_min, t_max)`, within its trim loops:
+/// `(t, u, v)`, found to `tolerance` (a world length: a piece is met as flat once its box's diagonal is under it).
 pub fn hit(
     patch: &Patch,
     o: DVec3,
@@ -79,7 +79,10 @@ pub fn hit(
                     if t > t_min && t < best.map_or(t_max, |b| b.0) {
                         let u = uv[0].0 + a * (uv[1].0 - uv[0].0) + b * (uv[2].0 - uv[0].0);
                         let v = uv[0].1 + a * (uv[1].1 - uv[0].1) + b * (uv[2].1 - uv[0].1);
-                        best = Some((t, u, v));
+                        // Trimmed away: not surface, and a farther crossing may be.
+                        if patch.kept(u, v) {
+                            best = Some((t, u, v));
+                        }
                     }
                 }
             }

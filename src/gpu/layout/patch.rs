@@ -4,16 +4,21 @@
 //!
 //! - Leaf: `[piece texel, i | j << 8 | depth_u << 16 | depth_v << 24, 0, 0]`: the square
 //!   `[i, i + 1] / 2^depth_u × [j, j + 1] / 2^depth_v` of the piece (`scene::patch::leaves`).
-//! - Piece, [`piece_texels`] of them: `[material, patch, bits(size), 0]`, with `size` the
-//!   largest coordinate of its control points (what its f32 numbers are relative to); then
+//! - Piece, [`piece_texels`] of them: `[material, patch, bits(size), trim]`, with `size` the
+//!   largest coordinate of its control points (what its f32 numbers are relative to) and `trim`
+//!   its patch's trim record's texel (0: untrimmed); then
 //!   `[u0, u1, v0, v1]` (f32), its part of its patch's domain in fractions of that domain (the
 //!   texture coordinates); then its `(n + 1)²` control points, u fastest, homogeneous and
 //!   relative to the origin: `[w (x - o), w (y - o), w (z - o), w]` (f32).
+//! - Trim record, one per trimmed patch, after the pieces: `[edges, 0, 0, 0]`, then each edge of
+//!   its loops `[u0, v0, u1, v1]` (f32, in fractions of the patch's domain, as the pieces'
+//!   spans are): what `patch_kept` counts crossings of (`scene::patch::trim`).
 //!
 //! Every piece has the scene's highest degree `n` (`Leaves::degree`): the shader's loops then
 //! have one trip count, a constant in a specialised pipeline (`Variant::patches`).
 
 use crate::scene::patch::leaves::Leaves;
+use crate::scene::patch::Patch;
 use crate::scene::Scene;
 use glam::DVec3;
 
@@ -43,7 +48,11 @@ pub fn piece_texels(n: usize) -> usize {
 /// The scene's leaves and the texels their section takes.
 pub fn patch_texels(scene: &Scene) -> (usize, Leaves) {
     let leaves = Leaves::build(&scene.patches);
-    let n = leaves.leaves.len() * LEAF_TEXELS as usize + leaves.pieces.len() * piece_texels(leaves.degree);
+    let trims: usize =
+        scene.patches.iter().filter(|p| !p.trim.is_empty()).map(|p| 1 + edges(p).count()).sum();
+    let n = leaves.leaves.len() * LEAF_TEXELS as usize
+        + leaves.pieces.len() * piece_texels(leaves.degree)
+        + trims;
     (n, leaves)
 }
 
@@ -52,6 +61,20 @@ pub fn push_patches(t: &mut Vec<[u32; 4]>, scene: &Scene, leaves: &Leaves, origi
     let base = t.len() as u32;
     let pieces = base + leaves.leaves.len() as u32 * LEAF_TEXELS;
     let stride = piece_texels(leaves.degree) as u32;
+    // Trim records follow the pieces: each trimmed patch's first texel.
+    let mut at = pieces + leaves.pieces.len() as u32 * stride;
+    let records: Vec<u32> = scene
+        .patches
+        .iter()
+        .map(|p| match p.trim.is_empty() {
+            true => 0,
+            false => {
+                let r = at;
+                at += 1 + edges(p).count() as u32;
+                r
+            }
+        })
+        .collect();
     for leaf in &leaves.leaves {
         let [i, j, du, dv] = leaf.cell.map(u32::from);
         t.push([pieces + leaf.piece * stride, i | j << 8 | du << 16 | dv << 24, 0, 0]);
@@ -71,12 +94,26 @@ pub fn push_patches(t: &mut Vec<[u32; 4]>, scene: &Scene, leaves: &Leaves, origi
             .iter()
             .map(|h| (h.truncate() / h.w - origin).abs().max_element())
             .fold(0.0, f64::max);
-        t.push([patch.material, k, (size as f32).to_bits(), 0]);
+        t.push([patch.material, k, (size as f32).to_bits(), records[k as usize]]);
         let d = patch.domain();
         let frac = |a: usize, x: f64| ((x - d[a][0]) / (d[a][1] - d[a][0])) as f32;
         let [[u0, u1], [v0, v1]] = piece.domain;
         t.push([frac(0, u0), frac(0, u1), frac(1, v0), frac(1, v1)].map(f32::to_bits));
         t.extend(points.iter().map(|p| p.map(f32::to_bits)));
     }
+    for p in scene.patches.iter().filter(|p| !p.trim.is_empty()) {
+        t.push([edges(p).count() as u32, 0, 0, 0]);
+        t.extend(edges(p).map(|e| e.map(f32::to_bits)));
+    }
+    debug_assert_eq!(t.len() as u32, at);
     base
+}
+
+/// A patch's trim edges in fractions of its domain, `[u0, v0, u1, v1]`.
+fn edges(p: &Patch) -> impl Iterator<Item = [f32; 4]> + '_ {
+    let d = p.domain();
+    let frac = move |a: usize, x: f64| ((x - d[a][0]) / (d[a][1] - d[a][0])) as f32;
+    p.trim.iter().flat_map(move |l| {
+        l.windows(2).map(move |e| [frac(0, e[0].x), frac(1, e[0].y), frac(0, e[1].x), frac(1, e[1].y)])
+    })
 }

@@ -8,8 +8,9 @@
 
 pub mod bezier;
 pub mod leaves;
+pub mod trim;
 
-use glam::{DVec3, DVec4};
+use glam::{DVec2, DVec3, DVec4};
 
 /// Highest degree in u or in v.
 pub const MAX_DEGREE: usize = 5;
@@ -26,6 +27,9 @@ pub struct Patch {
     pub knots: [Vec<f64>; 2],
     pub points: Vec<DVec4>,
     pub material: u32,
+    /// Trim loops, closed polygons in the parameter domain (`trim`): empty for the whole
+    /// domain, else the part inside an odd number of them is surface.
+    pub trim: Vec<Vec<DVec2>>,
 }
 
 /// The surface at `(u, v)`: its point and its partial derivatives up to the second.
@@ -69,7 +73,7 @@ impl Patch {
         points: Vec<DVec4>,
         material: u32,
     ) -> Result<Patch, String> {
-        let patch = Patch { degree, counts, knots, points, material };
+        let patch = Patch { degree, counts, knots, points, material, trim: vec![] };
         patch.check_net()?;
         Ok(patch)
     }
@@ -78,6 +82,7 @@ impl Patch {
     /// of a patch however it was made.
     pub fn check(&self, materials: usize) -> Result<(), String> {
         self.check_net()?;
+        trim::check(&self.trim, self.domain())?;
         if self.material as usize >= materials {
             return Err(format!("material {} does not exist ({materials} materials)", self.material));
         }
@@ -160,6 +165,11 @@ impl Patch {
         let ku = vec![0.0, 0.0, 0.0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1.0, 1.0, 1.0];
         let kv = vec![0.0, 0.0, 0.0, 0.5, 0.5, 1.0, 1.0, 1.0];
         Patch::new([2, 2], [9, 5], [ku, kv], points, material).expect("a valid net")
+    }
+
+    /// Whether `(u, v)` is surface: within the trim loops, if any ([`trim::kept`]).
+    pub fn kept(&self, u: f64, v: f64) -> bool {
+        trim::kept(&self.trim, u, v)
     }
 
     /// The parameter domain `[[u0, u1], [v0, v1]]`.
