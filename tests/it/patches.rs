@@ -365,24 +365,29 @@ fn the_teapot_matches_the_twin_in_glass() {
 
 /// The teapot in `material` over a diffuse floor, lit by a light of `radius` (0: a point).
 fn teapot_on_a_floor(material: &str, radius: f64) -> Scene {
+    let camera = "eye = [5.5, -7.0, 5.0]\nlook_at = [0.2, 0.0, 1.4]\nfov = 38\nwidth = 64\nheight = 64";
+    let light = format!("position = [6.0, -3.0, 9.0]\nradius = {radius}");
+    let scene = on_a_floor(&teapot_path(), material, camera, &light, -0.02);
+    assert_eq!(scene.patches.len(), 32);
+    scene
+}
+
+/// The OBJ `model` in `material` over a diffuse floor at height `floor` (z up), seen by
+/// `camera` and lit by `light` (their TOML keys past `up` and `color`).
+fn on_a_floor(model: &std::path::Path, material: &str, camera: &str, light: &str, floor: f64) -> Scene {
     let src = format!(
         r#"
         background = [0.3, 0.35, 0.45]
         [camera]
-        eye = [5.5, -7.0, 5.0]
-        look_at = [0.2, 0.0, 1.4]
         up = [0, 0, 1]
-        fov = 38
-        width = 64
-        height = 64
+        {camera}
         [ambient]
         up = [0, 0, 1]
         [[light]]
-        position = [6.0, -3.0, 9.0]
         color = [0.9, 0.9, 0.9]
-        radius = {radius}
+        {light}
         [[material]]
-        name = "pot"
+        name = "model"
         {material}
         [[material]]
         name = "floor"
@@ -390,17 +395,15 @@ fn teapot_on_a_floor(material: &str, radius: f64) -> Scene {
         color = [0.6, 0.65, 0.5]
         [[mesh]]
         material = "floor"
-        positions = [[-8, -8, -0.02], [8, -8, -0.02], [8, 8, -0.02], [-8, 8, -0.02]]
+        positions = [[-8, -8, {floor}], [8, -8, {floor}], [8, 8, {floor}], [-8, 8, {floor}]]
         indices = [[0, 1, 2], [0, 2, 3]]
         [[model]]
         file = "{}"
-        material = "pot"
+        material = "model"
         "#,
-        teapot_path().display()
+        model.display()
     );
-    let scene = irt::io::toml::parse_str(&src, "teapot.toml").unwrap();
-    assert_eq!(scene.patches.len(), 32);
-    scene
+    irt::io::toml::parse_str(&src, "on-a-floor.toml").unwrap()
 }
 
 fn teapot_against_the_twin(name: &str, material: &str) {
@@ -554,39 +557,8 @@ fn the_trimmed_panel_and_its_shadow_match_the_twin() {
         ("diffuse", "type = \"diffuse\"\ncolor = [0.7, 0.5, 0.3]"),
         ("chrome", "type = \"metal\"\ncolor = [0.9, 0.85, 0.8]\nexponent = 60"),
     ] {
-        let src = format!(
-            r#"
-            background = [0.3, 0.35, 0.45]
-            [camera]
-            eye = [1.5, -5.0, 6.0]
-            look_at = [0.0, 0.0, -0.5]
-            up = [0, 0, 1]
-            fov = 45
-            width = 72
-            height = 56
-            [ambient]
-            up = [0, 0, 1]
-            [[light]]
-            position = [-2.0, -2.0, 9.0]
-            color = [0.9, 0.9, 0.9]
-            [[material]]
-            name = "panel"
-            {material}
-            [[material]]
-            name = "floor"
-            type = "diffuse"
-            color = [0.6, 0.65, 0.5]
-            [[mesh]]
-            material = "floor"
-            positions = [[-8, -8, -1.5], [8, -8, -1.5], [8, 8, -1.5], [-8, 8, -1.5]]
-            indices = [[0, 1, 2], [0, 2, 3]]
-            [[model]]
-            file = "{}"
-            material = "panel"
-            "#,
-            panel_path().display()
-        );
-        let scene = irt::io::toml::parse_str(&src, "panel.toml").unwrap();
+        let camera = "eye = [1.5, -5.0, 6.0]\nlook_at = [0.0, 0.0, -0.5]\nfov = 45\nwidth = 72\nheight = 56";
+        let scene = on_a_floor(&panel_path(), material, camera, "position = [-2.0, -2.0, 9.0]", -1.5);
         let reference = reference_image(&scene);
         let ctx = gpu();
         for accel in [AccelChoice::Bvh, AccelChoice::Grid] {

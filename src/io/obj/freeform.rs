@@ -83,6 +83,26 @@ pub struct FreeForm {
 }
 
 impl FreeForm {
+    /// What a `surf` or `curv2` statement (`keyword`) starts from: the basis, whether it is
+    /// rational, and the degrees; an error if a `surf` is open (`hint` says what to do).
+    fn begin(&self, text: &Text, keyword: &str, hint: &str) -> Result<(Basis, bool, [usize; 2]), LoadError> {
+        if let Some(open) = &self.open {
+            return Err(text.error(
+                keyword,
+                format!("a `{keyword}` inside the `surf` begun on line {} ({hint})", open.line),
+            ));
+        }
+        let Some((basis, rational)) = self.cstype else {
+            return Err(
+                text.error(keyword, format!("`{keyword}` before any `cstype`: say bezier or bspline first"))
+            );
+        };
+        let Some(degree) = self.deg else {
+            return Err(text.error(keyword, format!("`{keyword}` before any `deg`: give the degrees first")));
+        };
+        Ok((basis, rational, degree))
+    }
+
     /// One free-form statement. `positions` and `weights` are the `v` lines so far (a weight
     /// of 1 where a line has none); `slot` is the current material's (given with `surf`).
     pub fn statement(
@@ -154,20 +174,7 @@ impl FreeForm {
                 self.params.push(DVec3::new(n[0], n[1], n.get(2).copied().unwrap_or(1.0)));
             }
             "curv2" => {
-                if let Some(open) = &self.open {
-                    return Err(text.error(
-                        line.keyword,
-                        format!("a `curv2` inside the `surf` begun on line {} (define it before)", open.line),
-                    ));
-                }
-                let Some((basis, rational)) = self.cstype else {
-                    return Err(
-                        text.error(line.keyword, "`curv2` before any `cstype`: say bezier or bspline first")
-                    );
-                };
-                let Some(degree) = self.deg else {
-                    return Err(text.error(line.keyword, "`curv2` before any `deg`: give the degree first"));
-                };
+                let (basis, rational, degree) = self.begin(text, line.keyword, "define it before")?;
                 if words.len() < 2 {
                     return Err(text.error(line.keyword, "`curv2` takes its control points (`vp` indices)"));
                 }
@@ -205,20 +212,7 @@ impl FreeForm {
                 });
             }
             "surf" => {
-                if let Some(open) = &self.open {
-                    return Err(text.error(
-                        line.keyword,
-                        format!("a `surf` inside the one begun on line {} (each ends with `end`)", open.line),
-                    ));
-                }
-                let Some((basis, rational)) = self.cstype else {
-                    return Err(
-                        text.error(line.keyword, "`surf` before any `cstype`: say bezier or bspline first")
-                    );
-                };
-                let Some(degree) = self.deg else {
-                    return Err(text.error(line.keyword, "`surf` before any `deg`: give the degrees first"));
-                };
+                let (basis, rational, degree) = self.begin(text, line.keyword, "each ends with `end`")?;
                 if words.len() < 5 {
                     return Err(text.error(line.keyword, "`surf` takes s0 s1 t0 t1 and its control points"));
                 }
